@@ -1,0 +1,417 @@
+"""The seed's scenarios (DESIGN.md §4) and their seeded data generation.
+
+``get_scenario(name)`` returns a :class:`Scenario` holding the ground-truth
+robot; ``scenario.generate(seed=0)`` simulates the seed's data set: 8 training
+recordings of 0.5 s at 1 kHz with random initial conditions and random
+actuation held for 10 ms, and one 7 s validation recording under sinusoidal
+actuation ``τ = f (a1 sin(ω1 t) + a2 cos(ω2 t))``.  Every recording carries
+time stamps, strains, strain rates, actuation and the poses of the base and
+the tracked cross-sections, optionally corrupted by Gaussian measurement noise.
+
+Actuation magnitudes are chosen through static equilibria: a random target
+configuration ``q*`` is drawn inside the strain ranges of the seed's data
+(bending up to ±``bend_amplitude`` 1/m, shear and axial up to ±``strain_amplitude``)
+and the actuation that holds the robot there, ``τ = K q* + G(q*)``, is applied.
+The robot therefore moves across the intended strain range whatever its
+stiffness and weight.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass, field, replace
+from pathlib import Path
+from typing import Any, Callable
+
+import numpy as np
+from numpy.typing import NDArray
+from tqdm.auto import tqdm
+
+from .pac import PACRobot
+
+__all__ = ["Recording", "ScenarioData", "Scenario", "get_scenario", "list_scenarios", "add_pose_noise"]
+
+_DATA_VERSION = 1
+
+
+@dataclass
+class Recording:
+    """One simulated recording.
+
+    Attributes
+    ----------
+    t : ndarray (T,)
+        Time stamps [s].
+    q, qd : ndarray (T, n) or None
+        True strains and strain rates (PAC: ``q`` holds ``[c0, c1, σ_sh, σ_ax]``; ``qd`` is None).
+    tau : ndarray (T, n) or None
+        Actuation, held constant on ``[t_k, t_{k+1})``.
+    poses : ndarray (T, N + 1, 3)
+        Tracked poses (base + N cross-sections), noisy if noise was requested.
+    poses_true : ndarray (T, N + 1, 3)
+        Noise-free poses.
+    """
+
+    t: NDArray[np.float64]
+    q: NDArray[np.float64]
+    qd: NDArray[np.float64] | None
+    tau: NDArray[np.float64] | None
+    poses: NDArray[np.float64]
+    poses_true: NDArray[np.float64]
+
+    @property
+    def dt(self) -> float:
+        return float(self.t[1] - self.t[0]) if self.t.size > 1 else float("nan")
+
+
+@dataclass
+class ScenarioData:
+    """Training recordings and the validation recording of one scenario."""
+
+    name: str
+    train: list[Recording]
+    validation: Recording | None
+    noise: tuple[float, float] = (0.0, 0.0)
+    seed: int = 0
+
+
+def add_pose_noise(
+    poses: NDArray[np.float64], sigma_p: float, sigma_theta: float, rng: np.random.Generator
+) -> NDArray[np.float64]:
+    """Gaussian noise on the tracked cross-sections (not the base, which defines the frame).
+
+    Parameters
+    ----------
+    poses : ndarray (T, N + 1, 3)
+    sigma_p : float
+        Standard deviation on x and y [m].
+    sigma_theta : float
+        Standard deviation on θ [rad].
+    rng : numpy Generator
+    """
+    if sigma_p < 0 or sigma_theta < 0 or not np.isfinite(sigma_p) or not np.isfinite(sigma_theta):
+        raise ValueError(f"noise standard deviations must be finite and >= 0; got ({sigma_p!r}, {sigma_theta!r})")
+    out = np.array(poses, dtype=float, copy=True)
+    shape = out[:, 1:, :2].shape
+    out[:, 1:, :2] += sigma_p * rng.standard_normal(shape)
+    out[:, 1:, 2] += sigma_theta * rng.standard_normal(shape[:2])
+    return out
+
+
+def _default_cache_dir() -> Path:
+    root = os.environ.get("PCS_SINDY_CACHE") or os.path.join(os.path.expanduser("~"), ".cache", "pcs_sindy")
+    return Path(root) / "scenarios"
+
+
+@dataclass
+class Scenario:
+    """A named robot and the recipe that generates its data.
+
+    Attributes
+    ----------
+    name : str
+    robot : PCSRobot or PACRobot
+        Ground-truth model (``.kinematics`` gives the segmentation of a PCS robot).
+    parameters : dict
+        The physical parameters the robot was built from (DESIGN.md §4).
+    seed_noise : (float, float)
+        The seed's measurement noise ``(σ_p [m], σ_θ [rad])`` for this scenario.
+    n_markers : int
+        Tracked cross-sections (equally spaced, the last at the tip).
+    """
+
+    name: str
+    robot: Any
+    parameters: dict = field(default_factory=dict)
+    seed_noise: tuple[float, float] = (0.0, 0.0)
+    n_markers: int = 20
+    dt: float = 1e-3
+    n_train: int = 8
+    train_duration: float = 0.5
+    hold: float = 0.01
+    validation_duration: float = 7.0
+    bend_amplitude: float = 40.0
+    strain_amplitude: float = 0.2
+    description: str = ""
+
+    @property
+    def is_kinematic(self) -> bool:
+        """True for the PAC robot, which has no dynamics."""
+        return isinstance(self.robot, PACRobot)
+
+    @property
+    def marker_arc_lengths(self) -> NDArray[np.float64]:
+        """Arc lengths of the base and the tracked cross-sections."""
+        total = self.robot.total_length if self.is_kinematic else self.robot.kinematics.total_length
+        return np.linspace(0.0, total, self.n_markers + 1)
+
+    def marker_poses(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """True poses (T, N + 1, 3) of the base and the tracked cross-sections."""
+        if self.is_kinematic:
+            return self.robot.forward_kinematics(q, self.marker_arc_lengths)
+        return self.robot.kinematics.forward_kinematics(q, self.marker_arc_lengths)
+
+    # ------------------------------------------------------------------
+    def _amplitudes(self) -> NDArray[np.float64]:
+        m = self.robot.kinematics.n_segments
+        return np.tile([self.bend_amplitude, self.strain_amplitude, self.strain_amplitude], m)
+
+    def _holding_force(self, q_target: NDArray[np.float64]) -> NDArray[np.float64]:
+        return self.robot.elastic_forces(q_target) + self.robot.gravity_forces(q_target)
+
+    def _simulate(self, q0, qd0, t, tau) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return self.robot.simulate(q0, qd0, t, tau)
+
+    def _training_recording(self, rng: np.random.Generator) -> tuple:
+        n = self.robot.n_q
+        amp = self._amplitudes()
+        n_samples = int(round(self.train_duration / self.dt))
+        t = np.arange(n_samples) * self.dt
+        per_hold = max(1, int(round(self.hold / self.dt)))
+        n_holds = -(-n_samples // per_hold)
+        targets = rng.uniform(-1.0, 1.0, (n_holds, n)) * amp
+        tau_holds = self._holding_force(targets)
+        tau = np.repeat(tau_holds, per_hold, axis=0)[:n_samples]
+        q0 = rng.uniform(-0.5, 0.5, n) * amp
+        qd0 = np.zeros(n)
+        q, qd = self._simulate(q0, qd0, t, tau)
+        return t, q, qd, tau
+
+    def _validation_recording(self, rng: np.random.Generator) -> tuple:
+        n = self.robot.n_q
+        n_samples = int(round(self.validation_duration / self.dt))
+        t = np.arange(n_samples) * self.dt
+        # f: the holding force of a random configuration of the intended amplitude, so each strain is excited
+        direction = rng.choice([-1.0, 1.0], n) * rng.uniform(0.5, 1.0, n) * self._amplitudes()
+        f = self.robot.elastic_forces(direction) + self.robot.gravity_forces(direction) - self.robot.gravity_forces(
+            np.zeros(n)
+        )
+        a1, a2 = rng.uniform(0.3, 0.7, 2)
+        w1, w2 = 2 * np.pi * rng.uniform(0.5, 3.0, 2)
+        tau = np.outer(a1 * np.sin(w1 * t) + a2 * np.cos(w2 * t), f)
+        q0 = np.zeros(n)
+        qd0 = np.zeros(n)
+        q, qd = self._simulate(q0, qd0, t, tau)
+        return t, q, qd, tau
+
+    def _pac_recording(self, rng: np.random.Generator, n_configurations: int = 500) -> tuple:
+        c0 = rng.uniform(-20.0, 20.0, n_configurations)
+        c1 = rng.uniform(-250.0, 250.0, n_configurations)
+        shear = rng.uniform(-1.0, 1.0, (n_configurations, 2)) * self.strain_amplitude
+        config = np.column_stack([c0, c1, shear])
+        t = np.arange(n_configurations) * self.dt
+        return t, config, None, None
+
+    # ------------------------------------------------------------------
+    def generate(
+        self,
+        seed: int = 0,
+        *,
+        noise: tuple[float, float] | str | None = None,
+        n_train: int | None = None,
+        train_duration: float | None = None,
+        validation: bool = True,
+        validation_duration: float | None = None,
+        cache: bool = True,
+        progress: bool = False,
+    ) -> ScenarioData:
+        """Simulate the scenario's data set.
+
+        Parameters
+        ----------
+        seed : int
+            Seed of every random draw (initial conditions, actuation, noise).
+        noise : (sigma_p, sigma_theta), "seed" or None
+            Measurement noise added to the tracked poses; ``"seed"`` uses
+            :attr:`seed_noise`.  The noise-free poses stay in ``poses_true``.
+        n_train, train_duration, validation_duration : optional
+            Override the seed's 8 recordings of 0.5 s and the 7 s validation.
+        validation : bool
+            Whether to simulate the validation recording.
+        cache : bool
+            Reuse simulations stored (as ``.npz``) under ``$PCS_SINDY_CACHE`` or
+            ``~/.cache/pcs_sindy``; noise is added after loading.
+        progress : bool
+            Show a progress bar over recordings.
+        """
+        if int(seed) != seed:
+            raise ValueError(f"seed must be an integer; got {seed!r}")
+        if isinstance(noise, str):
+            if noise != "seed":
+                raise ValueError(f"noise must be None, 'seed' or (sigma_p, sigma_theta); got {noise!r}")
+            noise = self.seed_noise
+        noise = (0.0, 0.0) if noise is None else tuple(float(v) for v in noise)
+        if len(noise) != 2 or min(noise) < 0 or not all(np.isfinite(noise)):
+            raise ValueError(f"noise must be (sigma_p >= 0, sigma_theta >= 0); got {noise!r}")
+        spec = replace(
+            self,
+            n_train=self.n_train if n_train is None else int(n_train),
+            train_duration=self.train_duration if train_duration is None else float(train_duration),
+            validation_duration=self.validation_duration if validation_duration is None else float(validation_duration),
+        )
+        if spec.n_train < 1 or spec.train_duration <= 0 or spec.validation_duration <= 0:
+            raise ValueError(
+                f"n_train, train_duration and validation_duration must be positive; got "
+                f"{spec.n_train}, {spec.train_duration}, {spec.validation_duration}"
+            )
+        raw = spec._load_or_simulate(int(seed), validation and not self.is_kinematic, cache, progress)
+        noise_rng = np.random.default_rng([int(seed), 7919])
+        recordings = []
+        for t, q, qd, tau in raw:
+            truth = spec.marker_poses(q)
+            noisy = add_pose_noise(truth, *noise, noise_rng) if max(noise) > 0 else truth.copy()
+            recordings.append(Recording(t=t, q=q, qd=qd, tau=tau, poses=noisy, poses_true=truth))
+        n_val = 1 if (validation and not self.is_kinematic) else 0
+        train = recordings[: len(recordings) - n_val]
+        val = recordings[-1] if n_val else None
+        return ScenarioData(name=self.name, train=train, validation=val, noise=noise, seed=int(seed))
+
+    def _cache_key(self, seed: int, validation: bool) -> str:
+        spec = {
+            "version": _DATA_VERSION,
+            "name": self.name,
+            "parameters": self.parameters,
+            "seed": seed,
+            "validation": validation,
+            "n_train": self.n_train,
+            "train_duration": self.train_duration,
+            "validation_duration": self.validation_duration,
+            "dt": self.dt,
+            "hold": self.hold,
+            "amplitudes": [self.bend_amplitude, self.strain_amplitude],
+        }
+        return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+    def _load_or_simulate(self, seed: int, validation: bool, cache: bool, progress: bool) -> list[tuple]:
+        path = _default_cache_dir() / f"{self.name}-{self._cache_key(seed, validation)}.npz"
+        if cache and path.exists():
+            try:
+                with np.load(path, allow_pickle=False) as data:
+                    count = int(data["count"])
+                    out = []
+                    for k in range(count):
+                        get = lambda key: data[f"{key}{k}"] if f"{key}{k}" in data.files else None  # noqa: E731
+                        out.append((get("t"), get("q"), get("qd"), get("tau")))
+                    return out
+            except (OSError, ValueError, KeyError):
+                pass  # a damaged cache entry is simply recomputed
+        rng = np.random.default_rng(seed)
+        if self.is_kinematic:
+            out = [self._pac_recording(rng)]
+        else:
+            jobs: list[Callable[[], tuple]] = [lambda: self._training_recording(rng) for _ in range(self.n_train)]
+            if validation:
+                jobs.append(lambda: self._validation_recording(rng))
+            out = [job() for job in tqdm(jobs, desc=f"simulating {self.name}", disable=not progress)]
+        if cache:
+            arrays: dict[str, NDArray] = {"count": np.array(len(out))}
+            for k, rec in enumerate(out):
+                for key, value in zip(("t", "q", "qd", "tau"), rec):
+                    if value is not None:
+                        arrays[f"{key}{k}"] = value
+            try:
+                path.parent.mkdir(parents=True, exist_ok=True)
+                tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
+                np.savez(tmp, **arrays)
+                os.replace(tmp, path)
+            except OSError:
+                pass  # caching is an optimisation; an unwritable cache is not an error
+        return out
+
+
+# ----------------------------------------------------------------------
+# The table (DESIGN.md §4 / seed Table I)
+# ----------------------------------------------------------------------
+_PCS_TABLE: dict[str, dict[str, Any]] = {
+    "one_segment": dict(
+        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e3],
+        damping=[1e-5, 1.5e-1, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
+    ),
+    "two_segment": dict(
+        segment_lengths=[0.07, 0.1], density=[1070.0, 1049.0], youngs_modulus=[1e4, 9e3],
+        shear_modulus=[1e3, 3e3], damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
+        seed_noise=(1e-4, np.deg2rad(0.5)),
+    ),
+    "three_segment": dict(
+        segment_lengths=[0.05, 0.1, 0.06], density=[1240.0, 1049.0, 1070.0], youngs_modulus=[1e4, 6e4, 8e4],
+        shear_modulus=[1e3, 3e3, 5e3], damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
+        seed_noise=(1e-4, np.deg2rad(0.5)),
+    ),
+    "one_segment_stiff_shear": dict(
+        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e6],
+        damping=[1e-5, 5e0, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
+    ),
+}
+
+
+def _stiff_axial_shear() -> dict[str, Any]:
+    # the published paper's extra case: segment 1 axial and segment 2 shear stiffness x1000.
+    # Stiffness is diag(E I, c_sh G A, E A), so scale the moduli that enter only those entries
+    # through the per-strain factors below.
+    base = dict(_PCS_TABLE["two_segment"])
+    base["stiffness_factors"] = [1.0, 1.0, 1000.0, 1.0, 1000.0, 1.0]
+    return base
+
+
+_PCS_TABLE["two_segment_stiff_axial_shear"] = _stiff_axial_shear()
+
+_DESCRIPTIONS = {
+    "one_segment": "one constant-strain segment (seed Case 1)",
+    "two_segment": "two constant-strain segments (seed Case 2)",
+    "three_segment": "three constant-strain segments (seed Case 3, kinematics in the seed)",
+    "one_segment_stiff_shear": "one segment with a very stiff shear strain (seed Case 4)",
+    "pac_one_segment": "one piecewise-affine-curvature segment, kinematics only (seed Case 5)",
+    "two_segment_stiff_axial_shear": "two segments, segment 1 axial and segment 2 shear stiffness x1000",
+}
+
+
+def list_scenarios() -> list[str]:
+    """Names accepted by :func:`get_scenario`."""
+    return list(_DESCRIPTIONS)
+
+
+def get_scenario(name: str, **overrides: Any) -> Scenario:
+    """Build a named scenario of DESIGN.md §4.
+
+    Parameters
+    ----------
+    name : str
+        One of :func:`list_scenarios`.
+    **overrides
+        Fields of :class:`Scenario` to change (e.g. ``n_markers=10``) or
+        robot options (``stiffness_scaling="length"``).
+
+    Raises
+    ------
+    ValueError
+        For an unknown name.
+    """
+    if name not in _DESCRIPTIONS:
+        raise ValueError(f"unknown scenario name {name!r}; choose one of {list_scenarios()}")
+    robot_options = {k: overrides.pop(k) for k in ("stiffness_scaling", "gravity", "radius") if k in overrides}
+    if name == "pac_one_segment":
+        return Scenario(
+            name=name, robot=PACRobot(0.15), parameters={"length": 0.15}, description=_DESCRIPTIONS[name],
+            seed_noise=(5e-4, np.deg2rad(1.0)), **overrides,
+        )
+    from .dynamics import PCSRobot  # the dynamics are only needed for PCS scenarios
+
+    spec = dict(_PCS_TABLE[name])
+    seed_noise = spec.pop("seed_noise")
+    factors = spec.pop("stiffness_factors", None)
+    robot = PCSRobot(radius=robot_options.pop("radius", 0.02), **spec, **robot_options)
+    if factors is not None:
+        robot = _scale_stiffness(robot, np.asarray(factors, dtype=float))
+    parameters = {**spec, "radius": robot_options.get("radius", 0.02), "stiffness_factors": factors}
+    return Scenario(
+        name=name, robot=robot, parameters=parameters, seed_noise=seed_noise,
+        description=_DESCRIPTIONS[name], **overrides,
+    )
+
+
+def _scale_stiffness(robot: Any, factors: NDArray[np.float64]) -> Any:
+    """Scale individual diagonal stiffness entries of a PCSRobot."""
+    robot.stiffness = robot.stiffness * factors
+    return robot
