@@ -23,7 +23,7 @@ import json
 import os
 from dataclasses import dataclass, field, replace
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -164,20 +164,20 @@ class Scenario:
     def _simulate(self, q0, qd0, t, tau) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return self.robot.simulate(q0, qd0, t, tau)
 
-    def _training_recording(self, rng: np.random.Generator) -> tuple:
+    def _training_recordings(self, rng: np.random.Generator) -> list[tuple]:
         n = self.robot.n_q
         amp = self._amplitudes()
         n_samples = int(round(self.train_duration / self.dt))
         t = np.arange(n_samples) * self.dt
         per_hold = max(1, int(round(self.hold / self.dt)))
         n_holds = -(-n_samples // per_hold)
-        targets = rng.uniform(-1.0, 1.0, (n_holds, n)) * amp
-        tau_holds = self._holding_force(targets)
-        tau = np.repeat(tau_holds, per_hold, axis=0)[:n_samples]
-        q0 = rng.uniform(-0.5, 0.5, n) * amp
-        qd0 = np.zeros(n)
+        targets = rng.uniform(-1.0, 1.0, (n_holds, self.n_train, n)) * amp
+        tau = np.repeat(self._holding_force(targets), per_hold, axis=0)[:n_samples]  # (T, B, n)
+        q0 = rng.uniform(-0.5, 0.5, (self.n_train, n)) * amp
+        qd0 = np.zeros((self.n_train, n))
+        # all training recordings share the time grid: one batched integration
         q, qd = self._simulate(q0, qd0, t, tau)
-        return t, q, qd, tau
+        return [(t, q[:, b], qd[:, b], tau[:, b]) for b in range(self.n_train)]
 
     def _validation_recording(self, rng: np.random.Generator) -> tuple:
         n = self.robot.n_q
@@ -301,10 +301,12 @@ class Scenario:
         if self.is_kinematic:
             out = [self._pac_recording(rng)]
         else:
-            jobs: list[Callable[[], tuple]] = [lambda: self._training_recording(rng) for _ in range(self.n_train)]
-            if validation:
-                jobs.append(lambda: self._validation_recording(rng))
-            out = [job() for job in tqdm(jobs, desc=f"simulating {self.name}", disable=not progress)]
+            with tqdm(total=2 if validation else 1, desc=f"simulating {self.name}", disable=not progress) as bar:
+                out = self._training_recordings(rng)
+                bar.update()
+                if validation:
+                    out.append(self._validation_recording(rng))
+                    bar.update()
         if cache:
             arrays: dict[str, NDArray] = {"count": np.array(len(out))}
             for k, rec in enumerate(out):
