@@ -345,6 +345,13 @@ _PCS_TABLE: dict[str, dict[str, Any]] = {
         segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e6],
         damping=[1e-5, 5e0, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
     ),
+    # beyond the seed (issue 6): five segments of alternating soft and stiffer silicone-like
+    # materials, 0.27 m in all, with the damping pattern of three_segment
+    "five_segment": dict(
+        segment_lengths=[0.04, 0.06, 0.05, 0.07, 0.05], density=[1070.0, 1049.0, 1240.0, 1070.0, 1049.0],
+        youngs_modulus=[1e4, 4e4, 2e4, 6e4, 1.5e4], shear_modulus=[1e3, 3e3, 2e3, 5e3, 1.5e3],
+        damping=[5e-5, 4e-2, 5e-2] * 5, seed_noise=(1e-4, np.deg2rad(0.5)),
+    ),
 }
 
 
@@ -366,6 +373,7 @@ _DESCRIPTIONS = {
     "one_segment_stiff_shear": "one segment with a very stiff shear strain (seed Case 4)",
     "pac_one_segment": "one piecewise-affine-curvature segment, kinematics only (seed Case 5)",
     "two_segment_stiff_axial_shear": "two segments, segment 1 axial and segment 2 shear stiffness x1000",
+    "five_segment": "five constant-strain segments, 0.27 m (beyond the seed)",
 }
 
 
