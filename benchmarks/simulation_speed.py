@@ -1,0 +1,129 @@
+"""Speed of the ground-truth PCS simulator (pcs_sindy.simulation.dynamics).
+
+Times, for robots of 1-5 segments (DESIGN.md §4 parameters; 4 and 5 segments
+repeat the three_segment ones): inverse dynamics of a batch of 1000 samples
+and a 1 s simulation under random actuation held for 10 ms (1 kHz samples);
+then the 7 s sinusoidal validation-style run of two_segment (actuation sampled
+every 1 ms and held), and the accuracy of the fast settings on a short window
+against a tight-tolerance reference.  Wall-clock and CPU (process) times are
+both reported because the machine may be shared.
+
+Run: .venv/bin/python benchmarks/simulation_speed.py
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import write_section  # noqa: E402
+
+from pcs_sindy.simulation.dynamics import PCSRobot  # noqa: E402
+
+ONE = dict(L=[0.1], rho=[1070], E=[1e4], G=[1e3], D=[1e-5, 1.5e-1, 1.5e-1])
+TWO = dict(L=[0.07, 0.1], rho=[1070, 1049], E=[1e4, 9e3], G=[1e3, 3e3], D=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
+THREE = dict(L=[0.05, 0.1, 0.06], rho=[1240, 1049, 1070], E=[1e4, 6e4, 8e4], G=[1e3, 3e3, 5e3],
+             D=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2])
+
+
+def robot_with(m: int) -> PCSRobot:
+    if m in (1, 2):
+        p = ONE if m == 1 else TWO
+    else:
+        idx = [i % 3 for i in range(m)]
+        p = {k: [THREE[k][i] for i in idx] for k in ("L", "rho", "E", "G")}
+        p["D"] = [THREE["D"][3 * i + j] for i in idx for j in range(3)]
+    return PCSRobot(p["L"], p["rho"], p["E"], p["G"], p["D"])
+
+
+def timed(fn):
+    w0, c0 = time.perf_counter(), time.process_time()
+    out = fn()
+    return out, time.perf_counter() - w0, time.process_time() - c0
+
+
+def random_hold(rng, m: int, t: np.ndarray, hold: int = 10) -> np.ndarray:
+    amp = np.tile([2e-3, 0.02, 0.05], m)
+    n_blocks = t.size // hold + 1
+    return np.repeat(rng.uniform(-1, 1, (n_blocks, 3 * m)) * amp, hold, axis=0)[: t.size]
+
+
+def sinusoid(rng, m: int, t: np.ndarray) -> np.ndarray:
+    amp = np.tile([5e-3, 0.05, 0.1], m)
+    w1, w2 = rng.uniform(1, 10, (2, 3 * m)) * 2 * np.pi
+    a1, a2 = rng.uniform(0.5, 1.0, (2, 3 * m))
+    return amp * (a1 * np.sin(w1 * t[:, None]) + a2 * np.cos(w2 * t[:, None]))
+
+
+def main() -> None:
+    rng = np.random.default_rng(0)
+    rows = []
+    for m in range(1, 6):
+        robot = robot_with(m)
+        q = rng.normal(size=(1000, 3 * m)) * np.tile([20, 0.1, 0.1], m)
+        _, w_id, c_id = timed(lambda: robot.inverse_dynamics(q, 10 * q, 100 * q))
+        t = np.arange(1001) * 1e-3
+        tau = random_hold(rng, m, t)
+        _, w_fx, c_fx = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau))
+        rows.append(f"| {m} | {w_id * 1e3:.1f} ({c_id * 1e3:.1f}) | {w_fx:.2f} ({c_fx:.2f}) |")
+        print(rows[-1], flush=True)
+
+    two = robot_with(2)
+    t7 = np.arange(7001) * 1e-3
+    tau7 = sinusoid(rng, 2, t7)
+    long_rows = []
+    for label, kw in [("Radau, fixed_step=1e-3", dict(fixed_step=1e-3)),
+                      ("Radau, fixed_step=5e-4 (default)", {})]:
+        _, w, c = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), t7, tau7, **kw))
+        long_rows.append(f"| {label} | {w:.1f} | {c:.1f} |")
+        print(long_rows[-1], flush=True)
+
+    # accuracy of the fast settings on the first 0.2 s of the same run
+    ts, taus = t7[:201], tau7[:201]
+    q_ref, _ = two.simulate(np.zeros(6), np.zeros(6), ts, taus, rtol=1e-10, atol=1e-13)
+    span = np.ptp(q_ref, axis=0)
+    acc_rows = []
+    for label, kw in [("Radau, error control rtol 1e-6, atol 1e-8", dict(rtol=1e-6, atol=1e-8)),
+                      ("Radau, fixed_step=1e-3", dict(fixed_step=1e-3)),
+                      ("Radau, fixed_step=5e-4 (default)", {})]:
+        (q, _), w, c = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, **kw))
+        err = float(np.max(np.abs(q - q_ref).max(axis=0) / span))
+        acc_rows.append(f"| {label} | {err:.1e} | {w:.2f} ({c:.2f}) |")
+        print(acc_rows[-1], flush=True)
+
+    body = "\n".join(
+        [
+            "Times in seconds (CPU time of the process in parentheses; the machine was shared).",
+            "Robots: DESIGN.md §4 one_segment, two_segment, three_segment; 4 and 5 segments repeat",
+            "three_segment's parameters.  1 s simulations: random actuation held 10 ms, 1 kHz samples,",
+            "from rest, default settings (batched Radau IIA, fixed 0.5 ms steps landing on every sample).",
+            "",
+            "| segments | inverse dynamics, 1000 samples [ms] | 1 s simulation [s] |",
+            "|---|---|---|",
+            *rows,
+            "",
+            "two_segment, 7 s sinusoidal actuation sampled every 1 ms and held (validation-style run):",
+            "",
+            "| settings | wall [s] | CPU [s] |",
+            "|---|---|---|",
+            *long_rows,
+            "",
+            "Accuracy on the first 0.2 s of that run against Radau at rtol 1e-10, atol 1e-13",
+            "(max over strains of max |error| / range of the strain):",
+            "",
+            "| settings | relative error | time [s] |",
+            "|---|---|---|",
+            *acc_rows,
+        ]
+    )
+    path = write_section("simulation_speed", "Ground-truth simulator speed", body,
+                         ".venv/bin/python benchmarks/simulation_speed.py")
+    print(f"written to {path}")
+
+
+if __name__ == "__main__":
+    main()
