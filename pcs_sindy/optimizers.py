@@ -1,0 +1,452 @@
+"""Least squares with strain sparsification by a stiffness threshold (seed §III-C3).
+
+The Euler–Lagrange regression ``tau = Psi(q, qd, qdd) pi+`` is solved by least
+squares on column-scaled data (SVD; never the normal equations).  The
+identified stiffness of strain e is ``-2 *`` the coefficient of its ``q_e^2``
+basis function (the Lagrangian holds ``-V``).  A strain whose stiffness exceeds
+the material maximum ``K_max`` behaves rigidly: it is removed, the basis is
+re-evaluated in the limit ``q_e, qd_e, qdd_e -> 0`` (seed eqs. 20-21) and the
+fit is repeated until no strain is removed.
+
+How the optimizer gets the re-evaluated basis
+---------------------------------------------
+The limit rule needs the basis evaluated again on the states, which a plain
+``fit(Theta, y)`` does not carry.  pysindy's ``BaseOptimizer.fit`` forwards
+extra keyword arguments to ``_reduce``; we use the same idea explicitly:
+``fit(x, y, library=lib, states=(q, qd, qdd))``.  ``lib`` is the
+:class:`~pcs_sindy.library.PCSLagrangianLibrary` that produced ``x`` and the
+states are the active strains it was evaluated on.  The optimizer asks
+``lib.restrict(mask)`` for the limit-rule library of the remaining strains and
+evaluates its ``euler_lagrange_matrix`` on the kept state columns.  Without
+``library`` the optimizer is a plain scaled least-squares solver (usable inside
+``pysindy.SINDy``), with no stiffness to threshold.
+
+Identification side: never imports :mod:`pcs_sindy.simulation`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any, Sequence
+
+import numpy as np
+import scipy.linalg
+from numpy.typing import ArrayLike, NDArray
+from pysindy.optimizers import BaseOptimizer
+from sklearn.base import BaseEstimator
+from sklearn.exceptions import ConvergenceWarning
+
+__all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq"]
+
+_STRAIN_LABELS = ("be", "sh", "ax")
+
+
+def stiffness_bounds(
+    segment_lengths: Sequence[float],
+    *,
+    youngs_modulus_max: float = 100e6,
+    shear_modulus_max: float = 0.1e6,
+    radius: float = 0.02,
+    shear_factor: float = 4.0 / 3.0,
+    stiffness_scaling: str = "seed",
+) -> NDArray[np.float64]:
+    """Maximum stiffness of every strain, ``f_L * [I E_max, c_sh A G_max, A E_max]`` per segment.
+
+    Parameters
+    ----------
+    segment_lengths : sequence of float
+        Rest lengths of the m segments (m).
+    youngs_modulus_max, shear_modulus_max : float
+        Material maxima (Pa); the seed uses 100 MPa and 0.1 MPa.
+    radius : float
+        Radius of the circular cross-section (m).
+    shear_factor : float
+        ``c_sh`` multiplying the shear stiffness (4/3 in the seed's simulator).
+    stiffness_scaling : {"seed", "length"}
+        ``"seed"``: ``f_L = 1`` (the convention of every number in the seed);
+        ``"length"``: ``f_L = L_i`` (elastic energy ``1/2 L_i q^T K q``).
+
+    Returns
+    -------
+    ndarray, shape (3m,)
+        For r = 0.02 m and the seed defaults: 12.6 N m^2, 168 N, 126 kN per segment.
+    """
+    lengths = np.atleast_1d(np.asarray(segment_lengths, dtype=float))
+    if lengths.ndim != 1 or lengths.size == 0 or not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
+        raise ValueError(f"segment_lengths must be positive finite lengths; got {segment_lengths!r}")
+    for name, val in (
+        ("youngs_modulus_max", youngs_modulus_max),
+        ("shear_modulus_max", shear_modulus_max),
+        ("radius", radius),
+        ("shear_factor", shear_factor),
+    ):
+        if not np.isfinite(val) or val <= 0:
+            raise ValueError(f"{name} must be finite and > 0; got {val!r}")
+    if stiffness_scaling == "seed":
+        f_l = np.ones_like(lengths)
+    elif stiffness_scaling == "length":
+        f_l = lengths
+    else:
+        raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
+    area = np.pi * radius**2
+    inertia = np.pi * radius**4 / 4
+    per_seg = np.array([inertia * youngs_modulus_max, shear_factor * area * shear_modulus_max, area * youngs_modulus_max])
+    return (f_l[:, None] * per_seg[None, :]).reshape(-1)
+
+
+def scaled_lstsq(
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    *,
+    rcond: float = 1e-10,
+    feature_names: Sequence[str] | None = None,
+) -> tuple[NDArray[np.float64], dict[str, Any]]:
+    """Least squares on unit-norm columns via the SVD; raise when rank deficient.
+
+    Parameters
+    ----------
+    x : ndarray, shape (n_rows, n_features)
+    y : ndarray, shape (n_rows,) or (n_rows, n_targets)
+    rcond : float
+        Singular values below ``rcond * s_max`` (of the column-scaled matrix)
+        count as zero.
+    feature_names : sequence of str, optional
+        Used to name the offending columns in errors.
+
+    Returns
+    -------
+    coef : ndarray, shape (n_features,) or (n_features, n_targets)
+        In the units of the unscaled columns.
+    info : dict
+        ``rank``, ``condition_number`` (of the scaled matrix), ``relative_residual``.
+
+    Raises
+    ------
+    ValueError
+        On an all-zero column or a rank-deficient (non-exciting) design; the
+        message names the columns involved.
+    """
+    names = list(feature_names) if feature_names is not None else [f"x{j}" for j in range(x.shape[1])]
+    if x.shape[0] < x.shape[1]:
+        raise ValueError(f"regression has fewer rows ({x.shape[0]}) than unknowns ({x.shape[1]}); record more samples")
+    norms = np.linalg.norm(x, axis=0)
+    zero = ~(norms > 0)
+    if np.any(zero):
+        bad = [names[j] for j in np.flatnonzero(zero)][:8]
+        raise ValueError(
+            f"the data do not excite {int(zero.sum())} basis column(s) (all zero), e.g. {bad}; "
+            "the regression is rank deficient: record exciting trajectories or remove those strains"
+        )
+    xs = x / norms
+    u, s, vt = scipy.linalg.svd(xs, full_matrices=False, lapack_driver="gesdd", check_finite=False)
+    rank = int(np.sum(s > rcond * s[0]))
+    if rank < x.shape[1]:
+        # the weakest right singular vector shows which columns are (nearly) collinear
+        null = np.abs(vt[-1])
+        worst = [names[j] for j in np.argsort(null)[::-1][:6]]
+        raise ValueError(
+            f"rank-deficient regression: rank {rank} < {x.shape[1]} unknowns (singular value ratio "
+            f"{s[-1] / s[0]:.2e} < rcond = {rcond:g}); the data do not excite the basis enough to separate "
+            f"e.g. {worst}; record more exciting trajectories (constant data excite nothing)"
+        )
+    coef_s = vt.T @ ((u.T @ y) / (s if y.ndim == 1 else s[:, None]))
+    coef = coef_s / (norms if y.ndim == 1 else norms[:, None])
+    res = y - x @ coef
+    ynorm = np.linalg.norm(y)
+    info = {
+        "rank": rank,
+        "condition_number": float(s[0] / s[-1]),
+        "relative_residual": float(np.linalg.norm(res) / ynorm) if ynorm > 0 else float(np.linalg.norm(res)),
+    }
+    return coef, info
+
+
+class StiffnessThresholdOptimizer(BaseOptimizer):
+    """Least squares + removal of strains stiffer than the material maximum.
+
+    Parameters
+    ----------
+    youngs_modulus_max : float, default 100e6
+        ``E_max`` (Pa) of the bending and axial bounds.
+    shear_modulus_max : float, default 0.1e6
+        ``G_max`` (Pa) of the shear bound.
+    radius : float, default 0.02
+        Cross-section radius (m) giving ``A = pi r^2`` and ``I = pi r^4 / 4``.
+    shear_factor : float, default 4/3
+        ``c_sh`` of the shear stiffness ``c_sh G A``.
+    stiffness_scaling : {"seed", "length"}, default "seed"
+        ``f_L = 1`` or ``f_L = L_i`` in ``K_max = f_L diag(...)``; must match
+        the convention of the data (see DESIGN.md §3).
+    max_stiffness : array_like of shape (3m,), optional
+        Explicit bounds per strain (full strain order); overrides the material
+        parameters above.
+    threshold : bool, default True
+        Remove strains above the bound.  ``False`` fits all strains once.
+    rcond : float, default 1e-10
+        Relative singular-value cut-off of the column-scaled design; a smaller
+        singular value means rank deficiency and raises.
+    max_iter : int, default 20
+        Maximum number of fit-and-remove rounds.
+    normalize_columns : bool, default True
+        Kept for pysindy compatibility: columns are always scaled to unit
+        norm inside the solver and the coefficients (and hence the stiffness
+        compared with ``K_max``) are returned in physical units either way.
+    copy_X : bool, default True
+
+    Attributes
+    ----------
+    coef_ : ndarray, shape (n_targets, n_features)
+        Coefficients in the columns of the library passed to ``fit``; columns
+        dropped by strain removal are 0.
+    ind_ : ndarray of bool, same shape
+        Non-zero coefficients.
+    active_strains_ : ndarray of bool, shape (m, 3)
+        Strains kept (only with ``library``).
+    stiffness_ : ndarray, shape (3m,)
+        Identified stiffness; ``inf`` for strains removed as rigid (and for
+        strains the library never modelled).
+    max_stiffness_ : ndarray, shape (3m,)
+        The bounds used.
+    removed_strains_ : list of str
+        Names (``"sh_1"``, ...) of the removed strains, in removal order.
+    library_ : the limit-rule library of the kept strains (``library`` itself
+        if none was removed).
+    column_map_ : ndarray of int
+        Columns of the ``library`` passed to ``fit`` kept by ``library_``.
+    history_ : list of dict
+        One entry per round: ``active_strains`` (m, 3), ``coef`` (n_features,),
+        ``stiffness`` (3m,), ``removed`` (names removed after this round),
+        ``relative_residual``, ``condition_number``.
+    n_rounds_ : int
+    relative_residual_, condition_number_ : float
+        Of the final round.
+    """
+
+    def __init__(
+        self,
+        youngs_modulus_max: float = 100e6,
+        shear_modulus_max: float = 0.1e6,
+        radius: float = 0.02,
+        shear_factor: float = 4.0 / 3.0,
+        stiffness_scaling: str = "seed",
+        max_stiffness: ArrayLike | None = None,
+        threshold: bool = True,
+        rcond: float = 1e-10,
+        max_iter: int = 20,
+        normalize_columns: bool = True,
+        copy_X: bool = True,
+    ) -> None:
+        super().__init__(max_iter=max_iter, normalize_columns=normalize_columns, copy_X=copy_X, unbias=False)
+        self.youngs_modulus_max = youngs_modulus_max
+        self.shear_modulus_max = shear_modulus_max
+        self.radius = radius
+        self.shear_factor = shear_factor
+        self.stiffness_scaling = stiffness_scaling
+        self.max_stiffness = max_stiffness
+        self.threshold = threshold
+        self.rcond = rcond
+
+    def set_params(self, **params: Any) -> "StiffnessThresholdOptimizer":
+        """Set parameters and return ``self`` (pysindy 2.1's returns None, which breaks GridSearchCV)."""
+        BaseEstimator.set_params(self, **params)
+        return self
+
+    def _reduce(self, x: NDArray[np.float64], y: NDArray[np.float64], **kwargs: Any) -> None:
+        # fit() is overridden and does all the work; kept for the abstract API.
+        coef, _ = scaled_lstsq(x, y, rcond=self.rcond)
+        self.coef_ = np.atleast_2d(coef.T)
+
+    # ------------------------------------------------------------------
+    def _check_params(self) -> None:
+        if int(self.max_iter) != self.max_iter or self.max_iter < 1:
+            raise ValueError(f"max_iter must be a positive integer; got {self.max_iter!r}")
+        if not np.isfinite(self.rcond) or not 0 < self.rcond < 1:
+            raise ValueError(f"rcond must be in (0, 1); got {self.rcond!r}")
+
+    def _bounds(self, library: Any) -> NDArray[np.float64]:
+        lengths = library.kinematics.segment_lengths
+        if self.max_stiffness is not None:
+            bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)
+            if bounds.shape != (3 * len(lengths),) or np.any(np.isnan(bounds)) or np.any(bounds <= 0):
+                raise ValueError(
+                    f"max_stiffness must hold {3 * len(lengths)} positive values (3 per segment); got {self.max_stiffness!r}"
+                )
+            return bounds
+        return stiffness_bounds(
+            lengths,
+            youngs_modulus_max=self.youngs_modulus_max,
+            shear_modulus_max=self.shear_modulus_max,
+            radius=self.radius,
+            shear_factor=self.shear_factor,
+            stiffness_scaling=self.stiffness_scaling,
+        )
+
+    def fit(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        sample_weight: ArrayLike | None = None,
+        *,
+        library: Any = None,
+        states: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+        feature_names: Sequence[str] | None = None,
+    ) -> "StiffnessThresholdOptimizer":
+        """Fit, removing over-stiff strains when the library and states are given.
+
+        Parameters
+        ----------
+        x : array_like, shape (n_rows, n_features)
+            Regression matrix.  With ``library``: the Euler–Lagrange matrix
+            ``Psi`` of shape (n_samples, n, n_features) or stacked sample-major
+            to (n_samples * n, n_features).
+        y : array_like, shape (n_rows,) or (n_rows, n_targets)
+            Targets (the generalized forces, stacked like ``x``).
+        sample_weight : array_like, shape (n_rows,), optional
+            Row weights (plain least-squares mode only).
+        library : PCSLagrangianLibrary, optional
+            The library that produced ``x``; enables the stiffness threshold.
+        states : tuple (q, qd, qdd), optional
+            Active strains, rates and accelerations (n_samples, n) on which
+            ``x`` was evaluated; required with ``library``.
+        feature_names : sequence of str, optional
+            Column names used in error messages.
+
+        Returns
+        -------
+        self
+        """
+        self._check_params()
+        x = np.array(x, dtype=float, copy=bool(self.copy_X))
+        y = np.array(y, dtype=float, copy=True)
+        if x.ndim == 3:
+            x = x.reshape(-1, x.shape[-1])
+        if x.ndim != 2:
+            raise ValueError(f"x must have shape (n_rows, n_features) or (n_samples, n, n_features); got {x.shape}")
+        if y.ndim == 2 and library is not None:
+            y = y.reshape(-1)
+        if y.ndim not in (1, 2) or y.shape[0] != x.shape[0]:
+            raise ValueError(f"y must have {x.shape[0]} rows like x; got shape {y.shape}")
+        for name, arr in (("x", x), ("y", y)):
+            if not np.all(np.isfinite(arr)):
+                n_bad = int(np.sum(~np.isfinite(arr)))
+                raise ValueError(f"{name} contains {n_bad} NaN or inf value(s); clean the data before fitting")
+        if feature_names is None and library is not None and hasattr(library, "euler_lagrange_names"):
+            try:
+                feature_names = list(library.euler_lagrange_names())
+            except Exception:  # names are only cosmetic here
+                feature_names = None
+        self.iters = 0
+        self.Theta_ = x
+
+        if library is None:
+            if states is not None:
+                raise ValueError("states were given without library; pass both or neither")
+            if sample_weight is not None:
+                w = np.asarray(sample_weight, dtype=float)
+                if w.shape != (x.shape[0],) or np.any(~np.isfinite(w)) or np.any(w < 0):
+                    raise ValueError(f"sample_weight must be ({x.shape[0]},) finite and >= 0; got shape {w.shape}")
+                sw = np.sqrt(w)
+                x = x * sw[:, None]
+                y = y * (sw if y.ndim == 1 else sw[:, None])
+            coef, info = scaled_lstsq(x, y, rcond=self.rcond, feature_names=feature_names)
+            self.coef_ = np.atleast_2d(coef.T)
+            self.ind_ = self.coef_ != 0
+            self.history_ = [{"coef": self.coef_.copy(), **info}]
+            self.n_rounds_ = 1
+            self.iters = 1
+            self.relative_residual_ = info["relative_residual"]
+            self.condition_number_ = info["condition_number"]
+            self.intercept_ = 0.0
+            return self
+
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported together with library (rows change when strains are removed)")
+        if states is None or len(states) != 3:
+            raise ValueError("states=(q, qd, qdd) of the active strains is required with library")
+        kin = library.kinematics
+        m = kin.n_segments
+        start_mask = np.asarray(kin.active_strains, dtype=bool).reshape(-1)
+        n_act = int(start_mask.sum())
+        q, qd, qdd = (np.asarray(s, dtype=float) for s in states)
+        n_samples = x.shape[0] // n_act if n_act else 0
+        for name, arr in (("q", q), ("qd", qd), ("qdd", qdd)):
+            if arr.shape != (n_samples, n_act) or n_samples * n_act != x.shape[0]:
+                raise ValueError(
+                    f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} rows of x; "
+                    f"got {arr.shape}"
+                )
+            if not np.all(np.isfinite(arr)):
+                raise ValueError(f"states[{name}] contains NaN or inf")
+        n_feat = x.shape[1]
+        if n_feat != library.n_coefficients_:
+            raise ValueError(f"x has {n_feat} columns but the library has {library.n_coefficients_} coefficients")
+        tau = y.reshape(n_samples, n_act)
+        bounds = self._bounds(library)
+        names = kin.strain_names()
+
+        mask = start_mask.copy()
+        lib_r = library
+        col_map = np.arange(n_feat)
+        x_r, y_r = x, y
+        history: list[dict[str, Any]] = []
+        removed: list[str] = []
+        converged = False
+        for rnd in range(int(self.max_iter)):
+            sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
+            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names)
+            stiff = np.full(3 * m, np.inf)
+            stiff[mask] = -2.0 * coef_r[np.asarray(lib_r.stiffness_index_)]
+            coef_full = np.zeros(n_feat)
+            coef_full[col_map] = coef_r
+            exceed = mask & (stiff > bounds) if self.threshold else np.zeros_like(mask)
+            new_removed = [names[e] for e in np.flatnonzero(exceed)]
+            history.append(
+                {
+                    "active_strains": mask.reshape(m, 3).copy(),
+                    "coef": coef_full,
+                    "stiffness": stiff.copy(),
+                    "removed": new_removed,
+                    **info,
+                }
+            )
+            self.iters = rnd + 1
+            fitted = (mask.copy(), lib_r, col_map)  # what the last fit used
+            if not new_removed:
+                converged = True
+                break
+            mask = mask & ~exceed
+            removed.extend(new_removed)
+            if not mask.any():
+                raise ValueError(
+                    f"every strain exceeded its maximum stiffness (removed {removed}); check max_stiffness / units"
+                )
+            lib_r = library.restrict(mask.reshape(m, 3))
+            col_map = np.asarray(lib_r.column_map_, dtype=int)
+            keep = mask[start_mask]  # kept columns among the library's active strains
+            psi = lib_r.euler_lagrange_matrix(q[:, keep], qd[:, keep], qdd[:, keep])
+            x_r = np.asarray(psi, dtype=float).reshape(-1, len(col_map))
+            y_r = tau[:, keep].reshape(-1)
+        if not converged:
+            warnings.warn(
+                f"strain removal did not settle within max_iter = {self.max_iter} rounds; the last fit still had "
+                f"strains above their bound: {history[-1]['removed']}",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+        final = history[-1]
+        mask, lib_r, col_map = fitted
+        self.coef_ = final["coef"][None, :]
+        self.ind_ = self.coef_ != 0
+        self.history_ = history
+        self.n_rounds_ = len(history)
+        self.active_strains_ = mask.reshape(m, 3).copy()
+        self.stiffness_ = final["stiffness"]
+        self.max_stiffness_ = bounds
+        # removals of a non-converged last round were never applied
+        self.removed_strains_ = [name for h in history[:-1] for name in h["removed"]]
+        self.library_ = lib_r
+        self.column_map_ = col_map
+        self.relative_residual_ = final["relative_residual"]
+        self.condition_number_ = final["condition_number"]
+        self.intercept_ = 0.0
+        return self
