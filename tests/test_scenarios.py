@@ -90,3 +90,13 @@ def test_pac_scenario_gives_500_configurations():
     curvature_tip = rec.q[:, 0] + rec.q[:, 1] * 0.15
     assert np.abs(curvature_tip).max() <= 60.0
     assert np.abs(rec.q[:, 2:]).max() <= 0.3
+
+
+def test_stiffened_strain_is_driven_like_the_nominal_robot():
+    # the same actuation magnitudes as one_segment: the x1000 stiffer shear hardly moves
+    nominal = get_scenario("one_segment").generate(seed=2, cache=False, **SHORT)
+    stiff = get_scenario("one_segment_stiff_shear").generate(seed=2, cache=False, **SHORT)
+    shear = lambda data: max(np.abs(r.q[:, 1]).max() for r in data.train)  # noqa: E731
+    bend = lambda data: max(np.abs(r.q[:, 0]).max() for r in data.train)  # noqa: E731
+    assert shear(stiff) < 0.01 * shear(nominal)
+    assert bend(stiff) > 0.3 * bend(nominal)
