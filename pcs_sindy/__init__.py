@@ -19,6 +19,8 @@ _LAZY = {
     "MarkerPoseExtractor": "pcs_sindy.vision",
     "KinematicFusion": "pcs_sindy.segmentation",
     "PCSLagrangianLibrary": "pcs_sindy.library",
+    "PhysicalPCSLibrary": "pcs_sindy.library",
+    "Camera": "pcs_sindy.camera",
     "StiffnessThresholdOptimizer": "pcs_sindy.optimizers",
     "EulerLagrangeRegressor": "pcs_sindy.regressor",
     "make_pcs_pipeline": "pcs_sindy.pipeline",

@@ -20,6 +20,8 @@ _LAZY = {
     "list_scenarios": "pcs_sindy.simulation.scenarios",
     "render_video": "pcs_sindy.simulation.rendering",
     "render_frames": "pcs_sindy.simulation.rendering",
+    "RenderedVideo": "pcs_sindy.simulation.rendering",
+    "SimulationError": "pcs_sindy.simulation.dynamics",
 }
 
 __all__ = list(_LAZY)

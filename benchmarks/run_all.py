@@ -1,0 +1,43 @@
+"""Run every benchmark in turn (``make bench``); each writes its own section of docs/results.md.
+
+Paper-scale runs take a long time on 2 cores (scenario simulation is cached under
+``~/.cache/pcs_sindy`` after the first run). Pass benchmark names to run a subset.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+ORDER = [
+    "simulation_speed",
+    "extraction_speed",
+    "library_build",
+    "physical_library",
+    "physical_weak_form",
+    "kinematic_fusion",
+    "dynamic_identification",
+    "rollout_speed",
+]
+
+
+def main(names: list[str]) -> int:
+    chosen = names or [n for n in ORDER if (HERE / f"{n}.py").exists()]
+    unknown = [n for n in chosen if not (HERE / f"{n}.py").exists()]
+    if unknown:
+        print(f"unknown benchmark(s): {unknown}; available: {[n for n in ORDER if (HERE / f'{n}.py').exists()]}")
+        return 2
+    failed = []
+    for name in chosen:
+        print(f"== {name}", flush=True)
+        if subprocess.call([sys.executable, str(HERE / f"{name}.py")]) != 0:
+            failed.append(name)
+    if failed:
+        print(f"failed: {failed}")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
