@@ -5,15 +5,19 @@ repeat the three_segment ones): inverse dynamics of a batch of 1000 samples
 and a 1 s simulation under random actuation held for 10 ms (1 kHz samples);
 then the 7 s sinusoidal validation-style run of two_segment (actuation sampled
 every 1 ms and held), and the accuracy of the fast settings on a short window
-against a tight-tolerance reference.  Wall-clock and CPU (process) times are
-both reported because the machine may be shared.
+against a tight DOP853 reference; the one-time numba compilation (cold cache)
+and the generation of the two_segment and five_segment data sets.  Wall-clock
+and CPU (process) times are both reported because the machine may be shared.
 
 Run: .venv/bin/python benchmarks/simulation_speed.py
 """
 
 from __future__ import annotations
 
+import os
+import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -59,8 +63,38 @@ def sinusoid(rng, m: int, t: np.ndarray) -> np.ndarray:
     return amp * (a1 * np.sin(w1 * t[:, None]) + a2 * np.cos(w2 * t[:, None]))
 
 
+COMPILE_SNIPPET = """
+import time, numpy as np
+w0, c0 = time.perf_counter(), time.process_time()
+from pcs_sindy.simulation.dynamics import PCSRobot
+r = PCSRobot([0.1], 1070, 1e4, 1e3, [1e-5, 0.15, 0.15])
+t = np.arange(3) * 1e-3
+r.simulate(np.zeros(3), np.zeros(3), t, np.zeros((3, 3)))
+r.simulate(np.zeros(3), np.zeros(3), t, np.zeros((3, 3)), rtol=1e-6)
+r.simulate(np.zeros(3), np.zeros(3), t, np.zeros((3, 3)), method="DOP853")
+print(time.perf_counter() - w0, time.process_time() - c0)
+"""
+
+
+def compile_times() -> tuple[str, str]:
+    """Import + first simulations in a fresh process: with an empty numba cache, then with the cache filled."""
+    rows = []
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache)
+        for _ in range(2):
+            res = subprocess.run([sys.executable, "-c", COMPILE_SNIPPET], env=env, capture_output=True, text=True,
+                                 check=True)
+            w, c = (float(v) for v in res.stdout.split())
+            rows.append(f"{w:.1f} ({c:.1f})")
+    return rows[0], rows[1]
+
+
 def main() -> None:
     rng = np.random.default_rng(0)
+    cold, warm = compile_times()
+    print("compile", cold, warm, flush=True)
+    # load the compiled kernels (numba cache) before timing
+    robot_with(1).simulate(np.zeros(3), np.zeros(3), np.arange(3) * 1e-3, np.zeros((3, 3)))
     rows = []
     for m in range(1, 6):
         robot = robot_with(m)
@@ -69,7 +103,11 @@ def main() -> None:
         t = np.arange(1001) * 1e-3
         tau = random_hold(rng, m, t)
         _, w_fx, c_fx = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau))
-        rows.append(f"| {m} | {w_id * 1e3:.1f} ({c_id * 1e3:.1f}) | {w_fx:.2f} ({c_fx:.2f}) |")
+        st = robot._radau_stats
+        _, w_ad, c_ad = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-6,
+                                                     atol=1e-8))
+        rows.append(f"| {m} | {w_id * 1e3:.1f} ({c_id * 1e3:.1f}) | {w_fx:.2f} ({c_fx:.2f}) | "
+                    f"{st[0]} / {st[1]} / {st[2]} | {w_ad:.2f} ({c_ad:.2f}) |")
         print(rows[-1], flush=True)
 
     two = robot_with(2)
@@ -84,10 +122,12 @@ def main() -> None:
 
     # accuracy of the fast settings on the first 0.2 s of the same run
     ts, taus = t7[:201], tau7[:201]
-    q_ref, _ = two.simulate(np.zeros(6), np.zeros(6), ts, taus, rtol=1e-10, atol=1e-13)
+    (q_ref, _), w_ref, c_ref = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, method="DOP853",
+                                                          rtol=1e-11, atol=1e-14))
     span = np.ptp(q_ref, axis=0)
     acc_rows = []
-    for label, kw in [("Radau, error control rtol 1e-6, atol 1e-8", dict(rtol=1e-6, atol=1e-8)),
+    for label, kw in [("Radau, error control rtol 1e-10, atol 1e-13", dict(rtol=1e-10, atol=1e-13)),
+                      ("Radau, error control rtol 1e-6, atol 1e-8", dict(rtol=1e-6, atol=1e-8)),
                       ("Radau, fixed_step=1e-3", dict(fixed_step=1e-3)),
                       ("Radau, fixed_step=5e-4 (default)", {})]:
         (q, _), w, c = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, **kw))
@@ -95,15 +135,26 @@ def main() -> None:
         acc_rows.append(f"| {label} | {err:.1e} | {w:.2f} ({c:.2f}) |")
         print(acc_rows[-1], flush=True)
 
+    gen_rows = []
+    from pcs_sindy.simulation import get_scenario
+
+    for name in ("two_segment", "five_segment"):
+        _, w, c = timed(lambda: get_scenario(name).generate(seed=0, cache=False))
+        gen_rows.append(f"| {name} | {w:.1f} | {c:.1f} |")
+        print(gen_rows[-1], flush=True)
+
     body = "\n".join(
         [
             "Times in seconds (CPU time of the process in parentheses; the machine was shared).",
             "Robots: DESIGN.md §4 one_segment, two_segment, three_segment; 4 and 5 segments repeat",
             "three_segment's parameters.  1 s simulations: random actuation held 10 ms, 1 kHz samples,",
-            "from rest, default settings (batched Radau IIA, fixed 0.5 ms steps landing on every sample).",
+            "from rest.  Default settings: Radau IIA compiled with numba (pcs_sindy/simulation/_jit.py), fixed",
+            "0.5 ms steps landing on every sample; steps / Newton iterations / Jacobians of that run;",
+            "then the same run with error control (rtol 1e-6, atol 1e-8).  Inverse dynamics: batched numpy.",
             "",
-            "| segments | inverse dynamics, 1000 samples [ms] | 1 s simulation [s] |",
-            "|---|---|---|",
+            "| segments | inverse dynamics, 1000 samples [ms] | 1 s simulation [s] | steps / Newton / Jacobians "
+            "| 1 s, error control [s] |",
+            "|---|---|---|---|---|",
             *rows,
             "",
             "two_segment, 7 s sinusoidal actuation sampled every 1 ms and held (validation-style run):",
@@ -112,12 +163,24 @@ def main() -> None:
             "|---|---|---|",
             *long_rows,
             "",
-            "Accuracy on the first 0.2 s of that run against Radau at rtol 1e-10, atol 1e-13",
+            f"Accuracy on the first 0.2 s of that run against DOP853 at rtol 1e-11, atol 1e-14 (itself "
+            f"{w_ref:.1f} s wall, {c_ref:.1f} s CPU)",
             "(max over strains of max |error| / range of the strain):",
             "",
             "| settings | relative error | time [s] |",
             "|---|---|---|",
             *acc_rows,
+            "",
+            "Scenario data sets, `get_scenario(name).generate(seed=0, cache=False)` (8 x 0.5 s batched training",
+            "recordings + 7 s validation, marker poses included):",
+            "",
+            "| scenario | wall [s] | CPU [s] |",
+            "|---|---|---|",
+            *gen_rows,
+            "",
+            "numba compilation, import + first Radau (fixed and error-controlled) and DOP853 calls in a fresh",
+            f"process, wall (CPU) [s]: empty cache {cold}; cache filled {warm}.  Kernels use `cache=True`, so",
+            "the compilation is paid once per machine (cache in pcs_sindy/simulation/__pycache__ or $NUMBA_CACHE_DIR).",
         ]
     )
     path = write_section("simulation_speed", "Ground-truth simulator speed", body,

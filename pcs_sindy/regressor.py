@@ -522,6 +522,7 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
         max_step: float | None = None,
         max_abs_state: float = 1e6,
         progress: bool | None = None,
+        backend: str = "auto",
     ) -> StrainTrajectory:
         """Roll the identified model out under the actuation ``tau``.
 
@@ -543,7 +544,16 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
         max_abs_state : float
             A strain or rate larger than this in magnitude means divergence.
         progress : bool, optional
-            Progress bar (default: the estimator's ``progress``).
+            Progress bar (default: the estimator's ``progress``; the compiled
+            path has none, it is one call).
+        backend : {"auto", "numba", "python"}
+            ``"numba"``: compiled kernels of :mod:`pcs_sindy._jit_rollout`
+            (same Dormand–Prince scheme and step control, ~100x faster); needs a
+            library with lumped physical parameters (``lumped_from_coef``:
+            ``PhysicalPCSLibrary``, ``PCSLagrangianLibrary(basis="physical")``)
+            and an array ``tau``.  ``"python"``: ``integrate_zoh`` with
+            ``library.compile_dynamics``.  ``"auto"`` (default): ``"numba"``
+            when possible, else ``"python"``.
 
         Returns
         -------
@@ -558,6 +568,8 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
             the message names the time and the state.
         """
         check_is_fitted(self, "coef_")
+        if backend not in ("auto", "numba", "python"):
+            raise ValueError(f"backend must be 'auto', 'numba' or 'python'; got {backend!r}")
         kin = self.kinematics_
         mask = kin.active_mask
         n = int(mask.sum())
@@ -584,23 +596,28 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
                 raise ValueError("tau contains NaN or inf")
             u_in = np.ascontiguousarray(tau_arr[:, mask])
 
-        rhs = _make_rhs(self.library_.compile_dynamics(self.model_coef_), n)
-
         names = kin.strain_names(active_only=True)
         state_names = names + [f"d{nm}/dt" for nm in names]
-        y = integrate_zoh(
-            rhs,
-            np.concatenate([q0a, qd0a]),
-            t,
-            u_in,
+        lumped_model = None
+        if backend != "python":
+            lumped_model, why = self._lumped_model(callable(tau))
+            if lumped_model is None and backend == "numba":
+                raise ValueError(f"backend='numba' is not available: {why}")
+        tol = dict(
             step=step,
             rtol=self.rtol if rtol is None else rtol,
             atol=self.atol if atol is None else atol,
             max_step=max_step,
             max_abs_state=max_abs_state,
             state_names=state_names,
-            progress=self.progress if progress is None else progress,
         )
+        if lumped_model is not None:
+            y = lumped_model.rollout(np.concatenate([q0a, qd0a]), t, u_in, **tol)
+        else:
+            rhs = _make_rhs(self.library_.compile_dynamics(self.model_coef_), n)
+            y = integrate_zoh(
+                rhs, np.concatenate([q0a, qd0a]), t, u_in, progress=self.progress if progress is None else progress, **tol
+            )
         q_full = kin.to_full(y[:, :n])
         qd_full = kin.to_full(y[:, n:])
         return StrainTrajectory(
@@ -612,6 +629,19 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
             base_pose=kin.base_pose,
             metadata={"source": "EulerLagrangeRegressor.simulate"},
         )
+
+    def _lumped_model(self, tau_callable: bool) -> tuple[Any, str]:
+        """Compiled model of the fitted library, or ``(None, reason)`` when unsupported."""
+        if tau_callable:
+            return None, "tau is a callable (the compiled path needs an array held per sample)"
+        lib = self.library_
+        if not hasattr(lib, "lumped_from_coef"):
+            return None, f"{type(lib).__name__} has no lumped physical parameters (lumped_from_coef)"
+        if getattr(lib, "basis", "physical") != "physical":
+            return None, f"{type(lib).__name__}(basis={lib.basis!r}) has no lumped physical parameters"
+        from ._jit_rollout import LumpedModel  # numba import and kernel load only when used
+
+        return LumpedModel.from_library(lib, self.model_coef_), ""
 
     # ------------------------------------------------------------------
     def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:

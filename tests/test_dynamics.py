@@ -325,3 +325,140 @@ def test_sample_grids_with_round_off_are_stepped_cleanly():
     for kw in ({}, dict(fixed_step=3e-4)):
         q, qd = robot.simulate(np.zeros(6), np.zeros(6), t, tau, **kw)
         assert q.shape == (t.size, 6) and np.all(np.isfinite(q)) and np.all(np.isfinite(qd))
+
+
+# --------------------------------------------------------------------------
+# compiled (numba) path
+# --------------------------------------------------------------------------
+def three_segment(**kw) -> PCSRobot:
+    params = dict(segment_lengths=[0.05, 0.1, 0.06], density=[1240, 1049, 1070], youngs_modulus=[1e4, 6e4, 8e4],
+                  shear_modulus=[1e3, 3e3, 5e3], damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2])
+    params.update(kw)
+    return PCSRobot(**params)
+
+
+@pytest.mark.parametrize("make", [one_segment, two_segment, three_segment])
+def test_compiled_terms_equal_numpy_terms(make):
+    from pcs_sindy.simulation import _jit
+
+    rng = np.random.default_rng(8)
+    robot = make(base_pose=(0.01, -0.02, 0.4), gravity=(2.0, 9.81))
+    robot.stiffness = robot.stiffness * rng.uniform(0.5, 3.0, robot.n_q)  # rescaled after construction
+    m = robot.n_segments
+    q = random_q(rng, m, (6,))
+    q[0, ::3] = 0.0  # straight segments exactly
+    q[1, 0] = 1e-9
+    qd = random_q(rng, m, (6,)) * 5
+    tau = random_q(rng, m, (6,)) * 0.01
+    M, bias = _jit.mass_and_bias_batch(q, qd, robot._jit_geometry())
+    M_ref = robot.mass_matrix(q)
+    bias_ref = (robot.coriolis_forces(q, qd) + robot.gravity_forces(q) + robot.elastic_forces(q)
+                + robot.damping_forces(qd))
+    np.testing.assert_allclose(M, M_ref, rtol=0, atol=1e-12 * np.abs(M_ref).max())
+    np.testing.assert_allclose(bias, bias_ref, rtol=0, atol=1e-12 * np.abs(bias_ref).max())
+    y = np.concatenate([q, qd], axis=1)
+    f = robot._rhs_flat(y, tau)
+    f_ref = robot._rhs_numpy(y, tau)
+    # accelerations go through two different solvers of M x = b: compare relative to their size per state
+    np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-10 * np.abs(f_ref).max())
+
+
+def test_compiled_acceleration_jacobian_matches_central_differences():
+    from pcs_sindy.simulation import _jit
+
+    rng = np.random.default_rng(9)
+    robot = two_segment()
+    n = robot.n_q
+    y = np.concatenate([random_q(rng, 2), random_q(rng, 2) * 5])
+    tau = random_q(rng, 2) * 0.01
+    geo = robot._jit_geometry()
+    f0 = robot._rhs_numpy(y[None], tau[None])[0]
+    jac = np.empty((n, 2 * n))
+    _jit.accel_jacobian(y, f0, tau, geo, _jit.workspace(geo), jac)
+    ref = np.empty((n, 2 * n))
+    for c in range(2 * n):
+        e = np.zeros(2 * n)
+        e[c] = 1e-6 * max(abs(y[c]), 1e-2)
+        ref[:, c] = (robot._rhs_numpy((y + e)[None], tau[None])[0, n:]
+                     - robot._rhs_numpy((y - e)[None], tau[None])[0, n:]) / (2 * e[c])
+    np.testing.assert_allclose(jac, ref, rtol=0, atol=1e-5 * np.abs(ref).max())
+
+
+@pytest.mark.parametrize("kw", [{}, dict(rtol=1e-7, atol=1e-10)])
+def test_compiled_radau_equals_numpy_radau(monkeypatch, kw):
+    robot = two_segment()
+    t = np.linspace(0.0, 0.06, 61)
+    tau = np.repeat(np.random.default_rng(10).normal(size=(7, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10,
+                    axis=0)[: t.size]
+    q0 = np.array([5.0, 0.02, -0.01, -8.0, 0.03, 0.02])
+    q, qd = robot.simulate(q0, np.zeros(6), t, tau, **kw)
+    # an instance-level right-hand side sends simulate through the batched numpy Radau loop
+    monkeypatch.setattr(robot, "_rhs_flat", robot._rhs_numpy)
+    q_np, qd_np = robot.simulate(q0, np.zeros(6), t, tau, **kw)
+    span, span_d = np.ptp(q_np, axis=0), np.ptp(qd_np, axis=0)
+    # same scheme and steps; the Newton iterations (different but equally valid iteration matrices) stop
+    # anywhere within the Newton tolerance, 1e-3 of the error scale atol + rtol |y| (1e-6 by default);
+    # under error control that also nudges the step sizes, still within the requested tolerance
+    bound = 1e-8 if not kw else kw["rtol"]
+    assert np.all(np.abs(q - q_np).max(axis=0) <= bound * span)
+    assert np.all(np.abs(qd - qd_np).max(axis=0) <= bound * span_d)
+
+
+def test_compiled_radau_accuracy_against_tight_dop853():
+    rng = np.random.default_rng(11)
+    robot = three_segment()
+    t = np.linspace(0.0, 0.05, 51)
+    amp = np.tile([2e-3, 0.02, 0.05], 3)
+    tau = np.repeat(rng.uniform(-1, 1, (6, 2, 9)) * amp, 10, axis=0)[: t.size]
+    q0 = random_q(rng, 3, (2,)) * 0.3
+    q_ref, _ = robot.simulate(q0, np.zeros((2, 9)), t, tau, method="DOP853", rtol=1e-11, atol=1e-14)
+    span = np.ptp(q_ref, axis=0)
+    q_fix, _ = robot.simulate(q0, np.zeros((2, 9)), t, tau)  # default: fixed 0.5 ms Radau steps
+    q_adp, _ = robot.simulate(q0, np.zeros((2, 9)), t, tau, rtol=1e-7, atol=1e-10)
+    assert np.all(np.abs(q_fix - q_ref).max(axis=0) <= 1e-4 * span)
+    assert np.all(np.abs(q_adp - q_ref).max(axis=0) <= 1e-6 * span)
+
+
+def test_compiled_batch_progress_chunks_and_single_runs_agree():
+    rng = np.random.default_rng(12)
+    robot = two_segment()
+    t = np.linspace(0.0, 0.1, 101)
+    tau = np.repeat(rng.normal(size=(11, 3, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10, axis=0)[: t.size]
+    q0 = random_q(rng, 2, (3,)) * 0.3
+    for kw in ({}, dict(rtol=1e-6, atol=1e-9)):
+        qb, qdb = robot.simulate(q0, np.zeros((3, 6)), t, tau, **kw)
+        # the progress bar splits the compiled run in chunks; the integrator state carries over exactly
+        qp, qdp = robot.simulate(q0, np.zeros((3, 6)), t, tau, progress=True, **kw)
+        np.testing.assert_array_equal(qp, qb)
+        np.testing.assert_array_equal(qdp, qdb)
+        # every robot of a batch has its own step sizes and Newton iterations
+        for b in range(3):
+            qs, qds = robot.simulate(q0[b], np.zeros(6), t, tau[:, b], **kw)
+            np.testing.assert_array_equal(qs, qb[:, b])
+            np.testing.assert_array_equal(qds, qdb[:, b])
+
+
+def test_compiled_radau_failure_raises_with_time():
+    robot = one_segment()
+    t = np.arange(11) * 1e-3
+    tau = np.zeros((11, 3))
+    tau[5:, 0] = 1e300  # finite, but the accelerations overflow from t = 5 ms on
+    for kw in ({}, dict(rtol=1e-6)):
+        with pytest.raises(SimulationError, match="t = 0.005"):
+            robot.simulate(np.zeros(3), np.zeros(3), t, tau, **kw)
+
+
+@pytest.mark.parametrize("method, kw", [("DOP853", dict(rtol=1e-9, atol=1e-12)), ("RK45", dict(rtol=1e-7, atol=1e-10)),
+                                        ("RK45", dict(fixed_step=1e-4))])
+def test_compiled_runge_kutta_equals_numpy_runge_kutta(monkeypatch, method, kw):
+    robot = two_segment()
+    t = np.linspace(0.0, 0.02, 21)
+    tau = np.repeat(np.random.default_rng(13).normal(size=(3, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10,
+                    axis=0)[: t.size]
+    q0 = np.array([5.0, 0.02, -0.01, -8.0, 0.03, 0.02])
+    q, qd = robot.simulate(q0, np.zeros(6), t, tau, method=method, **kw)
+    monkeypatch.setattr(robot, "_rhs_flat", robot._rhs_numpy)  # batched numpy loop
+    q_np, qd_np = robot.simulate(q0, np.zeros(6), t, tau, method=method, **kw)
+    # explicit steps: identical step sequence, the right-hand sides differ only by round-off
+    np.testing.assert_allclose(q, q_np, rtol=0, atol=1e-10 * np.abs(q_np).max())
+    np.testing.assert_allclose(qd, qd_np, rtol=0, atol=1e-10 * np.abs(qd_np).max())

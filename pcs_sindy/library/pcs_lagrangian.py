@@ -557,6 +557,42 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
             child.fit(np.zeros((1, 2 * child._n)))
         return child
 
+    # ------------------------------------------------------------------ lumped parameters
+    def lumped_from_coef(self, coef) -> dict:
+        """Per-segment lumped parameters of ``coef`` (``basis="physical"`` only), for :mod:`pcs_sindy._jit_rollout`.
+
+        Returns
+        -------
+        dict
+            ``rhoA``, ``rhoI`` (m,), ``rhoAg`` (m, 2), ``stiffness``, ``damping``
+            (n,) of the active strains, and ``n_quadrature`` = 16 (Gauss–Legendre
+            nodes per segment that reproduce the closed-form energies to
+            round-off for ``|kappa L| <~ 3``).  Unknowns that do not enter the
+            reduced model (no column) are 0.
+
+        Raises
+        ------
+        ValueError
+            For ``basis="monomial"`` (its coefficients are not lumped parameters).
+        """
+        self._ensure_setup()
+        if self.basis != "physical":
+            raise ValueError(f"lumped_from_coef needs basis='physical'; got basis={self.basis!r}")
+        c = self._coef(coef)
+        lumped = np.zeros(len(self._lumped_names))
+        for r, p_idx in enumerate(self._physical_cols):
+            lumped[p_idx] = c[r] / self._coef_map[r, p_idx]
+        per_seg = lumped.reshape(-1, len(PARAM_KINDS))  # mA, mI, gx, gy, kbe, ksh, kax
+        stiff = per_seg[:, 4:].reshape(-1)[self._mask]
+        return {
+            "rhoA": per_seg[:, 0].copy(),
+            "rhoI": per_seg[:, 1].copy(),
+            "rhoAg": per_seg[:, 2:4].copy(),
+            "stiffness": stiff,
+            "damping": c[self._n_f :].copy(),
+            "n_quadrature": 16,
+        }
+
     # ------------------------------------------------------------------ fast single-sample dynamics
     def compile_dynamics(self, coef) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
         """Fast single-sample ``f(q, qd) -> (M (n, n), bias (n,))`` for explicit integration.

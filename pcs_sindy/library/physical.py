@@ -969,6 +969,45 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             child.fit(np.zeros((1, 2 * child._spec.n)))
         return child
 
+    # -- lumped parameters (compiled rollout) -------------------------------------------------
+    def lumped_from_coef(self, coef: ArrayLike) -> dict:
+        """Per-segment lumped parameters of ``coef``, for :mod:`pcs_sindy._jit_rollout`.
+
+        Returns
+        -------
+        dict
+            ``rhoA`` (m,), ``rhoI`` (m,) (rotary inertia per length, including
+            the ``rotary_inertia='tied'`` share of ``rhoA``), ``rhoAg`` (m, 2)
+            (identified or ``rhoA * gravity``), ``stiffness`` and ``damping`` (n,)
+            of the active strains, ``n_quadrature`` (this library's rule, so the
+            compiled kernels reproduce :meth:`mass_matrix` to round-off).
+            Parameters of segments that no active strain moves are 0.
+        """
+        coef = self._check_coef(coef)
+        spec = self._spec
+        m = spec.kin.n_segments
+        rhoA, rhoI, rhoAg = np.zeros(m), np.zeros(m), np.zeros((m, 2))
+        for j, i in spec.cols_rhoA:
+            rhoA[i] = coef[j]
+            rhoI[i] += spec.tie[i] * coef[j]
+        for j, i in spec.cols_rhoI:
+            rhoI[i] += coef[j]
+        if spec.identify_gravity:
+            for j, i in spec.cols_gx:
+                rhoAg[i, 0] = coef[j]
+            for j, i in spec.cols_gy:
+                rhoAg[i, 1] = coef[j]
+        else:
+            rhoAg = rhoA[:, None] * spec.gravity[None, :]
+        return {
+            "rhoA": rhoA,
+            "rhoI": rhoI,
+            "rhoAg": rhoAg,
+            "stiffness": self.stiffness_from_coef(coef),
+            "damping": self.damping_from_coef(coef),
+            "n_quadrature": int(self.n_quadrature),
+        }
+
     # -- fast single-sample dynamics ----------------------------------------------------------
     def compile_dynamics(self, coef: ArrayLike) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
         """Fast single-sample dynamics ``f(q, qd) -> (M (n, n), bias (n,))``.
