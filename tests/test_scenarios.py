@@ -100,3 +100,13 @@ def test_stiffened_strain_is_driven_like_the_nominal_robot():
     bend = lambda data: max(np.abs(r.q[:, 0]).max() for r in data.train)  # noqa: E731
     assert shear(stiff) < 0.01 * shear(nominal)
     assert bend(stiff) > 0.3 * bend(nominal)
+
+
+def test_validation_stays_inside_the_seed_strain_ranges():
+    data = get_scenario("two_segment").generate(seed=0, cache=False, n_train=1, train_duration=0.02,
+                                               validation_duration=2.0)
+    v = data.validation
+    assert v.q.shape == (2000, 6) and v.tau.shape == (2000, 6)
+    assert np.all(np.abs(v.q) <= np.tile([60.0, 0.3, 0.3], 2))
+    # sinusoidal actuation: every strain is excited
+    assert np.all(np.std(v.tau, axis=0) > 0)
