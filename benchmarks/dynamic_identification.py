@@ -188,11 +188,10 @@ def render(rows):
         "",
         "Seed library sizes: 51 + 3 (one segment), 438 + 6 (two), 27 (one segment without shear).",
         "",
-        "Notes: `--cases` with no names re-renders the cached rows.  The one_segment_stiff_shear data are simulated "
-        "with `--simulator-method LSODA` (the scenario's explicit DOP853 is infeasible at its < 0.1 ms time constants).  "
-        "Rollout times are wall times on a shared 2-core machine (load average 3-8 while these ran); the rollout is "
-        "pure Python (one compiled-dynamics call of 45-130 µs per stage, stability-limited steps of ~0.2-1 ms), "
-        "so it runs below real time — see the regressor report.",
+        "Notes: `--cases` with no names re-renders the cached rows.  Ground-truth data come from the scenarios' "
+        "default simulator (compiled Radau IIA).  Rollout times are wall times on a shared 2-core machine; models "
+        "with the physical basis roll out through the compiled path (`backend='auto'`), monomial models through the "
+        "Python path, whose dynamics call costs 45-130 µs per stage.",
     ]
     return "\n".join(lines)
 
