@@ -395,7 +395,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
             coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names)
             stiff = np.full(3 * m, np.inf)
-            stiff[mask] = -2.0 * coef_r[np.asarray(lib_r.stiffness_index_)]
+            # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
+            factor = float(getattr(lib_r, "stiffness_factor_", -2.0))
+            stiff[mask] = factor * coef_r[np.asarray(lib_r.stiffness_index_)]
             coef_full = np.zeros(n_feat)
             coef_full[col_map] = coef_r
             exceed = mask & (stiff > bounds) if self.threshold else np.zeros_like(mask)

@@ -144,8 +144,9 @@ class EulerLagrangeRegressor(RegressorMixin, BaseEstimator):
     active_strains_ : ndarray of bool, shape (m, 3)
         Modelled strains after sparsification.
     stiffness_ : ndarray, shape (3m,)
-        Identified stiffness ``-2 *`` the ``q_e^2`` coefficient; ``inf`` for a
-        strain that is not modelled (removed as rigid, or absent from the data).
+        Identified stiffness: ``-2 *`` the ``q_e^2`` coefficient of a Lagrangian
+        basis, the stiffness parameter itself for ``PhysicalPCSLibrary``; ``inf``
+        for a strain that is not modelled (removed as rigid, or absent from the data).
     damping_ : ndarray, shape (3m,)
         Identified damping; ``0`` for strains that are not modelled.
     removed_strains_ : list of str

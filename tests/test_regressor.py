@@ -404,3 +404,15 @@ def test_exclude_force_jumps_removes_the_differentiation_bias():
         EulerLagrangeRegressor(window_length=25, exclude_force_jumps=True, library=ToyLibrary()).fit(
             X, [np.repeat(t[::10], 10, axis=0)[: len(t)] + np.arange(len(t))[:, None] * 1e-3 for t in taus]
         )
+
+
+def test_physical_library_stiffness_sign_and_removal():
+    # PhysicalPCSLibrary's stiffness parameter is k_e itself (factor +1), not -k_e/2 of a Lagrangian term
+    from pcs_sindy.library import PhysicalPCSLibrary
+
+    robot = _robot("one_segment_stiff_shear")
+    X, taus, qds, qdds = _exact_recordings(robot, 2, 300, seed=3)
+    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary((0.1,))).fit(X, taus, qd=qds, qdd=qdds)
+    assert model.optimizer_.history_[0]["stiffness"][1] == pytest.approx(robot.stiffness[1], rel=1e-3)
+    assert model.removed_strains_ == ["sh_1"]
+    np.testing.assert_allclose(model.stiffness_[[0, 2]], robot.stiffness[[0, 2]], rtol=1e-3)
