@@ -31,6 +31,7 @@ from typing import Any, Sequence
 
 import numpy as np
 import scipy.linalg
+import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 from pysindy.optimizers import BaseOptimizer
 from sklearn.base import BaseEstimator
@@ -100,6 +101,7 @@ def scaled_lstsq(
     *,
     rcond: float = 1e-10,
     feature_names: Sequence[str] | None = None,
+    lower_bounds: NDArray[np.float64] | None = None,
 ) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Least squares on unit-norm columns via the SVD; raise when rank deficient.
 
@@ -112,6 +114,11 @@ def scaled_lstsq(
         count as zero.
     feature_names : sequence of str, optional
         Used to name the offending columns in errors.
+    lower_bounds : ndarray, shape (n_features,), optional
+        Lower bounds on the coefficients (``-inf`` where free); when the
+        unconstrained solution violates them, the bounded problem is solved
+        with :func:`scipy.optimize.lsq_linear` on the scaled columns
+        (one target only).
 
     Returns
     -------
@@ -151,10 +158,21 @@ def scaled_lstsq(
         )
     coef_s = vt.T @ ((u.T @ y) / (s if y.ndim == 1 else s[:, None]))
     coef = coef_s / (norms if y.ndim == 1 else norms[:, None])
+    bounded = False
+    if lower_bounds is not None:
+        lb = np.asarray(lower_bounds, dtype=float)
+        if lb.shape != (x.shape[1],) or y.ndim != 1:
+            raise ValueError(f"lower_bounds must have shape ({x.shape[1]},) with one target; got {lb.shape}")
+        if np.any(coef < lb):
+            # bounds scale with the columns: coef_s = coef * norm
+            sol = scipy.optimize.lsq_linear(xs, y, bounds=(lb * norms, np.inf), method="bvls")
+            coef = sol.x / norms
+            bounded = True
     res = y - x @ coef
     ynorm = np.linalg.norm(y)
     info = {
         "rank": rank,
+        "bounded": bounded,
         "condition_number": float(s[0] / s[-1]),
         "relative_residual": float(np.linalg.norm(res) / ynorm) if ynorm > 0 else float(np.linalg.norm(res)),
     }
@@ -185,6 +203,11 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
     rcond : float, default 1e-10
         Relative singular-value cut-off of the column-scaled design; a smaller
         singular value means rank deficiency and raises.
+    bounded : bool, default True
+        When the library declares ``lower_bounds_`` (``PhysicalPCSLibrary``:
+        densities, stiffnesses and damping >= 0), solve the bounded least
+        squares problem, which keeps the identified mass matrix positive
+        definite and the model passive.
     max_iter : int, default 20
         Maximum number of fit-and-remove rounds.
     normalize_columns : bool, default True
@@ -232,6 +255,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         max_stiffness: ArrayLike | None = None,
         threshold: bool = True,
         rcond: float = 1e-10,
+        bounded: bool = True,
         max_iter: int = 20,
         normalize_columns: bool = True,
         copy_X: bool = True,
@@ -245,6 +269,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.max_stiffness = max_stiffness
         self.threshold = threshold
         self.rcond = rcond
+        self.bounded = bounded
 
     def set_params(self, **params: Any) -> "StiffnessThresholdOptimizer":
         """Set parameters and return ``self`` (pysindy 2.1's returns None, which breaks GridSearchCV)."""
@@ -393,7 +418,8 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         converged = False
         for rnd in range(int(self.max_iter)):
             sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
-            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names)
+            lb = getattr(lib_r, "lower_bounds_", None) if self.bounded else None
+            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb)
             stiff = np.full(3 * m, np.inf)
             # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
             factor = float(getattr(lib_r, "stiffness_factor_", -2.0))

@@ -416,3 +416,27 @@ def test_physical_library_stiffness_sign_and_removal():
     assert model.optimizer_.history_[0]["stiffness"][1] == pytest.approx(robot.stiffness[1], rel=1e-3)
     assert model.removed_strains_ == ["sh_1"]
     np.testing.assert_allclose(model.stiffness_[[0, 2]], robot.stiffness[[0, 2]], rtol=1e-3)
+
+
+def test_physical_library_bounded_fit_keeps_parameters_non_negative():
+    from pcs_sindy.library import PhysicalPCSLibrary
+
+    robot = _robot("one_segment")
+    for seed in range(10):
+        X, taus, qds, qdds = _exact_recordings(robot, 1, 200, seed=10 + seed)
+        rng = np.random.default_rng(seed)
+        noisy = [tau + 0.3 * np.std(tau, axis=0) * rng.standard_normal(tau.shape) for tau in taus]
+        free = EulerLagrangeRegressor(
+            library=PhysicalPCSLibrary((0.1,)), optimizer=StiffnessThresholdOptimizer(bounded=False, threshold=False)
+        ).fit(X, noisy, qd=qds, qdd=qdds)
+        if np.any(free.coef_ < 0):  # a small parameter (e.g. rho I, or damping) reads negative under noise
+            break
+    else:
+        pytest.fail("no noise seed produced a negative unbounded estimate")
+    bounded = EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary((0.1,)), optimizer=StiffnessThresholdOptimizer(threshold=False)
+    ).fit(X, noisy, qd=qds, qdd=qdds)
+    assert np.all(bounded.coef_ >= 0)
+    assert np.all(np.linalg.eigvalsh(bounded.mass_matrix(X[0].q)) > 0)
+    # the bounds cost little accuracy where the data determine the parameters
+    np.testing.assert_allclose(bounded.stiffness_, robot.stiffness, rtol=0.2)
