@@ -39,6 +39,24 @@ OK, NONFINITE, COLLAPSE = 0, 1, 2
 # kinematics and dynamics terms of one state
 # --------------------------------------------------------------------------
 @njit(cache=True)
+def step_to_sample(h, time, t_next, max_step):
+    """The next step from ``time`` towards the sample at ``t_next``.
+
+    Proposed step ``h`` bounded by ``max_step``; a step that would leave a
+    round-off sliver before the sample is stretched onto it, so every sample
+    is hit exactly.  Returns the negated step when it has collapsed (below
+    1e-12 of the time scale while the sample is still ahead).
+    """
+    span = t_next - time
+    step = min(h, span, max_step)
+    if span - step < 1e-10 * span + 8.0 * np.spacing(abs(t_next)):
+        step = span
+    if step < 1e-12 * max(1.0, abs(time)) and step < span:
+        return -step
+    return step
+
+
+@njit(cache=True)
 def _moments(u):
     """``E_0, E_1, E_2`` of :func:`dynamics.backbone_moments` for one scalar ``u``."""
     v = 0.5 * u
@@ -565,10 +583,8 @@ def radau_run(k0, k1, t, tau_rows, out, h_arr, hprev_arr, havez_arr, zprev_arr, 
             t_next = t[k + 1]
             while time < t_next:
                 span = t_next - time
-                step = min(h, span, max_step)
-                if span - step < 1e-10 * span + 8.0 * np.spacing(abs(t_next)):
-                    step = span  # never leave a round-off sliver before the sample
-                if step < 1e-12 * max(1.0, abs(time)) and step < span:
+                step = step_to_sample(h, time, t_next, max_step)
+                if step < 0.0:
                     return COLLAPSE, time, b
                 for c in range(N):
                     scale[c] = atol + abs(y[c]) * rtol
@@ -750,10 +766,8 @@ def rk_run(t, tau_rows, out, geo, rtol, atol, max_step, fixed, A, Bw, C, E, E3, 
             t_next = t[k + 1]
             while time < t_next:
                 span = t_next - time
-                step = min(h, span, max_step)
-                if span - step < 1e-10 * span + 8.0 * np.spacing(abs(t_next)):
-                    step = span  # never leave a round-off sliver before the sample
-                if step < 1e-12 * max(1.0, abs(time)) and step < span:
+                step = step_to_sample(h, time, t_next, max_step)
+                if step < 0.0:
                     return COLLAPSE, time, b
                 for s in range(S):
                     if s == 0 and have_fsal:

@@ -673,6 +673,8 @@ class PCSRobot:
         iteration; the Jacobian comes from one batched call of forward
         differences and is reused while Newton converges quickly.
         """
+        from . import _jit
+
         from tqdm.auto import tqdm
 
         if tau_fn is None and self._own_rhs():
@@ -721,11 +723,9 @@ class PCSRobot:
                 t_next = t[k + 1]
                 while time < t_next:
                     span = t_next - time
-                    step = min(h, span, max_step)
-                    if span - step < 1e-10 * span + 8 * np.spacing(abs(t_next)):
-                        step = span  # never leave a round-off sliver before the sample
-                    if step < 1e-12 * max(1.0, abs(time)) and step < span:
-                        raise SimulationError(f"step size collapsed to {step:.3g} s at t = {time:.6g} s")
+                    step = _jit.step_to_sample(h, time, t_next, max_step)
+                    if step < 0.0:
+                        raise SimulationError(f"step size collapsed to {-step:.3g} s at t = {time:.6g} s")
                     scale = atol + np.abs(y) * rtol
                     if z_prev is None:
                         Z = np.zeros((B, 3, N))
@@ -922,6 +922,8 @@ class PCSRobot:
     def _simulate_rk(self, q0, qd0, t, tau_rows, tau_fn, tableau, rtol, atol, max_step, fixed_step, progress):
         from tqdm.auto import tqdm
 
+        from . import _jit
+
         if tau_fn is None and self._own_rhs():
             with tqdm(total=t.size - 1, disable=not progress, desc="simulate", unit="sample") as bar:
                 out = self._simulate_rk_jit(q0, qd0, t, tau_rows, tableau, rtol, atol, max_step, fixed_step)
@@ -957,11 +959,9 @@ class PCSRobot:
                     fsal = None  # the held actuation switched: the last derivative is stale
                 while time < t_next:
                     span = t_next - time
-                    step = min(h, span, max_step)
-                    if span - step < 1e-10 * span + 8 * np.spacing(abs(t_next)):
-                        step = span  # never leave a round-off sliver before the sample
-                    if step < 1e-12 * max(1.0, abs(time)) and step < span:
-                        raise SimulationError(f"step size collapsed to {step:.3g} s at t = {time:.6g} s")
+                    step = _jit.step_to_sample(h, time, t_next, max_step)
+                    if step < 0.0:
+                        raise SimulationError(f"step size collapsed to {-step:.3g} s at t = {time:.6g} s")
                     # stages
                     for s in range(n_stages):
                         if s == 0 and fsal is not None:
