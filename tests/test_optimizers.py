@@ -15,55 +15,8 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
-from pcs_sindy.kinematics import PlanarPCS
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer, scaled_lstsq, stiffness_bounds
-
-# column kinds and the strains each involves; a column survives the limit
-# q_e -> 0 only if it involves no removed strain (true for these monomials)
-_COLUMNS = [
-    ("kin", (0,)), ("kin", (1,)), ("kin", (2,)),
-    ("el", (0,)), ("el", (1,)), ("el", (2,)),
-    ("cpl", (0, 1)),
-    ("damp", (0,)), ("damp", (1,)), ("damp", (2,)),
-]
-
-
-class ToyLibrary:
-    def __init__(self, mask=None, parent_columns=None):
-        self.kinematics = PlanarPCS((0.1,), mask)
-        self._mask = self.kinematics.active_mask
-        self.column_map_ = np.arange(len(_COLUMNS)) if parent_columns is None else np.asarray(parent_columns)
-        self.n_coefficients_ = len(self.column_map_)
-        cols = [_COLUMNS[j] for j in self.column_map_]
-        active = list(np.flatnonzero(self._mask))
-        self.stiffness_index_ = np.array([cols.index(("el", (e,))) for e in active])
-
-    def euler_lagrange_matrix(self, q, qd, qdd):
-        n_s = q.shape[0]
-        full = [np.zeros((n_s, 3)) for _ in range(3)]
-        for k, src in enumerate((q, qd, qdd)):
-            full[k][:, self._mask] = src
-        Q, QD, QDD = full
-        psi = np.zeros((n_s, 3, len(self.column_map_)))
-        for c, j in enumerate(self.column_map_):
-            kind, st = _COLUMNS[j]
-            if kind == "kin":  # f = qd_e^2 / 2 -> psi_e = qdd_e
-                psi[:, st[0], c] = QDD[:, st[0]]
-            elif kind == "el":  # f = q_e^2 -> psi_e = -2 q_e
-                psi[:, st[0], c] = -2 * Q[:, st[0]]
-            elif kind == "cpl":  # f = q_a q_b -> psi_a = -q_b, psi_b = -q_a
-                a, b = st
-                psi[:, a, c] = -Q[:, b]
-                psi[:, b, c] = -Q[:, a]
-            else:  # damping column: D_e qd_e
-                psi[:, st[0], c] = QD[:, st[0]]
-        return psi[:, self._mask, :]
-
-    def restrict(self, mask):
-        mask = np.asarray(mask, dtype=bool).reshape(-1)
-        keep = [j for j, (_, st) in enumerate(_COLUMNS) if all(mask[e] for e in st)]
-        return ToyLibrary(mask.reshape(1, 3), keep)
-
+from toy_library import ToyLibrary
 
 # truth: masses, stiffnesses k (coef -k/2), coupling, damping
 MASS = np.array([2e-4, 5e-4, 3e-4])
