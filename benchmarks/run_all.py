@@ -20,6 +20,8 @@ ORDER = [
     "kinematic_fusion",
     "dynamic_identification",
     "rollout_speed",
+    "noise_robustness",
+    "end_to_end",
 ]
 
 

@@ -1,0 +1,121 @@
+"""Generate ``docs/api.md``, the API reference, from the package's docstrings.
+
+Run ``.venv/bin/python docs/build_api.py`` (or ``make docs``) after changing a
+public docstring; ``tests/test_docs.py`` checks that the committed file is up
+to date.  Plain ``inspect`` instead of Sphinx: the reference is a single
+Markdown page readable on GitHub, and no extra dependency is needed.
+"""
+
+from __future__ import annotations
+
+import importlib
+import inspect
+import sys
+from pathlib import Path
+
+# (module, names) in pipeline order; names must be public attributes of the module.
+SECTIONS: list[tuple[str, str, list[str]]] = [
+    ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline"]),
+    ("Vision: videos → poses", "pcs_sindy.vision", ["MarkerPoseExtractor"]),
+    ("Camera", "pcs_sindy.camera", ["Camera"]),
+    ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion", "threshold_sweep", "select_threshold"]),
+    ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary"]),
+    ("Optimizer", "pcs_sindy.optimizers", ["StiffnessThresholdOptimizer"]),
+    ("Regressor: strains + τ → model", "pcs_sindy.regressor", ["EulerLagrangeRegressor"]),
+    ("Model files", "pcs_sindy.persistence", ["save", "load"]),
+    ("Kinematics", "pcs_sindy.kinematics", ["PlanarPCS", "forward_kinematics", "forward_kinematics_jacobian"]),
+    ("Trajectories", "pcs_sindy.trajectory", ["PoseTrajectory", "StrainTrajectory"]),
+    ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors"]),
+    ("Simulation (ground truth)", "pcs_sindy.simulation", ["get_scenario", "list_scenarios", "PCSRobot", "render_video"]),
+    ("Plotting", "pcs_sindy.plotting", [
+        "plot_strain_distance_profile", "plot_error_vs_segments", "plot_rollout", "plot_end_effector",
+        "plot_stills", "animate_rollout",
+    ]),
+]
+
+
+def _signature(obj: object, name: str) -> str:
+    try:
+        sig = str(inspect.signature(obj))
+    except (TypeError, ValueError):
+        sig = "(...)"
+    return f"{name}{sig}"
+
+
+_ENTRY_SECTIONS = {"Parameters", "Returns", "Yields", "Raises", "Attributes", "Other Parameters", "Warns"}
+
+
+def _doc(obj: object) -> str:
+    """The docstring with numpydoc section underlines turned into bold headings.
+
+    Markdown would read ``Parameters`` over a line of dashes as a heading of the
+    page outline; bold text keeps the outline to the API names.
+    """
+    lines = (inspect.getdoc(obj) or "(no docstring)").strip().splitlines()
+    out: list[str] = []
+    in_list = False  # inside a numpydoc section of "name : type" entries
+    k = 0
+    while k < len(lines):
+        line = lines[k]
+        underline = lines[k + 1].strip() if k + 1 < len(lines) else ""
+        if line.strip() and underline and set(underline) == {"-"} and len(underline) >= len(line.strip()) - 1:
+            out += [f"**{line.strip()}**", ""]
+            in_list = line.strip() in _ENTRY_SECTIONS
+            k += 2
+            continue
+        if in_list and line and not line[0].isspace():
+            name, _, kind = line.partition(" : ")
+            line = f"- **{name.strip()}**" + (f" : {kind.strip()}" if kind else "")
+        out.append(line)
+        k += 1
+    return "\n".join(out)
+
+
+def _public_methods(cls: type) -> list[tuple[str, object]]:
+    out = []
+    for name, member in vars(cls).items():
+        if name.startswith("_") or not (inspect.isfunction(member) or isinstance(member, (classmethod, staticmethod))):
+            continue
+        func = member.__func__ if isinstance(member, (classmethod, staticmethod)) else member
+        if func.__doc__:
+            out.append((name, func))
+    return out
+
+
+def render() -> str:
+    """The Markdown text of the API reference."""
+    lines = [
+        "# API reference",
+        "",
+        "Generated from the docstrings by `docs/build_api.py`; do not edit by hand.",
+        "",
+    ]
+    for title, module_name, names in SECTIONS:
+        try:
+            module = importlib.import_module(module_name)
+        except ImportError:
+            continue
+        present = [n for n in names if hasattr(module, n)]
+        if not present:
+            continue
+        lines += [f"## {title} (`{module_name}`)", ""]
+        for name in present:
+            obj = getattr(module, name)
+            kind = "class" if inspect.isclass(obj) else "function"
+            lines += [f"### `{name}`", "", "```python", f"{kind} {_signature(obj, name)}", "```", "", _doc(obj), ""]
+            if inspect.isclass(obj):
+                for meth_name, meth in _public_methods(obj):
+                    lines += [f"#### `{name}.{meth_name}`", "", "```python", _signature(meth, meth_name), "```", "",
+                              _doc(meth), ""]
+    return "\n".join(lines).rstrip() + "\n"
+
+
+def main() -> int:
+    target = Path(__file__).with_name("api.md")
+    target.write_text(render(), encoding="utf-8")
+    print(f"wrote {target}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
