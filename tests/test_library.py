@@ -308,3 +308,31 @@ def test_bad_input_raises_value_error_naming_the_argument(cache_dir):
         lib.restrict([[1, 0, 1]]).restrict([[1, 1, 0]])
     with pytest.raises(ValueError, match="x must have 6 columns"):
         lib.fit(np.zeros((5, 4)))
+
+
+def test_crafted_cache_cannot_execute_code(tmp_path):
+    """A cache file with consistent hashes but hostile source is re-derived, never run."""
+    import hashlib
+    import json
+
+    from pcs_sindy.library import codegen
+
+    good = codegen.build_basis(1, cache_dir=tmp_path)
+    path = codegen._cache_file(tmp_path, 1)
+    data = json.loads(path.read_text())
+    sentinel = tmp_path / "pwned"
+    attacks = [
+        # rebinding an allowed call name to a builtin, then calling it
+        f"def features(q, qd, L):\n    float = eval\n    return float(\"open({str(sentinel)!r}, 'w')\")\n"
+        "def psi(q, qd, qdd, L):\n    return 0\n",
+        # reading a builtin that is not in the allowed set
+        f"def features(q, qd, L):\n    f = open\n    return f({str(sentinel)!r}, 'w')\n"
+        "def psi(q, qd, qdd, L):\n    return 0\n",
+    ]
+    for source in attacks:
+        hostile = dict(data, source=source, sha256=hashlib.sha256(source.encode()).hexdigest())
+        path.write_text(json.dumps(hostile))
+        basis = codegen.build_basis(1, cache_dir=tmp_path)
+        basis.features(np.zeros((2, 3)), np.zeros((2, 3)), np.array([0.1]))
+        assert not sentinel.exists()
+        assert basis.source == good.source  # re-derived from scratch

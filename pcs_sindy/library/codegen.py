@@ -267,7 +267,13 @@ class CompiledBasis:
         _special.register_backbone_functions()
         _check_generated_source(source)
         names = sorted(set(_SF_CALL.findall(source)))
-        namespace: dict[str, Any] = {"np": np, "math": math, "SF": {n: _special.special(n) for n in names}}
+        # No builtins but float: even text that slipped past the check cannot reach eval/open/__import__.
+        namespace: dict[str, Any] = {
+            "__builtins__": {"float": float},
+            "np": np,
+            "math": math,
+            "SF": {n: _special.special(n) for n in names},
+        }
         exec(compile(source, f"<pcs_sindy basis m={m}>", "exec"), namespace)  # our own generated, hash-checked text
         self.features: Callable = namespace["features"]
         self.psi: Callable = namespace["psi"]
@@ -281,6 +287,7 @@ _ALLOWED_NODES = (
     ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd,
 )
 _ALLOWED_CALLS = {"float"}
+_GLOBALS = {"np", "SF", "float", "math"}  # names the generated code reads but must never rebind
 _ALLOWED_NP = {"cos", "sin", "zeros", "empty"}
 
 
@@ -293,7 +300,13 @@ def _check_generated_source(source: str) -> None:
     tree = ast.parse(source)
     if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi"] or len(tree.body) != 2:
         raise ValueError("cached source must define exactly features() and psi()")
+    local = {a.arg for fn in tree.body for a in fn.args.args}
+    local |= {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
+    if local & _GLOBALS:
+        raise ValueError(f"cached source rebinds a reserved name: {sorted(local & _GLOBALS)}")
     for node in ast.walk(tree):
+        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load) and node.id not in local | _GLOBALS:
+            raise ValueError(f"cached source reads an unknown name: {node.id}")
         if not isinstance(node, _ALLOWED_NODES):
             raise ValueError(f"cached source contains a forbidden construct: {type(node).__name__}")
         if isinstance(node, ast.Attribute):
