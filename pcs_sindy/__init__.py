@@ -24,6 +24,7 @@ _LAZY = {
     "StiffnessThresholdOptimizer": "pcs_sindy.optimizers",
     "EulerLagrangeRegressor": "pcs_sindy.regressor",
     "make_pcs_pipeline": "pcs_sindy.pipeline",
+    "PCSPipeline": "pcs_sindy.pipeline",
 }
 
 __all__ = ["__version__", *_LAZY]

@@ -32,6 +32,7 @@ from typing import Any, NamedTuple, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from joblib import Parallel, delayed
 from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, TransformerMixin, clone
 from sklearn.utils.validation import check_is_fitted
@@ -46,6 +47,7 @@ from .kinematics import (
     segment_inverse_kinematics,
     wrap_angle,
 )
+from ._saving import PersistenceMixin
 from .metrics import distributed_errors
 from .trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
 
@@ -563,7 +565,7 @@ _MERGES = ("runs", "closest_pair")
 _SCALINGS = ("q_max", "data")
 
 
-class KinematicFusion(TransformerMixin, BaseEstimator):
+class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     """Segment a continuum robot into constant-strain pieces (seed Algorithm 1).
 
     Parameters
@@ -603,6 +605,10 @@ class KinematicFusion(TransformerMixin, BaseEstimator):
     max_refine_frames : int, default 500
         Frames (evenly subsampled over all recordings) used by the boundary
         search; the final strains use every frame.
+    n_jobs : int, optional
+        Recordings whose strains :meth:`transform` fits in parallel (joblib;
+        ``None`` or 1: sequentially).  Under ``joblib.parallel_backend(...)``
+        the work goes to that backend (e.g. a Dask or Ray cluster).
     progress : bool, default False
         Show tqdm progress bars.
 
@@ -643,6 +649,7 @@ class KinematicFusion(TransformerMixin, BaseEstimator):
         pose_std: Sequence[float] = (5e-4, float(np.deg2rad(1.0))),
         fixed_base: bool = True,
         max_refine_frames: int = 500,
+        n_jobs: int | None = None,
         progress: bool = False,
     ) -> None:
         self.threshold = threshold
@@ -656,6 +663,7 @@ class KinematicFusion(TransformerMixin, BaseEstimator):
         self.pose_std = pose_std
         self.fixed_base = fixed_base
         self.max_refine_frames = max_refine_frames
+        self.n_jobs = n_jobs
         self.progress = progress
 
     # -- validation ----------------------------------------------------------
@@ -682,6 +690,9 @@ class KinematicFusion(TransformerMixin, BaseEstimator):
             raise ValueError(f"min_segment_markers must be a positive integer; got {m!r}")
         if int(self.max_refine_frames) != self.max_refine_frames or self.max_refine_frames < 1:
             raise ValueError(f"max_refine_frames must be a positive integer; got {self.max_refine_frames!r}")
+        nj = self.n_jobs
+        if nj is not None and (isinstance(nj, bool) or not isinstance(nj, (int, np.integer)) or nj == 0):
+            raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention); got {nj!r}")
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
         trajs = as_pose_trajectories(X, name=name)
@@ -766,11 +777,14 @@ class KinematicFusion(TransformerMixin, BaseEstimator):
         trajs, chains, bases = self._chains(X)
         if chains[0].shape[1] - 1 != self.n_markers_:
             raise ValueError(f"X has {chains[0].shape[1] - 1} markers; the fusion was fitted with {self.n_markers_}")
+        self._check_params()
+        if self.n_jobs in (None, 1) or len(chains) == 1:
+            qs = [self._strains(c) for c in tqdm(chains, desc="fusion", disable=not self.progress, leave=False)]
+        else:
+            # one task per recording; the backend (loky, threads, dask, ray) is joblib's choice
+            qs = Parallel(n_jobs=self.n_jobs)(delayed(self._strains)(c) for c in chains)
         out = []
-        for tr, chain, base in tqdm(
-            list(zip(trajs, chains, bases)), desc="fusion", disable=not self.progress, leave=False
-        ):
-            q = self._strains(chain)
+        for tr, q, base in zip(trajs, qs, bases):
             meta = dict(tr.metadata)
             meta.update(
                 marker_arc_lengths=self.marker_arc_lengths_.copy(),

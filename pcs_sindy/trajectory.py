@@ -181,6 +181,12 @@ class StrainTrajectory:
         )
 
 
+def _reject_sparse(X: Any, name: str) -> None:
+    # a scipy.sparse matrix would otherwise become a 0-d object array with a puzzling message
+    if hasattr(X, "tocsr") and hasattr(X, "nnz"):
+        raise ValueError(f"{name}: sparse input is not supported; give a list of recordings (trajectories)")
+
+
 def as_pose_trajectories(X: Any, *, dt: float | None = None, name: str = "X") -> list[PoseTrajectory]:
     """Coerce a recording or a list of recordings to a list of :class:`PoseTrajectory`.
 
@@ -190,6 +196,7 @@ def as_pose_trajectories(X: Any, *, dt: float | None = None, name: str = "X") ->
     """
     if isinstance(X, PoseTrajectory):
         return [X]
+    _reject_sparse(X, name)
     if isinstance(X, np.ndarray):
         if X.ndim == 3:
             X = [X]
@@ -216,6 +223,7 @@ def as_strain_trajectories(X: Any, *, name: str = "X") -> list[StrainTrajectory]
     """Coerce a StrainTrajectory or a list of them to a list; raise otherwise."""
     if isinstance(X, StrainTrajectory):
         return [X]
+    _reject_sparse(X, name)
     if not isinstance(X, (list, tuple)) or len(X) == 0:
         raise ValueError(f"{name} must be a non-empty list of StrainTrajectory; got {type(X).__name__}")
     for k, rec in enumerate(X):

@@ -22,11 +22,13 @@ from typing import Any, Iterator
 
 import cv2
 import numpy as np
+import scipy.sparse
 from joblib import Parallel, delayed
 from numpy.typing import NDArray
 from sklearn.base import BaseEstimator, TransformerMixin
 from tqdm.auto import tqdm
 
+from ._saving import PersistenceMixin
 from .camera import Camera, camera_json_path, read_camera_json
 from .trajectory import PoseTrajectory
 
@@ -100,6 +102,28 @@ def _open_source(recording: Any, name: str) -> tuple[int, float | None, Iterator
     if arr.dtype != np.uint8:
         raise ValueError(f"recording {name!r}: frames must be uint8 images; got dtype {arr.dtype}")
     return arr.shape[0], None, iter(arr)
+
+
+def _check_recordings(X: Any, name: str = "X") -> list[Any]:
+    """The recordings of ``X`` as a list, checked without reading a frame."""
+    if scipy.sparse.issparse(X):
+        raise ValueError(f"{name}: sparse input is not supported; give videos (paths, image folders or uint8 frame arrays)")
+    if isinstance(X, (str, os.PathLike, np.ndarray)):
+        X = [X]
+    if not isinstance(X, (list, tuple)) or len(X) == 0:
+        raise ValueError(f"{name} must be a non-empty list of recordings; got {type(X).__name__}")
+    for k, rec in enumerate(X):
+        if isinstance(rec, (str, os.PathLike)):
+            continue
+        if not isinstance(rec, np.ndarray):
+            raise ValueError(
+                f"{name}[{k}] must be a video path, an image folder or a uint8 array of frames; got {type(rec).__name__}"
+            )
+        if rec.ndim not in (3, 4) or (rec.ndim == 4 and rec.shape[-1] not in (3, 4)) or 0 in rec.shape:
+            raise ValueError(f"{name}[{k}]: an array of frames must have shape (T, H, W) or (T, H, W, 3); got {rec.shape}")
+        if rec.dtype != np.uint8:
+            raise ValueError(f"{name}[{k}]: frames must be uint8 images; got dtype {rec.dtype}")
+    return list(X)
 
 
 def read_frames(recording: Any) -> NDArray[np.uint8]:
@@ -475,7 +499,7 @@ def _frame_angles(points: NDArray[np.float64], axes: NDArray[np.float64], phi0_h
 # --------------------------------------------------------------------------
 # The estimator
 # --------------------------------------------------------------------------
-class MarkerPoseExtractor(TransformerMixin, BaseEstimator, auto_wrap_output_keys=None):
+class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, auto_wrap_output_keys=None):
     """Videos of a marker-carrying planar robot -> pose trajectories (base + N markers).
 
     Parameters
@@ -692,8 +716,10 @@ class MarkerPoseExtractor(TransformerMixin, BaseEstimator, auto_wrap_output_keys
 
     # -- sklearn API -----------------------------------------------------------
     def fit(self, X: Any = None, y: Any = None) -> "MarkerPoseExtractor":
-        """Validate the parameters (extraction is stateless); returns self."""
+        """Validate the parameters and, if given, the form of ``X`` (extraction is stateless); returns self."""
         self._validate()
+        if X is not None:
+            _check_recordings(X)
         return self
 
     def transform(self, X: Any) -> list[PoseTrajectory]:
@@ -713,10 +739,7 @@ class MarkerPoseExtractor(TransformerMixin, BaseEstimator, auto_wrap_output_keys
             ``metadata`` holds the source, the camera and the diagnostics.
         """
         params = self._validate()
-        if isinstance(X, (str, os.PathLike, np.ndarray)):
-            X = [X]
-        if not isinstance(X, (list, tuple)) or len(X) == 0:
-            raise ValueError(f"X must be a non-empty list of recordings; got {type(X).__name__}")
+        X = _check_recordings(X)
         names = [_describe(rec, k) for k, rec in enumerate(X)]
         jobs = (delayed(_extract_recording)(rec, name, params) for rec, name in zip(X, names))
         if self.n_jobs in (None, 1) or len(X) == 1:
