@@ -24,6 +24,8 @@ _LAZY = {
     "StiffnessThresholdOptimizer": "pcs_sindy.optimizers",
     "EulerLagrangeRegressor": "pcs_sindy.regressor",
     "make_pcs_pipeline": "pcs_sindy.pipeline",
+    "save": "pcs_sindy.persistence",
+    "load": "pcs_sindy.persistence",
     "PCSPipeline": "pcs_sindy.pipeline",
 }
 
