@@ -78,6 +78,8 @@ CONFIGS = {
     "sg7-jumpfree-physical": dict(window_length=7, polyorder=3, exclude_force_jumps=True, basis="physical"),
     "sg25-physical": dict(window_length=25, polyorder=3, basis="physical"),
     "sg7o4-jumpfree-physical": dict(window_length=7, polyorder=4, exclude_force_jumps=True, basis="physical"),
+    # weak (bump-weighted window integral) form: no qdd; SG 7 only for qd, held forces integrated exactly
+    "weak40-physical": dict(window_length=7, basis="physical", formulation="weak", weak_window=40, weak_stride=20),
 }
 
 
@@ -148,8 +150,11 @@ def render(rows):
         "Strains from the tracked poses on the known segmentation (closed-form IK of the segment-end markers, "
         "least-squares refined to all markers where a boundary lies between markers or with noise); "
         "differentiation `sg25` = Savitzky–Golay 25/3 (the seed), `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose window "
-        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; `-physical` = the library's "
-        "physical basis (7 lumped unknowns per segment) instead of the monomial one; seed bounds (12.6 N m², 168 N, 126 kN); rollout of the 7 s validation from rest, "
+        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; `-physical` = the physical basis "
+        "(`basis=\"physical\"`: numeric `PhysicalPCSLibrary`, 8 unknowns per segment — line density, rotary inertia, 3 stiffnesses, "
+        "3 dampings — known gravity, bounded least squares) instead of the monomial one; `weak40-physical` = `formulation=\"weak\"`: "
+        "regression on bump-weighted integrals over windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, "
+        "held forces integrated exactly; seed bounds (12.6 N m², 168 N, 126 kN); rollout of the 7 s validation from rest, "
         "adaptive Dormand–Prince 5(4) (rtol 1e-6), tip pose vs. noise-free truth.",
         "",
         "| case | noise | removal | differentiation | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | seed e_θ^EE | basis (full → final) | fit [s] | rollout [s] (× real time) | M not PD |",

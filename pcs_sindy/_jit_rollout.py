@@ -11,10 +11,14 @@ active strain, stiffness ``k_e`` and damping ``d_e``.  The kernels here evaluate
 with complex backbone positions, closed-form Jacobians and Gauss–Legendre
 quadrature (the same formulas as ``pcs_sindy.library._pcs_numeric``: segment j
 contributes ``e^{i phi_j} w_j l E_0(kappa_j l)``, ``E_n`` by Taylor series near
-``kappa l = 0``, no epsilon), and integrate with Dormand–Prince 5(4) over the
-whole time grid inside one compiled call.  The integrator mirrors
-:func:`pcs_sindy.integrators.integrate_zoh` step for step (same controller), so
-both paths agree to round-off accumulated over the run.
+``kappa l = 0``, no epsilon), and integrate over the whole time grid inside one
+compiled call, with Dormand–Prince 5(4) or with the Rosenbrock-W method
+ROS34PW2 (``method="rosenbrock"``), whose W matrix uses the structural Jacobian
+``[[0, I], [-M^-1 K, -M^-1 D]]`` (stiffness and damping through the inertia at
+the step's start: the stiff part of these models).  Both integrators mirror
+:func:`pcs_sindy.integrators.integrate_zoh` step for step (same controllers; for
+Rosenbrock with ``jac=`` that Jacobian), so both paths agree to round-off
+accumulated over the run.
 
 Identification side: does not import :mod:`pcs_sindy.simulation`.
 """
@@ -27,7 +31,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .integrators import DOPRI5, DivergenceError, _describe
+from .integrators import DOPRI5, METHODS, ROS34PW2, DivergenceError, _describe
 from .library._pcs_numeric import make_quadrature, rotary_mass
 
 __all__ = ["LumpedModel", "rollout", "STATUS_MESSAGES"]
@@ -53,6 +57,10 @@ _A = np.ascontiguousarray(DOPRI5.a)
 _C = np.ascontiguousarray(DOPRI5.c)
 _E = np.ascontiguousarray(DOPRI5.e)
 _BETA = 0.04
+_RA = ROS34PW2.at
+_RC = ROS34PW2.ct
+_RM = ROS34PW2.mt
+_RE = ROS34PW2.et
 
 
 # --------------------------------------------------------------------------
@@ -409,6 +417,245 @@ def _dopri_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
     return out, OK, T - 1, t[T - 1], y, n_steps, n_rej, n_eval
 
 
+@numba.njit(cache=True)
+def _lu_factor(A, piv):
+    """In-place LU with partial pivoting (``piv[j]`` = row swapped into j); False if singular."""
+    n = A.shape[0]
+    for j in range(n):
+        p = j
+        big = abs(A[j, j])
+        for i in range(j + 1, n):
+            if abs(A[i, j]) > big:
+                big = abs(A[i, j])
+                p = i
+        if not big > 0.0:  # also catches NaN
+            return False
+        piv[j] = p
+        if p != j:
+            for k in range(n):
+                tmp = A[j, k]
+                A[j, k] = A[p, k]
+                A[p, k] = tmp
+        inv = 1.0 / A[j, j]
+        for i in range(j + 1, n):
+            f = A[i, j] * inv
+            A[i, j] = f
+            for k in range(j + 1, n):
+                A[i, k] -= f * A[j, k]
+    return True
+
+
+@numba.njit(cache=True)
+def _lu_solve(A, piv, x):
+    """Solve in place with the factors of :func:`_lu_factor`."""
+    n = x.size
+    for j in range(n):
+        p = piv[j]
+        if p != j:
+            tmp = x[j]
+            x[j] = x[p]
+            x[p] = tmp
+    for i in range(n):
+        s = x[i]
+        for k in range(i):
+            s -= A[i, k] * x[k]
+        x[i] = s
+    for i in range(n - 1, -1, -1):
+        s = x[i]
+        for k in range(i + 1, n):
+            s -= A[i, k] * x[k]
+        x[i] = s / A[i, i]
+
+
+@numba.njit(cache=True)
+def _ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
+              RA, RC, RM, RE, gam, act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp):
+    """Rosenbrock-W (transformed coefficients ``RA, RC, RM, RE``, diagonal ``gam``) over all sample intervals.
+
+    The W matrix uses the structural Jacobian ``[[0, I], [-M0^-1 K, -M0^-1 D]]``
+    with ``M0`` the mass matrix at the step's start: the stiff part of the
+    dynamics (stiffness and damping acting through the inertia).  Solving
+    ``(c I - J) [x1, x2] = [r1, r2]`` (``c = 1 / (h gam)``) reduces exactly to
+    ``(c^2 M0 + c D + K) x1 = M0 (r2 + c r1) + D r1``, ``x2 = c x1 - r1``: one
+    n x n LU per step, no inverse of ``M0``.  Same outputs as :func:`_dopri_loop`.
+    """
+    T = t.size
+    d = y0.size
+    n = act.size
+    m = L.size
+    K = wts.shape[1]
+    n_st = RM.size
+    out = np.full((T, d), np.nan)
+    out[0] = y0
+    y = y0.copy()
+    U = np.zeros((n_st, d))
+    yi = np.empty(d)
+    y_new = np.empty(d)
+    f0 = np.empty(d)
+    M = np.empty((n, n))
+    M0 = np.empty((n, n))
+    S = np.empty((n, n))
+    piv = np.zeros(n, dtype=np.int64)
+    bias = np.empty(n)
+    J = np.zeros((2, 3 * m, m * K))
+    v = np.zeros((2, m * K))
+    acc = np.empty(n)
+    kbuf = np.empty(d)
+    x1 = np.empty(n)
+    h = -1.0
+    expo = -1.0 / 3.0
+    rejected_last = False
+    ymax = np.abs(y0)  # running max |y_j|: the error scale
+    h_first = -1.0  # step predicted for the first step of an interval (after a jump of the input)
+    n_steps = 0
+    n_rej = 0
+    n_eval = 0
+    for k in range(T - 1):
+        t0 = t[k]
+        dt_k = t[k + 1] - t[k]
+        t_end = t0 + dt_k
+        tc = t0
+        uk = u[k]
+        h_fixed = 0.0
+        if fixed_step > 0:
+            n_int = max(1, int(round(dt_k / fixed_step)))
+            h_fixed = dt_k / n_int
+        need_f0 = True
+        first = True
+        if h_first > 0 and k > 0:
+            h = min(h, h_first)
+        while tc < t_end:
+            if need_f0:
+                n_eval += 1
+                if not _rhs(y, uk, act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, M, bias, J, v, acc, f0):
+                    return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
+                M0[:, :] = M
+                need_f0 = False
+            remaining = t_end - tc
+            if fixed_step > 0:
+                hk = h_fixed
+                last = remaining <= 1.5 * h_fixed
+            else:
+                if h < 0:
+                    d0 = 0.0
+                    d1 = 0.0
+                    for j in range(d):
+                        sc = atol + rtol * abs(y[j])
+                        d0 += (y[j] / sc) ** 2
+                        d1 += (f0[j] / sc) ** 2
+                    d0 = math.sqrt(d0 / d)
+                    d1 = math.sqrt(d1 / d)
+                    h = 0.01 * d0 / d1 if (d0 > 1e-5 and d1 > 1e-5) else 1e-6
+                    h = min(h, dt_k)
+                hmax = max_step if max_step > 0 else dt_k
+                hk = min(h, remaining, hmax)
+                last = hk >= remaining * (1 - 1e-12)
+                if not last and remaining - hk < 0.1 * hk:
+                    hk = 0.5 * remaining
+            c = 1.0 / (hk * gam)
+            for a in range(n):
+                for b in range(n):
+                    S[a, b] = c * c * M0[a, b]
+                S[a, a] += c * damp[a] + stiff[a]
+            if not _lu_factor(S, piv):
+                return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
+            ok = True
+            for i in range(n_st):
+                if i == 0:
+                    kbuf[:] = f0
+                else:
+                    for j in range(d):
+                        s = y[j]
+                        for l in range(i):
+                            s += RA[i, l] * U[l, j]
+                        yi[j] = s
+                    n_eval += 1
+                    ok = _rhs(yi, uk, act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, M, bias, J, v, acc, kbuf)
+                    if not ok:
+                        break
+                # r = f + sum_l RC[i, l] U_l / h, then the structured solve
+                for j in range(d):
+                    s = kbuf[j]
+                    for l in range(i):
+                        s += RC[i, l] * U[l, j] / hk
+                    kbuf[j] = s
+                for a in range(n):
+                    s = 0.0
+                    for b in range(n):
+                        s += M0[a, b] * (kbuf[n + b] + c * kbuf[b])
+                    x1[a] = s + damp[a] * kbuf[a]
+                _lu_solve(S, piv, x1)
+                for a in range(n):
+                    U[i, a] = x1[a]
+                    U[i, n + a] = c * x1[a] - kbuf[a]
+            if not ok:
+                return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
+            for j in range(d):
+                s = y[j]
+                for l in range(n_st):
+                    s += RM[l] * U[l, j]
+                y_new[j] = s
+            if fixed_step > 0:
+                accept = True
+            else:
+                # error estimate filtered by (I - h gam J)^-1 = c W^-1 (Shampine; Hairer & Wanner
+                # IV.8): the embedded solution is not L-stable, and without the filter the stiff
+                # transient after every jump of the held input is resolved needlessly
+                for j in range(d):
+                    s = 0.0
+                    for l in range(n_st):
+                        s += RE[l] * U[l, j]
+                    kbuf[j] = s
+                for a in range(n):
+                    s = 0.0
+                    for b in range(n):
+                        s += M0[a, b] * (kbuf[n + b] + c * kbuf[b])
+                    x1[a] = s + damp[a] * kbuf[a]
+                _lu_solve(S, piv, x1)
+                err = 0.0
+                for a in range(n):
+                    e1 = c * x1[a]
+                    e2 = c * (c * x1[a] - kbuf[a])
+                    sc = atol + rtol * max(ymax[a], abs(y_new[a]))
+                    err += (e1 / sc) ** 2
+                    sc = atol + rtol * max(ymax[n + a], abs(y_new[n + a]))
+                    err += (e2 / sc) ** 2
+                err = math.sqrt(err / d)
+                if not math.isfinite(err):
+                    accept = False
+                    h = 0.2 * hk
+                else:
+                    accept = err <= 1.0
+                    fac = 10.0 if err == 0 else min(10.0, max(0.2, 0.9 * err ** expo))
+                    if (not accept) or rejected_last:
+                        fac = min(fac, 1.0)
+                    rejected_last = not accept
+                    h = hk * fac
+                if (not accept) and h < min_step:
+                    return out, MIN_STEP, k, tc, y, n_steps, n_rej, n_eval
+            if not accept:
+                n_rej += 1  # f0 and M0 still hold the step's start
+            else:
+                n_steps += 1
+                big = 0.0
+                for j in range(d):
+                    if not math.isfinite(y_new[j]):
+                        return out, NONFINITE, k, tc + hk, y_new, n_steps, n_rej, n_eval
+                    big = max(big, abs(y_new[j]))
+                if big > max_abs:
+                    return out, TOO_LARGE, k, tc + hk, y_new, n_steps, n_rej, n_eval
+                y[:] = y_new
+                for j in range(d):
+                    ymax[j] = max(ymax[j], abs(y_new[j]))
+                if first and fixed_step <= 0:
+                    h_first = h
+                first = False
+                tc = t_end if last else tc + hk
+                need_f0 = True
+        out[k + 1] = y
+    return out, OK, T - 1, t[T - 1], y, n_steps, n_rej, n_eval
+
+
 # --------------------------------------------------------------------------
 # Python front end
 # --------------------------------------------------------------------------
@@ -498,7 +745,8 @@ class LumpedModel:
 
     def rollout(self, y0: ArrayLike, t: ArrayLike, u: ArrayLike, *, step: float | None = None, rtol: float = 1e-6,
                 atol: float = 1e-9, max_step: float | None = None, min_step: float = 1e-12,
-                max_abs_state: float = 1e6, state_names=None, stats: dict | None = None) -> NDArray[np.float64]:
+                max_abs_state: float = 1e6, state_names=None, stats: dict | None = None,
+                method: str = "dopri5") -> NDArray[np.float64]:
         """Roll out ``[q, qd]`` under inputs held per sample; same contract as ``integrate_zoh``.
 
         Parameters
@@ -510,6 +758,14 @@ class LumpedModel:
             Forces on the active strains, held on ``[t[k], t[k+1])``.
         step, rtol, atol, max_step, min_step, max_abs_state, state_names, stats
             As in :func:`pcs_sindy.integrators.integrate_zoh`.
+        method : {"dopri5", "rosenbrock"}
+            ``"dopri5"``: explicit Dormand–Prince 5(4), step for step the
+            scheme of ``integrate_zoh``.  ``"rosenbrock"``: the Rosenbrock-W
+            method ROS34PW2 (order 3, L-stable) with the structural Jacobian
+            ``[[0, I], [-M^-1 K, -M^-1 D]]`` (``M`` at the step's start): its
+            step is not limited by the stiff, strongly damped shear/axial modes;
+            the same as ``integrate_zoh(method="rosenbrock", jac=...)`` with that
+            Jacobian.
 
         Returns
         -------
@@ -520,6 +776,8 @@ class LumpedModel:
         DivergenceError
             Non-finite or too large state, singular ``M``, or step below ``min_step``.
         """
+        if method not in METHODS:
+            raise ValueError(f"method must be one of {METHODS}; got {method!r}")
         n = self.n
         y = np.array(y0, dtype=float).reshape(-1)
         if y.shape != (2 * n,) or not np.all(np.isfinite(y)):
@@ -550,11 +808,13 @@ class LumpedModel:
                 raise ValueError(f"{name} must be finite and > 0; got {val!r}")
         if max_step is not None and (not np.isfinite(max_step) or max_step <= 0):
             raise ValueError(f"max_step must be finite and > 0; got {max_step!r}")
-        out, status, _k, t_fail, y_fail, n_steps, n_rej, n_eval = _dopri_loop(
-            y, t, u, -1.0 if step is None else float(step), float(rtol), float(atol),
-            -1.0 if max_step is None else float(max_step), float(min_step), float(max_abs_state),
-            _A, _C, _E, *self._args(),
-        )
+        common = (y, t, u, -1.0 if step is None else float(step), float(rtol), float(atol),
+                  -1.0 if max_step is None else float(max_step), float(min_step), float(max_abs_state))
+        if method == "rosenbrock":
+            res = _ros_loop(*common, _RA, _RC, _RM, _RE, ROS34PW2.gamma, *self._args())
+        else:
+            res = _dopri_loop(*common, _A, _C, _E, *self._args())
+        out, status, _k, t_fail, y_fail, n_steps, n_rej, n_eval = res
         if stats is not None:
             stats.update({"n_steps": int(n_steps), "n_rejected": int(n_rej), "n_evaluations": int(n_eval)})
         if status != OK:

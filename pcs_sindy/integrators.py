@@ -1,4 +1,4 @@
-"""Explicit 5th-order Runge–Kutta rollout for inputs sampled at discrete times.
+"""Rollout of ODEs under inputs sampled at discrete times (zero-order hold).
 
 The identified models are rolled out under a recorded actuation that is held
 constant between samples (zero-order hold).  A step that straddled a sample
@@ -6,10 +6,20 @@ boundary would see a discontinuous right-hand side and lose its order, so the
 integrator steps *within* each sample interval and restarts (without losing its
 step-size estimate) at every boundary.
 
-The scheme is Dormand–Prince 5(4) (the 5th-order solution is propagated, the
-embedded 4th-order one only estimates the error), with first-same-as-last reuse
-of the last stage inside an interval.  Either adaptive (``step=None``) or with a
-fixed step that divides every sample interval.
+Two schemes, either adaptive (``step=None``) or with a fixed step that divides
+every sample interval:
+
+- ``method="dopri5"`` (default): explicit Dormand–Prince 5(4) (the 5th-order
+  solution is propagated, the embedded 4th-order one only estimates the error),
+  with first-same-as-last reuse of the last stage inside an interval.  Its step
+  is bounded by stability on stiff problems (strongly damped shear/axial modes).
+- ``method="rosenbrock"``: the linearly implicit Rosenbrock-W method ROS34PW2
+  (Rang & Angermann 2005: 4 stages, order 3, embedded order 2, L-stable,
+  stiffly accurate).  A *W*-method keeps its order with any approximation of
+  the Jacobian in ``W = I/(h gamma) - J``; stability only needs ``J`` to carry
+  the stiff part, so ``J`` may be lagged or structural (the compiled rollout uses
+  ``[[0, I], [-M^-1 K, -M^-1 D]]``).  One LU of ``W`` per step, one right-hand
+  side call per stage.
 
 Identification side: imports nothing of the package beyond numpy/tqdm.
 """
@@ -17,13 +27,17 @@ Identification side: imports nothing of the package beyond numpy/tqdm.
 from __future__ import annotations
 
 import math
-from typing import Callable, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from scipy.linalg import lu_factor, lu_solve
 from tqdm.auto import tqdm
 
-__all__ = ["DivergenceError", "DOPRI5", "integrate_zoh"]
+__all__ = ["DivergenceError", "DOPRI5", "ROS34PW2", "METHODS", "integrate_zoh"]
+
+#: integration schemes of :func:`integrate_zoh` (and the compiled rollout)
+METHODS = ("dopri5", "rosenbrock")
 
 _BETA = 0.04  # PI controller weight of the previous error
 
@@ -78,6 +92,71 @@ DOPRI5 = _Tableau(
 )
 
 
+class _RosenbrockTableau:
+    """Rosenbrock(-W) method ``(I - h gamma J) k_i = h f(y + sum_j alpha_ij k_j) + h J sum_{j<i} gamma_ij k_j``.
+
+    ``y_new = y + sum_i b_i k_i``; ``b_hat`` is the embedded solution.  Stored
+    also in the transformed variables ``u_i = sum_j Gamma_ij k_j`` (Hairer &
+    Wanner II, §IV.7), which need no Jacobian-vector products:
+
+        (I / (h gamma) - J) u_i = f(y + sum_{j<i} at_ij u_j) + sum_{j<i} ct_ij u_j / h
+        y_new = y + sum_i mt_i u_i,   error = sum_i et_i u_i
+
+    with ``at = alpha Gamma^-1``, ``ct = -(Gamma^-1)`` off the diagonal,
+    ``mt = b Gamma^-1``, ``et = (b - b_hat) Gamma^-1``.
+    """
+
+    def __init__(self, alpha, gamma_mat, b, b_hat, order: int) -> None:
+        self.alpha = np.asarray(alpha, dtype=float)
+        self.Gamma = np.asarray(gamma_mat, dtype=float)
+        self.b = np.asarray(b, dtype=float)
+        self.b_hat = np.asarray(b_hat, dtype=float)
+        self.order = order
+        self.stages = self.b.size
+        self.gamma = float(self.Gamma[0, 0])
+        if not np.allclose(np.diag(self.Gamma), self.gamma, rtol=0, atol=1e-15):
+            raise ValueError("Gamma must have a constant diagonal")
+        ginv = np.linalg.inv(self.Gamma)
+        self.at = np.ascontiguousarray(np.tril(self.alpha @ ginv, -1))
+        self.ct = np.ascontiguousarray(np.tril(-ginv, -1))
+        self.mt = np.ascontiguousarray(self.b @ ginv)
+        self.et = np.ascontiguousarray((self.b - self.b_hat) @ ginv)
+        self.c = self.alpha.sum(axis=1)
+
+
+# Rang & Angermann (2005), "New Rosenbrock W-methods of order 3 for partial
+# differential algebraic equations of index 1", BIT 45: the method ROS34PW2.
+ROS34PW2 = _RosenbrockTableau(
+    alpha=[
+        [0.0, 0.0, 0.0, 0.0],
+        [8.7173304301691801e-01, 0.0, 0.0, 0.0],
+        [8.4457060015369423e-01, -1.1299064236484185e-01, 0.0, 0.0],
+        [0.0, 0.0, 1.0, 0.0],
+    ],
+    gamma_mat=[
+        [4.3586652150845900e-01, 0.0, 0.0, 0.0],
+        [-8.7173304301691801e-01, 4.3586652150845900e-01, 0.0, 0.0],
+        [-9.0338057013044082e-01, 5.4180672388095326e-02, 4.3586652150845900e-01, 0.0],
+        [2.4212380706095346e-01, -1.2232505839045147e00, 5.4526025533510214e-01, 4.3586652150845900e-01],
+    ],
+    b=[2.4212380706095346e-01, -1.2232505839045147e00, 1.5452602553351020e00, 4.3586652150845900e-01],
+    b_hat=[3.7810903145819369e-01, -9.6042292212423178e-02, 5.0000000000000000e-01, 2.1793326075422950e-01],
+    order=3,
+)
+
+
+def _fd_jacobian(fun: Callable, y: NDArray[np.float64], u: Any, f0: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Forward-difference Jacobian of ``fun(., u)`` at ``y`` (``f0 = fun(y, u)``)."""
+    d = y.size
+    jac = np.empty((d, d))
+    for j in range(d):
+        dy = np.sqrt(np.finfo(float).eps) * max(1.0, abs(y[j]))
+        yp = y.copy()
+        yp[j] += dy
+        jac[:, j] = (fun(yp, u) - f0) / dy
+    return jac
+
+
 def _describe(y: NDArray[np.float64], names: Sequence[str] | None) -> str:
     if names is None or len(names) != y.size:
         return np.array2string(y, precision=4)
@@ -99,6 +178,8 @@ def integrate_zoh(
     state_names: Sequence[str] | None = None,
     progress: bool = False,
     stats: dict | None = None,
+    method: str = "dopri5",
+    jac: Callable[[NDArray[np.float64], Any], ArrayLike] | None = None,
 ) -> NDArray[np.float64]:
     """Integrate ``dy/dt = fun(y, u)`` and return the state at the times ``t``.
 
@@ -130,7 +211,22 @@ def integrate_zoh(
     progress : bool
         Show a tqdm progress bar over the sample intervals.
     stats : dict, optional
-        Filled with ``n_steps``, ``n_rejected`` and ``n_evaluations``.
+        Filled with ``n_steps``, ``n_rejected`` and ``n_evaluations`` (calls of
+        ``fun``, including those of a finite-difference Jacobian).
+    method : {"dopri5", "rosenbrock"}
+        Explicit Dormand–Prince 5(4), or the linearly implicit Rosenbrock-W
+        method ROS34PW2 (order 3) for stiff problems (see the module docstring).
+        The adaptive Rosenbrock step filters its error estimate through
+        ``(I - h gamma J)^-1`` (the embedded solution is not L-stable), scales
+        it by the largest ``|y_j|`` reached so far rather than the current one
+        (strain rates cross zero), and restarts each sample interval with the
+        step predicted after the previous interval's first step (the held
+        input jumps at the boundary).
+    jac : callable, optional
+        ``jac(y, u) -> (d, d)``, the Jacobian (or any approximation that carries
+        the stiff part) used by ``method="rosenbrock"``, evaluated once per step
+        at its start.  Default: forward differences of ``fun`` (``d`` calls).
+        Not allowed with ``"dopri5"``.
 
     Returns
     -------
@@ -143,6 +239,10 @@ def integrate_zoh(
         right-hand side fails (e.g. a singular mass matrix), or the adaptive
         step falls below ``min_step``; the message names the time and state.
     """
+    if method not in METHODS:
+        raise ValueError(f"method must be one of {METHODS}; got {method!r}")
+    if jac is not None and method != "rosenbrock":
+        raise ValueError(f"jac is only used by method='rosenbrock'; got method={method!r}")
     y = np.array(y0, dtype=float).reshape(-1)
     if not np.all(np.isfinite(y)):
         raise ValueError(f"y0 contains NaN or inf: {y}")
@@ -169,9 +269,16 @@ def integrate_zoh(
         if not np.isfinite(val) or val <= 0:
             raise ValueError(f"{name} must be finite and > 0; got {val!r}")
 
-    tab = DOPRI5
-    A, C, B, E = tab.a, tab.c, tab.b, tab.e
-    n_st = tab.stages
+    rosen = method == "rosenbrock"
+    if rosen:
+        rtab = ROS34PW2
+        n_st = rtab.stages
+        expo, beta = -1.0 / rtab.order, 0.0  # the embedded pair's error is O(h^3)
+    else:
+        tab = DOPRI5
+        A, C, E = tab.a, tab.c, tab.e
+        n_st = tab.stages
+        expo, beta = -1.0 / tab.order, _BETA
     d = y.size
     out = np.empty((t.size, d))
     out[0] = y
@@ -179,9 +286,13 @@ def integrate_zoh(
     intervals = np.diff(t)
     h_max = max_step
     h = None if step is None else step
-    expo = -1.0 / tab.order
     err_prev = 1e-4
     rejected_last = False
+    # rosenbrock: error scale = largest |y_j| reached so far (strain rates cross zero, and a
+    # relative error measured there would force tiny steps), and the step predicted after
+    # the first step of an interval restarts the next one (the held input jumps there)
+    ymax = np.abs(y)
+    h_first = None
 
     def fail(msg: str, tk: float, yk: NDArray[np.float64]) -> DivergenceError:
         return DivergenceError(f"rollout diverged at t = {tk:.6g} s ({msg}); state: {_describe(yk, state_names)}", tk, yk)
@@ -194,6 +305,34 @@ def integrate_zoh(
             return fun(yk, uk if u_fun is None else np.asarray(u_fun(tk), dtype=float))
         except np.linalg.LinAlgError as err:
             raise fail(f"right-hand side failed: {err}", tk, yk) from None
+
+    def jacobian(tk: float, yk: NDArray[np.float64], uk: Any, f0: NDArray[np.float64]) -> NDArray[np.float64]:
+        u_now = uk if u_fun is None else np.asarray(u_fun(tk), dtype=float)
+        if jac is None:
+            return _fd_jacobian(lambda yy, uu: rhs(tk, yy, uk), yk, u_now, f0)
+        try:
+            jm = np.asarray(jac(yk, u_now), dtype=float)
+        except np.linalg.LinAlgError as err:
+            raise fail(f"Jacobian failed: {err}", tk, yk) from None
+        if jm.shape != (d, d):
+            raise ValueError(f"jac must return shape ({d}, {d}); got {jm.shape}")
+        return jm
+
+    def rosenbrock_step(tc: float, hk: float, uk: Any, f0: NDArray[np.float64], jm: NDArray[np.float64]):
+        at, ct = rtab.at, rtab.ct
+        W = np.eye(d) / (hk * rtab.gamma) - jm
+        if not np.all(np.isfinite(W)):
+            raise fail("non-finite Jacobian", tc, y)
+        lu = lu_factor(W, check_finite=False)
+        for i in range(n_st):
+            # stage time t + c_i h: a W-method keeps its order on the autonomised system
+            # whatever J misses, here the time derivative of a callable input
+            fi = f0 if i == 0 else rhs(tc + hk * rtab.c[i], y + at[i, :i] @ K[:i], uk)
+            K[i] = lu_solve(lu, fi + (ct[i, :i] @ K[:i]) / hk, check_finite=False)
+        # error estimate filtered by (I - h gamma J)^-1 = W^-1 / (h gamma) (Shampine; Hairer &
+        # Wanner IV.8): the embedded solution is not L-stable, and unfiltered its estimate makes
+        # the step resolve the stiff transient after every jump of a held input
+        return y + rtab.mt @ K, lu_solve(lu, rtab.et @ K, check_finite=False) / (hk * rtab.gamma)
 
     bar = tqdm(total=t.size - 1, disable=not progress, desc="rollout", unit="sample", leave=False)
     try:
@@ -208,9 +347,15 @@ def integrate_zoh(
                 if abs(n_sub - n_int) > 1e-6 * n_sub:
                     raise ValueError(f"step = {step!r} does not divide the sample interval t[{k + 1}] - t[{k}] = {dt_k!r}")
                 h_fixed = dt_k / n_int
-            if k == 0 or u_arr is not None:
+            f0 = None
+            if k == 0 or u_arr is not None or rosen:
                 # a held input jumps at the boundary, so the last stage is stale
-                K[0] = rhs(tc, y, uk)
+                f0 = rhs(tc, y, uk)
+                K[0] = f0
+            jm = jacobian(tc, y, uk, f0) if rosen else None
+            first = True
+            if rosen and h_first is not None and k > 0:
+                h = min(h, h_first)
             while tc < t_end:
                 remaining = t_end - tc
                 if step is not None:
@@ -229,15 +374,19 @@ def integrate_zoh(
                     last = hk >= remaining * (1 - 1e-12)
                     if not last and remaining - hk < 0.1 * hk:
                         hk = 0.5 * remaining
-                for i in range(1, n_st):
-                    yi = y + hk * (A[i, :i] @ K[:i])
-                    K[i] = rhs(tc + C[i] * hk, yi, uk)
-                y_new = yi  # the last stage of DOPRI5 is evaluated at the 5th-order solution
+                if rosen:
+                    y_new, err_vec = rosenbrock_step(tc, hk, uk, f0, jm)
+                else:
+                    for i in range(1, n_st):
+                        yi = y + hk * (A[i, :i] @ K[:i])
+                        K[i] = rhs(tc + C[i] * hk, yi, uk)
+                    y_new = yi  # the last stage of DOPRI5 is evaluated at the 5th-order solution
+                    err_vec = hk * (E @ K)
                 if step is not None:
                     accept = True
                 else:
-                    sc = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-                    err = math.sqrt(np.mean((hk * (E @ K) / sc) ** 2))
+                    sc = atol + rtol * np.maximum(ymax if rosen else np.abs(y), np.abs(y_new))
+                    err = math.sqrt(np.mean((err_vec / sc) ** 2))
                     if not math.isfinite(err):
                         accept = False
                         h = 0.2 * hk
@@ -245,7 +394,8 @@ def integrate_zoh(
                         accept = err <= 1.0
                         # PI step control (Hairer's DOPRI5, beta = 0.04): steadier steps where
                         # stability, not accuracy, limits the step, hence fewer rejections
-                        fac = 10.0 if err == 0 else min(10.0, max(0.2, 0.9 * err ** (expo + 0.75 * _BETA) * err_prev**_BETA))
+                        fac = 10.0 if err == 0 else min(
+                            10.0, max(0.2, 0.9 * err ** (expo + 0.75 * beta) * err_prev**beta))
                         if not accept or rejected_last:
                             # no growth right after a rejection (Hairer)
                             fac = min(fac, 1.0)
@@ -265,8 +415,18 @@ def integrate_zoh(
                         raise fail(f"|state| exceeded max_abs_state = {max_abs_state:g}", tc + hk, y_new)
                     y = y_new
                     tc = t_end if last else tc + hk
-                    K[0] = K[n_st - 1]
-                # on rejection K[0] still holds f(tc, y)
+                    if rosen:
+                        np.maximum(ymax, np.abs(y), out=ymax)
+                        if first and step is None:
+                            h_first = h
+                        first = False
+                        if tc < t_end:
+                            f0 = rhs(tc, y, uk)
+                            jm = jacobian(tc, y, uk, f0)
+                            K[0] = f0
+                    else:
+                        K[0] = K[n_st - 1]
+                # on rejection K[0] (dopri5) or f0 and the Jacobian (rosenbrock) still hold f(tc, y)
             out[k + 1] = y
             bar.update(1)
     finally:

@@ -27,7 +27,7 @@ Identification side: never imports :mod:`pcs_sindy.simulation`.
 from __future__ import annotations
 
 import warnings
-from typing import Any, Sequence
+from typing import Any, Callable, Sequence
 
 import numpy as np
 import scipy.linalg
@@ -36,6 +36,7 @@ from numpy.typing import ArrayLike, NDArray
 from pysindy.optimizers import BaseOptimizer
 from sklearn.base import BaseEstimator
 from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils.validation import _num_samples, check_is_fitted, validate_data
 
 __all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq"]
 
@@ -241,9 +242,27 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         ``stiffness`` (3m,), ``removed`` (names removed after this round),
         ``relative_residual``, ``condition_number``.
     n_rounds_ : int
+    n_iter_ : int
+        Rounds run (``n_rounds_``; sklearn's name).
+    n_features_in_ : int
+        Columns of ``x``.
     relative_residual_, condition_number_ : float
         Of the final round.
+
+    Notes
+    -----
+    Without ``library`` this is a scikit-learn regressor without intercept
+    (``predict(x) = x @ coef_.T``, 1-D for a 1-D ``y``) that passes
+    ``sklearn.utils.estimator_checks`` except where the rank check applies
+    (see ``tests/test_sklearn_compat.py``).
     """
+
+    # pysindy's BaseOptimizer sets these in __init__; as class attributes they
+    # keep sklearn's rule that __init__ stores the constructor arguments only
+    fit_intercept = False
+    positive = False
+    unbias = False
+    initial_guess = None
 
     def __init__(
         self,
@@ -260,7 +279,11 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         normalize_columns: bool = True,
         copy_X: bool = True,
     ) -> None:
-        super().__init__(max_iter=max_iter, normalize_columns=normalize_columns, copy_X=copy_X, unbias=False)
+        # not BaseOptimizer.__init__: it validates max_iter (sklearn validates in fit)
+        # and sets non-parameter attributes
+        self.max_iter = max_iter
+        self.normalize_columns = normalize_columns
+        self.copy_X = copy_X
         self.youngs_modulus_max = youngs_modulus_max
         self.shear_modulus_max = shear_modulus_max
         self.radius = radius
@@ -275,6 +298,21 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         """Set parameters and return ``self`` (pysindy 2.1's returns None, which breaks GridSearchCV)."""
         BaseEstimator.set_params(self, **params)
         return self
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.sparse = False  # LinearRegression's tag; the SVD solver needs dense columns
+        tags.target_tags.required = True
+        return tags
+
+    def predict(self, x: ArrayLike) -> NDArray[np.float64]:
+        """``x @ coef_.T``: shape (n_rows,) after a fit on 1-D ``y``, else (n_rows, n_targets)."""
+        check_is_fitted(self, "coef_")
+        if isinstance(x, np.ndarray) and x.ndim == 3:  # stacked Psi (n_samples, n, n_features)
+            x = x.reshape(-1, x.shape[-1])
+        x = validate_data(self, x, reset=False, accept_sparse=False, dtype=float)
+        out = x @ np.asarray(self.coef_).T
+        return out.ravel() if self._single_target else out
 
     def _reduce(self, x: NDArray[np.float64], y: NDArray[np.float64], **kwargs: Any) -> None:
         # fit() is overridden and does all the work; kept for the abstract API.
@@ -315,6 +353,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         library: Any = None,
         states: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
         feature_names: Sequence[str] | None = None,
+        design: Callable[[Any, NDArray[np.bool_]], ArrayLike] | None = None,
     ) -> "StiffnessThresholdOptimizer":
         """Fit, removing over-stiff strains when the library and states are given.
 
@@ -335,18 +374,47 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             ``x`` was evaluated; required with ``library``.
         feature_names : sequence of str, optional
             Column names used in error messages.
+        design : callable, optional
+            ``design(restricted_library, keep)`` returns the regression matrix
+            of a restricted library (rows stacked like ``x``, ``keep`` the kept
+            strains among the library's active ones), replacing the evaluation
+            of ``euler_lagrange_matrix`` on ``states`` after a removal; e.g.
+            weak-form (window-integrated) rows.  ``x`` and ``y`` then hold
+            ``n_rows * n`` rows ordered row-major like ``(n_rows, n)``.
 
         Returns
         -------
         self
         """
         self._check_params()
-        x = np.array(x, dtype=float, copy=bool(self.copy_X))
-        y = np.array(y, dtype=float, copy=True)
+        if library is None:
+            if isinstance(x, np.ndarray) and x.ndim == 3:  # stacked Psi (n_samples, n, n_features)
+                x = x.reshape(-1, x.shape[-1])
+            if y is not None:
+                try:
+                    n_x, n_y = _num_samples(x), _num_samples(y)
+                except TypeError:  # not array-like: validate_data names it below
+                    n_x = n_y = None
+                if n_x != n_y:
+                    raise ValueError(f"y must have {n_x} rows like x; got {n_y}")
+            # sklearn's validation: shapes, dtype, sparse / complex / empty input, n_features_in_
+            x, y = validate_data(
+                self, x, y, accept_sparse=False, dtype=float, multi_output=True, y_numeric=True, copy=bool(self.copy_X)
+            )
+            y = np.array(y, dtype=float, copy=True)
+            if x.shape[0] < x.shape[1]:
+                raise ValueError(
+                    f"x has n_samples = {x.shape[0]} rows, fewer than its {x.shape[1]} features (unknowns); "
+                    "the regression is underdetermined: record more samples"
+                )
+        else:
+            x = np.array(x, dtype=float, copy=bool(self.copy_X))
+            y = np.array(y, dtype=float, copy=True)
         if x.ndim == 3:
             x = x.reshape(-1, x.shape[-1])
         if x.ndim != 2:
             raise ValueError(f"x must have shape (n_rows, n_features) or (n_samples, n, n_features); got {x.shape}")
+        self._single_target = y.ndim == 1 or library is not None
         if y.ndim == 2 and library is not None:
             y = y.reshape(-1)
         if y.ndim not in (1, 2) or y.shape[0] != x.shape[0]:
@@ -360,16 +428,19 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
                 feature_names = list(library.euler_lagrange_names())
             except Exception:  # names are only cosmetic here
                 feature_names = None
-        self.iters = 0
+        self.n_iter_ = 0
         self.Theta_ = x
+        self.n_features_in_ = int(x.shape[1])
 
         if library is None:
-            if states is not None:
-                raise ValueError("states were given without library; pass both or neither")
+            if states is not None or design is not None:
+                raise ValueError("states or design were given without library; pass them with library")
             if sample_weight is not None:
                 w = np.asarray(sample_weight, dtype=float)
                 if w.shape != (x.shape[0],) or np.any(~np.isfinite(w)) or np.any(w < 0):
                     raise ValueError(f"sample_weight must be ({x.shape[0]},) finite and >= 0; got shape {w.shape}")
+                if not np.any(w > 0):
+                    raise ValueError("sample_weight is all zero: no sample is left to fit")
                 sw = np.sqrt(w)
                 x = x * sw[:, None]
                 y = y * (sw if y.ndim == 1 else sw[:, None])
@@ -378,7 +449,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             self.ind_ = self.coef_ != 0
             self.history_ = [{"coef": self.coef_.copy(), **info}]
             self.n_rounds_ = 1
-            self.iters = 1
+            self.n_iter_ = 1
             self.relative_residual_ = info["relative_residual"]
             self.condition_number_ = info["condition_number"]
             self.intercept_ = 0.0
@@ -386,22 +457,31 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
 
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported together with library (rows change when strains are removed)")
-        if states is None or len(states) != 3:
-            raise ValueError("states=(q, qd, qdd) of the active strains is required with library")
         kin = library.kinematics
         m = kin.n_segments
         start_mask = np.asarray(kin.active_strains, dtype=bool).reshape(-1)
         n_act = int(start_mask.sum())
-        q, qd, qdd = (np.asarray(s, dtype=float) for s in states)
         n_samples = x.shape[0] // n_act if n_act else 0
-        for name, arr in (("q", q), ("qd", qd), ("qdd", qdd)):
-            if arr.shape != (n_samples, n_act) or n_samples * n_act != x.shape[0]:
-                raise ValueError(
-                    f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} rows of x; "
-                    f"got {arr.shape}"
-                )
-            if not np.all(np.isfinite(arr)):
-                raise ValueError(f"states[{name}] contains NaN or inf")
+        if design is None:
+            if states is None or len(states) != 3:
+                raise ValueError("states=(q, qd, qdd) of the active strains is required with library (or design=)")
+            q, qd, qdd = (np.asarray(s, dtype=float) for s in states)
+            for name, arr in (("q", q), ("qd", qd), ("qdd", qdd)):
+                if arr.shape != (n_samples, n_act) or n_samples * n_act != x.shape[0]:
+                    raise ValueError(
+                        f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} rows of x; "
+                        f"got {arr.shape}"
+                    )
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError(f"states[{name}] contains NaN or inf")
+
+            def design(lib_r: Any, keep: NDArray[np.bool_]) -> Any:
+                return lib_r.euler_lagrange_matrix(q[:, keep], qd[:, keep], qdd[:, keep])
+
+        elif not callable(design):
+            raise ValueError(f"design must be a callable (library, keep) -> rows; got {type(design).__name__}")
+        elif n_samples * n_act != x.shape[0]:
+            raise ValueError(f"x must have a multiple of the {n_act} active strains as rows; got {x.shape[0]}")
         n_feat = x.shape[1]
         if n_feat != library.n_coefficients_:
             raise ValueError(f"x has {n_feat} columns but the library has {library.n_coefficients_} coefficients")
@@ -437,7 +517,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
                     **info,
                 }
             )
-            self.iters = rnd + 1
+            self.n_iter_ = rnd + 1
             fitted = (mask.copy(), lib_r, col_map)  # what the last fit used
             if not new_removed:
                 converged = True
@@ -451,8 +531,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             lib_r = library.restrict(mask.reshape(m, 3))
             col_map = np.asarray(lib_r.column_map_, dtype=int)
             keep = mask[start_mask]  # kept columns among the library's active strains
-            psi = lib_r.euler_lagrange_matrix(q[:, keep], qd[:, keep], qdd[:, keep])
-            x_r = np.asarray(psi, dtype=float).reshape(-1, len(col_map))
+            x_r = np.asarray(design(lib_r, keep), dtype=float).reshape(-1, len(col_map))
+            if x_r.shape[0] != n_samples * int(keep.sum()):
+                raise ValueError(f"design returned {x_r.shape[0]} rows; expected {n_samples * int(keep.sum())}")
             y_r = tau[:, keep].reshape(-1)
         if not converged:
             warnings.warn(

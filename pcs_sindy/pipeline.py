@@ -36,6 +36,20 @@ __all__ = ["PCSPipeline", "make_pcs_pipeline", "recording_groups"]
 _STARTS = ("videos", "poses")
 
 
+def _holds_poses(X: Any) -> bool:
+    """Whether every item of X is a pose trajectory rather than a video."""
+    items = X if isinstance(X, (list, tuple)) else [X]
+
+    def is_pose(item: Any) -> bool:
+        if isinstance(item, PoseTrajectory):
+            return True
+        return (
+            isinstance(item, np.ndarray) and item.dtype.kind == "f" and item.ndim == 3 and item.shape[-1] == 3
+        )
+
+    return len(items) > 0 and all(is_pose(item) for item in items)
+
+
 class PCSPipeline(PersistenceMixin, Pipeline):
     """A :class:`sklearn.pipeline.Pipeline` ending in a ``segments`` and a ``dynamics`` step.
 
@@ -137,8 +151,15 @@ class PCSPipeline(PersistenceMixin, Pipeline):
 
     # -- data through the fitted transformers ----------------------------------
     def transform_strains(self, X: Any) -> list[StrainTrajectory]:
-        """Strain trajectories of recordings ``X`` through every step but the last."""
+        """Strain trajectories of recordings ``X`` through every step but the last.
+
+        ``X`` may also hold pose trajectories (``PoseTrajectory`` or float
+        arrays (T, N + 1, 3)) when the pipeline starts from videos: they skip
+        the ``poses`` step (e.g. a ground-truth validation recording).
+        """
         check_is_fitted(self)
+        if "poses" in self.named_steps and _holds_poses(X):
+            return self.named_steps["segments"].transform(X)
         return self[:-1].transform(X)
 
     def initial_state(self, X: Any, recording: int = 0, sample: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -258,8 +279,10 @@ def make_pcs_pipeline(
         The ``segments`` step; default ``KinematicFusion()`` (h = 0.2).
     regressor : EulerLagrangeRegressor, optional
         The ``dynamics`` step; default the recommended settings for held
-        actuation, ``EulerLagrangeRegressor(basis="physical", window_length=7,
-        exclude_force_jumps=True, optimizer=StiffnessThresholdOptimizer())``
+        actuation, ``EulerLagrangeRegressor(basis="physical", formulation="weak",
+        window_length=7, exclude_force_jumps=True,
+        optimizer=StiffnessThresholdOptimizer())`` (the weak form needs no
+        accelerations; see the noise study in ``docs/results.md``)
         (an explicit optimizer so that grid searches can reach
         ``dynamics__optimizer__youngs_modulus_max`` etc.).
     start : {"videos", "poses"}
@@ -335,7 +358,11 @@ def make_pcs_pipeline(
         fusion = KinematicFusion()
     if regressor is None:
         regressor = EulerLagrangeRegressor(
-            basis="physical", window_length=7, exclude_force_jumps=True, optimizer=StiffnessThresholdOptimizer()
+            basis="physical",
+            formulation="weak",
+            window_length=7,
+            exclude_force_jumps=True,
+            optimizer=StiffnessThresholdOptimizer(),
         )
     steps: list[tuple[str, Any]] = []
     if start == "videos":

@@ -210,7 +210,7 @@ def test_pcs_pipeline_round_trip(poses_two, tmp_path):
         regressor=EulerLagrangeRegressor(basis="physical", window_length=7, check_mass_matrix=False),
     )
     pipe.fit(poses_two, taus)
-    loaded = load(save(pipe, tmp_path / "pcs_pipe"))
+    loaded = pipeline.PCSPipeline.load(pipe.save(tmp_path / "pcs_pipe"))
     assert type(loaded) is pipeline.PCSPipeline
     pa, pb = pipe.predict(poses_two), loaded.predict(poses_two)
     assert all(np.array_equal(a, b) for a, b in zip(pa, pb))

@@ -1,0 +1,237 @@
+"""The ``pcs-sindy`` command line on tiny inputs, in-process through ``main``.
+
+Truth comes from outside the command under test: the recordings' own poses
+(closed-form forward kinematics of the simulated strains), the inputs of a
+render -> extract round trip, plain numpy formulas for the seed's metrics, and
+the files each command was given.  Failure exits check the exit code, a
+single stderr line and the absence of a traceback.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pcs_sindy.cli import CLIError, main
+from pcs_sindy.kinematics import PlanarPCS, wrap_angle
+
+COMMANDS = ["scenarios", "simulate", "render", "extract", "fuse", "fit", "rollout", "demo"]
+
+
+@pytest.fixture(scope="module")
+def work(tmp_path_factory):
+    """Two 0.1 s one_segment recordings (no validation), simulated by the CLI."""
+    root = tmp_path_factory.mktemp("cli")
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setenv("PCS_SINDY_CACHE", str(root / "cache"))  # keep the user's cache out of the tests
+        code = main(["simulate", "one_segment", "--out", str(root / "data"), "--n-train", "2",
+                     "--train-duration", "0.1", "--no-validation", "--quiet"])
+        assert code == 0
+        yield root
+
+
+def _fail(capsys, argv) -> str:
+    """Run a command that must fail; return its one-line message."""
+    capsys.readouterr()
+    code = main(argv)
+    out, err = capsys.readouterr()
+    assert code == 2
+    assert "Traceback" not in err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith(f"pcs-sindy {argv[0]}: error: ")
+    return lines[0]
+
+
+# --------------------------------------------------------------------------
+def test_console_script_help_lists_every_command():
+    exe = Path(sys.executable).with_name("pcs-sindy")
+    cmd = [str(exe), "--help"] if exe.exists() else [sys.executable, "-m", "pcs_sindy.cli", "--help"]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert res.returncode == 0, res.stderr
+    for name in COMMANDS:
+        assert name in res.stdout
+    assert "file formats" in res.stdout
+
+
+@pytest.mark.parametrize("command", COMMANDS)
+def test_every_command_has_help(command, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main([command, "--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: pcs-sindy {command}")
+
+
+def test_simulate_writes_recordings_with_true_poses(work):
+    data = work / "data"
+    summary = json.loads((data / "scenario.json").read_text())
+    assert summary["files"] == ["train_00.npz", "train_01.npz"]
+    kin = PlanarPCS((0.1,))
+    s = np.asarray(summary["marker_arc_lengths"])
+    for name in summary["files"]:
+        with np.load(data / name) as rec:
+            assert rec["t"].shape == (100,) and rec["tau"].shape == (100, 3) and rec["poses"].shape == (100, 21, 3)
+            np.testing.assert_allclose(rec["poses_true"], kin.forward_kinematics(rec["q"], s), atol=1e-12)
+            assert np.ptp(rec["q"][:, 0]) > 1.0  # the robot moves
+
+
+def test_render_then_extract_recovers_the_poses(work, capsys):
+    recs = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
+    videos = work / "videos"
+    assert main(["render", *recs, "--out", str(videos), "--size", "320x240", "--marker-size", "0.010,0.0025",
+                 "--quiet"]) == 0
+    for k in range(2):
+        assert (videos / f"train_0{k}.avi").is_file()
+        cam = json.loads((videos / f"train_0{k}.avi.camera.json").read_text())
+        assert cam["image_size"] == [320, 240] and cam["fps"] == pytest.approx(1000.0)
+    serial, parallel = work / "poses", work / "poses_par"
+    assert main(["extract", *[str(videos / f"train_0{k}.avi") for k in range(2)], "--out", str(serial),
+                 "--quiet"]) == 0
+    assert main(["extract", *[str(videos / f"train_0{k}.avi") for k in range(2)], "--out", str(parallel),
+                 "--n-jobs", "2", "--quiet"]) == 0
+    for k in range(2):
+        with np.load(recs[k]) as rec, np.load(serial / f"train_0{k}.npz") as got, \
+                np.load(parallel / f"train_0{k}.npz") as par:
+            np.testing.assert_allclose(got["t"], rec["t"], atol=1e-9)
+            err_p = np.linalg.norm(got["poses"][..., :2] - rec["poses"][..., :2], axis=-1)
+            err_th = np.abs(wrap_angle(got["poses"][..., 2] - rec["poses"][..., 2]))
+            assert err_p.max() < 5e-4 and np.sqrt(np.mean(err_p**2)) < 1e-4  # metres
+            assert np.rad2deg(err_th.max()) < 5.0
+            np.testing.assert_array_equal(par["poses"], got["poses"])
+
+
+def test_fuse_strains_reproduce_the_poses(work, capsys):
+    recs = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
+    out = work / "strains"
+    capsys.readouterr()
+    assert main(["fuse", *recs, "--out", str(out), "--total-length", "0.1"]) == 0
+    printed = capsys.readouterr().out
+    assert "1 segment(s)" in printed
+    assert (out / "segmentation.json").is_file()
+    for k in range(2):
+        with np.load(out / f"train_0{k}.npz") as st, np.load(recs[k]) as rec:
+            lengths = st["segment_lengths"]
+            assert lengths.shape == (1,) and lengths[0] == pytest.approx(0.1, rel=1e-12)
+            assert st["q"].shape == (100, 3)
+            # independent forward kinematics of the fused strains gives back the recorded markers
+            poses = PlanarPCS(tuple(lengths)).forward_kinematics(st["q"], st["marker_arc_lengths"])
+            assert np.abs(poses[..., :2] - rec["poses"][..., :2]).max() < 2e-5
+            # and the strains are the simulated ones (same single segment)
+            np.testing.assert_allclose(st["q"], rec["q"], atol=5e-3 * np.abs(rec["q"]).max())
+    from pcs_sindy.persistence import load
+
+    fusion = load(out / "segmentation.json")
+    with np.load(out / "train_00.npz") as st:
+        np.testing.assert_array_equal(fusion.segment_lengths_, st["segment_lengths"])
+
+
+def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
+    recs = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
+    strains = [str(work / "strains" / f"train_0{k}.npz") for k in range(2)]
+    if not Path(strains[0]).exists():
+        assert main(["fuse", *recs, "--out", str(work / "strains"), "--total-length", "0.1", "--quiet"]) == 0
+    model = work / "model" / "model.json"
+    capsys.readouterr()
+    # tau files in the reverse order: matched by name (stem), not by position
+    assert main(["fit", *strains, "--tau", *recs[::-1], "--out", str(model)]) == 0
+    printed = capsys.readouterr().out
+    assert "L = " in printed and "D = diag(" in printed and "stiffness:" in printed
+    assert model.is_file()
+    # identified bending stiffness near the simulator's E I (f_L = 1): 1e4 * pi * 0.02**4 / 4
+    stiffness = float(printed.split("stiffness: be_1 ")[1].split(",")[0])
+    assert stiffness == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
+
+    out = work / "rollout"
+    assert main(["rollout", str(model), "--tau", recs[0], "--truth", recs[0], "--initial", strains[0],
+                 "--segmentation", str(work / "strains" / "segmentation.json"), "--out", str(out), "--quiet"]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    with np.load(out / "rollout.npz") as roll, np.load(recs[0]) as rec:
+        truth = rec["poses_true"][:, 1:]
+        pred = roll["poses"][:, 1:]
+        ep = np.linalg.norm(pred[..., :2] - truth[..., :2], axis=-1)
+        eth = np.abs(np.angle(np.exp(1j * (pred[..., 2] - truth[..., 2]))))
+        assert metrics["e_p_ee"] == pytest.approx(ep[:, -1].mean(), rel=1e-12)
+        assert metrics["e_theta_ee"] == pytest.approx(eth[:, -1].mean(), rel=1e-12)
+        assert metrics["e_p_dist"] == pytest.approx(ep.mean(), rel=1e-12)
+        assert metrics["e_theta_dist"] == pytest.approx(eth.mean(), rel=1e-12)
+        assert ep[:, -1].mean() < 2e-3  # the identified model tracks the recording it was fitted on
+        np.testing.assert_allclose(roll["poses"], PlanarPCS(tuple(roll["segment_lengths"])).forward_kinematics(
+            roll["q"], roll["marker_arc_lengths"]), atol=1e-12)
+    assert (out / "rollout.png").is_file()
+
+    bare = work / "rollout_bare"
+    assert main(["rollout", str(model), "--tau", recs[1], "--n-markers", "5", "--out", str(bare), "--quiet"]) == 0
+    with np.load(bare / "rollout.npz") as roll:
+        assert roll["poses"].shape == (100, 6, 3)
+        np.testing.assert_allclose(roll["q"][0], 0.0)  # from rest by default
+    assert not (bare / "metrics.json").exists() and (bare / "rollout.png").is_file()
+
+
+# --------------------------------------------------------------------------
+# failure exits
+# --------------------------------------------------------------------------
+def test_failures_are_one_line_without_traceback(work, tmp_path, capsys):
+    rec = str(work / "data" / "train_00.npz")
+    missing = str(tmp_path / "nope.npz")
+    np.savez(tmp_path / "wrong.npz", x=np.zeros(3))
+    (tmp_path / "text.npz").write_text("not an npz")
+    np.savez(tmp_path / "tau4.npz", t=np.arange(100) * 1e-3, tau=np.zeros((100, 4)))
+    out = str(tmp_path / "out")
+
+    assert "nope.npz" in _fail(capsys, ["fuse", missing, "--out", out])
+    assert "'poses'" in _fail(capsys, ["fuse", str(tmp_path / "wrong.npz"), "--out", out])
+    assert "threshold" in _fail(capsys, ["fuse", rec, "--out", out, "--threshold", "-1"])
+    assert "cannot read" in _fail(capsys, ["render", str(tmp_path / "text.npz"), "--out", out])
+    assert "does not exist" in _fail(capsys, ["extract", str(tmp_path / "nope.avi"), "--out", out])
+    assert "unknown" in _fail(capsys, ["simulate", "no_such_robot", "--out", out]).lower()
+    strain = str(work / "strains" / "train_00.npz")
+    if not Path(strain).exists():
+        assert main(["fuse", rec, str(work / "data" / "train_01.npz"), "--out", str(work / "strains"),
+                     "--total-length", "0.1", "--quiet"]) == 0
+    assert "4 force columns" in _fail(capsys, ["fit", strain, "--tau", str(tmp_path / "tau4.npz"), "--out", out])
+    assert "tau file" in _fail(capsys, ["fit", strain, "--tau", rec, rec, "--out", out])
+    assert "model file" in _fail(capsys, ["rollout", str(tmp_path / "text.npz"), "--tau", rec, "--out", out])
+
+
+def test_usage_errors_are_one_line(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["render", "x.npz", "--out", "o", "--n-jobs", "0"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--n-jobs" in err[0]
+
+
+def test_debug_reraises(tmp_path):
+    with pytest.raises(CLIError, match="does not exist"):
+        main(["--debug", "fuse", str(tmp_path / "nope.npz"), "--out", str(tmp_path)])
+
+
+
+@pytest.mark.slow
+def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
+    import cv2
+
+    monkeypatch.setenv("PCS_SINDY_CACHE", str(tmp_path / "cache"))
+    capsys.readouterr()
+    assert main(["demo", "--quick", "--n-jobs", "1", "--quiet", "--out", str(tmp_path / "demo")]) == 0
+    rep = tmp_path / "demo" / "report"
+    assert capsys.readouterr().out.strip().startswith(f"demo report: {rep / 'report.md'}")
+    for name in ("report.md", "equations.txt", "metrics.json", "fig6_strain_distance.png",
+                 "fig8_error_vs_segments.png", "fig9_strains.png", "fig9_end_effector.png", "fig10_stills.png"):
+        assert (rep / name).stat().st_size > 0, name
+    video = cv2.VideoCapture(str(rep / "rollout.mp4"))
+    assert video.isOpened() and video.get(cv2.CAP_PROP_FRAME_COUNT) > 1
+    video.release()
+    metrics = json.loads((rep / "metrics.json").read_text())
+    # the scenario's true segmentation, recovered from the rendered videos
+    np.testing.assert_allclose(metrics["this_run"]["segment_lengths"], [0.07, 0.1], atol=3e-3)
+    assert metrics["this_run"]["e_p_ee"] < 0.02
+    text = (rep / "report.md").read_text()
+    assert "| 5.22 |" in text and "| 0.138 |" in text  # the seed's numbers beside ours
+    assert (rep / "equations.txt").read_text().startswith("L = ")
