@@ -15,11 +15,11 @@ from pathlib import Path
 
 # (module, names) in pipeline order; names must be public attributes of the module.
 SECTIONS: list[tuple[str, str, list[str]]] = [
-    ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline"]),
+    ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline", "recording_groups"]),
     ("Vision: videos → poses", "pcs_sindy.vision", ["MarkerPoseExtractor"]),
     ("Camera", "pcs_sindy.camera", ["Camera"]),
     ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion", "threshold_sweep", "select_threshold"]),
-    ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary"]),
+    ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary", "StackedEulerLagrangeLibrary"]),
     ("Optimizer", "pcs_sindy.optimizers", ["StiffnessThresholdOptimizer"]),
     ("Regressor: strains + τ → model", "pcs_sindy.regressor", ["EulerLagrangeRegressor"]),
     ("Model files", "pcs_sindy.persistence", ["save", "load"]),
