@@ -431,6 +431,10 @@ def _fuse(args: argparse.Namespace):
     lengths = ", ".join(f"{v:.4f}" for v in fusion.segment_lengths_)
     _say(args, f"{fusion.n_segments_} segment(s), lengths [{lengths}] m (total {fusion.total_length_:.4f} m), "
                f"threshold h = {args.threshold:g}")
+    if args.total_length is None:
+        _say(args, "note: the rest length was estimated as the median deformed length; a robot stretched on average "
+                   "(e.g. hanging) reads long by that stretch, which biases every length and the model: pass "
+                   "--total-length with the measured rest length")
     _say(args, f"segmentation -> {seg}; {len(paths)} strain file(s) -> {out}")
     return fusion, strains, trajs
 
@@ -925,7 +929,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", required=True, help="output directory")
     p.add_argument("--threshold", type=float, default=0.2, help="merge threshold h (default 0.2, the seed's)")
     p.add_argument("--total-length", type=_positive_float, default=None,
-                   help="robot rest length [m] (default: estimated from the poses)")
+                   help="robot rest length [m], measured (recommended; default: the median deformed length of the "
+                        "marker chain, ~1%% long for a robot hanging under its weight)")
     p.add_argument("--shape-fit", choices=["least_squares", "end_pose"], default="least_squares",
                    help="strains fitted to all markers (default) or from segment end poses (the seed)")
     common(p)
