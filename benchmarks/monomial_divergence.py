@@ -1,0 +1,257 @@
+"""Why does the seed's method (monomial library, Savitzky-Golay 25/3) diverge on two_segment? (issue 4)
+
+Fits ``EulerLagrangeRegressor`` with the monomial ``PCSLagrangianLibrary`` on the
+two_segment scenario's 8 noise-free training recordings in several variants
+that each change one thing, and for each reports
+
+- the error of the derivatives fed to the regression against the simulator's
+  exact ``qd`` and ``qdd = M^-1 (tau - bias)``,
+- the relative error of the identified coefficients ``pi+`` against the true
+  ones (``PCSLagrangianLibrary.coefficients_from_parameters`` of the robot),
+- the relative force residual of the fitted and of the TRUE coefficients on
+  the regression actually solved (if the true coefficients leave the larger
+  residual, the regression's data — not the solver — are wrong),
+- the share of training and validation states where the identified ``M(q)`` is
+  not positive definite, the stiffness errors, and
+- the 7 s validation rollout (from rest, the default scenario's validation in
+  every row): tip error or the time of divergence.
+
+Variants: the seed's SG 25/3; exact ``qd`` and ``qdd`` from the simulator, and
+each one exact with the other from SG 25; SG 7/3 with force-jump windows left
+out; SG 25 with the forces passed through the same SG smoother as the strains
+(``tau`` low-passed like ``q``); SG 25 solved by plain unscaled least squares
+(``numpy.linalg.lstsq``, as the seed's closed form) instead of the column-scaled
+SVD; training data of a larger bending range (``bend_amplitude`` 80 or 120
+instead of 40: scenario variants built here, defaults untouched).
+
+Rows are cached in ``$PCS_SINDY_CACHE/monomial_divergence_rows.json``.
+
+Usage::
+
+    .venv/bin/python benchmarks/monomial_divergence.py [--rows sg25 exact ...] [--no-write]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+import traceback
+import warnings
+from pathlib import Path
+
+import numpy as np
+from scipy.signal import savgol_filter
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import write_section  # noqa: E402
+
+from pcs_sindy.integrators import DivergenceError  # noqa: E402
+from pcs_sindy.metrics import end_effector_errors  # noqa: E402
+from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
+from pcs_sindy.simulation import get_scenario  # noqa: E402
+from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
+
+CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "monomial_divergence_rows.json"
+DT = 1e-3
+
+# name -> (description, options)
+ROWS = {
+    "sg25": ("SG 25/3 (the seed's method)", {}),
+    "exact": ("exact qd and qdd from the simulator", {"qd": "exact", "qdd": "exact"}),
+    "exact-qd": ("exact qd, qdd from SG 25/3", {"qd": "exact"}),
+    "exact-qdd": ("qd from SG 25/3, exact qdd", {"qdd": "exact"}),
+    "sg7-jumpfree": ("SG 7/3, force-jump windows left out", {"window": 7, "jump_free": True}),
+    "sg25-filtered-tau": ("SG 25/3, tau smoothed by the same SG 25/3", {"filter_tau": True}),
+    "sg25-plain-lstsq": ("SG 25/3, plain unscaled lstsq", {"plain_lstsq": True}),
+    "sg25-bend80": ("SG 25/3, training bend_amplitude 80", {"bend_amplitude": 80.0}),
+    "sg25-bend120": ("SG 25/3, training bend_amplitude 120", {"bend_amplitude": 120.0}),
+    "exact-bend80": ("exact qd, qdd, training bend_amplitude 80", {"bend_amplitude": 80.0, "qd": "exact", "qdd": "exact"}),
+    # derivative error scaled down: qd = qd_true + a (qd_SG25 - qd_true), the same for qdd
+    "blend-0.3": ("SG 25/3 derivative errors x 0.3", {"blend": 0.3}),
+    "blend-0.1": ("SG 25/3 derivative errors x 0.1", {"blend": 0.1}),
+    "blend-0.03": ("SG 25/3 derivative errors x 0.03", {"blend": 0.03}),
+    "blend-0.01": ("SG 25/3 derivative errors x 0.01", {"blend": 0.01}),
+    # the same SG 25 data, 16 physical unknowns (bounded: PD mass matrix by construction)
+    "sg25-physical": ("SG 25/3, physical basis (16 unknowns, bounded)", {"basis": "physical"}),
+}
+
+
+def _relative_rms(est, true):
+    est, true = np.concatenate(est), np.concatenate(true)
+    return (np.sqrt(np.mean((est - true) ** 2, axis=0) / np.mean(true**2, axis=0))).tolist()
+
+
+def run_row(name, rollout=True):
+    _, opts = ROWS[name]
+    window = int(opts.get("window", 25))
+    base = get_scenario("two_segment")
+    val = base.generate(seed=0).validation
+    scenario = get_scenario("two_segment", bend_amplitude=opts["bend_amplitude"]) if "bend_amplitude" in opts else base
+    robot = scenario.robot
+    train = scenario.generate(seed=0, validation=False).train
+    L = robot.kinematics.segment_lengths
+    # noise-free strains straight from the simulator: no pose -> strain estimation step in the way
+    X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in train]
+    qd_true = [r.qd for r in train]
+    qdd_true = [robot.forward_dynamics(r.q, r.qd, r.tau) for r in train]
+    qd_sg = [savgol_filter(r.q, window, 3, deriv=1, delta=DT, axis=0) for r in train]
+    qdd_sg = [savgol_filter(r.q, window, 3, deriv=2, delta=DT, axis=0) for r in train]
+    qd = qd_true if opts.get("qd") == "exact" else qd_sg
+    qdd = qdd_true if opts.get("qdd") == "exact" else qdd_sg
+    if "blend" in opts:
+        a = float(opts["blend"])
+        qd = [t + a * (e - t) for t, e in zip(qd_true, qd_sg)]
+        qdd = [t + a * (e - t) for t, e in zip(qdd_true, qdd_sg)]
+    taus = [r.tau for r in train]
+    if opts.get("filter_tau"):
+        taus = [savgol_filter(t, window, 3, axis=0) for t in taus]
+    model = EulerLagrangeRegressor(
+        window_length=window, polyorder=3, exclude_force_jumps=bool(opts.get("jump_free")), basis=opts.get("basis", "monomial")
+    )
+    t0 = time.perf_counter()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model.fit(X, taus, qd=qd, qdd=qdd)
+    fit_time = time.perf_counter() - t0
+    lib = model.full_library_
+    monomial = opts.get("basis", "monomial") == "monomial"
+    pi_true = None
+    if monomial:
+        pi_true = lib.coefficients_from_parameters(
+            robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+        )
+    # the regression actually solved (same rows as fit)
+    keep = [model._jump_free(r.tau, window) if opts.get("jump_free") else np.ones(len(r.t), bool) for r in train]
+    cat = lambda arrs: np.concatenate([a[k] for a, k in zip(arrs, keep)])  # noqa: E731
+    psi = np.asarray(lib.euler_lagrange_matrix(cat([x.q for x in X]), cat(qd), cat(qdd)), dtype=float)
+    psi = psi.reshape(-1, psi.shape[-1])
+    target = cat(taus).reshape(-1)
+    coef = model.coef_
+    if opts.get("plain_lstsq"):
+        coef = np.linalg.lstsq(psi, target, rcond=None)[0]
+        model.coef_ = coef
+        model.model_coef_ = coef[model.column_map_]
+    tn = np.linalg.norm(target)
+    s = np.linalg.svd(psi, compute_uv=False)
+    s_scaled = np.linalg.svd(psi / np.linalg.norm(psi, axis=0), compute_uv=False)
+    not_pd = lambda q: float(np.mean(~(np.linalg.eigvalsh(model.mass_matrix(q))[:, 0] > 0)))  # noqa: E731
+    k_idx = np.asarray(lib.stiffness_index_)
+    m_val = robot.mass_matrix(val.q)
+    row = {
+        "row": name,
+        "n_samples": int(sum(k.sum() for k in keep)),
+        "train_range": np.abs(np.concatenate([r.q for r in train])).max(axis=0).tolist(),
+        "val_range": np.abs(val.q).max(axis=0).tolist(),
+        "qd_err": _relative_rms([a[k] for a, k in zip(qd, keep)], [a[k] for a, k in zip(qd_true, keep)]),
+        "qdd_err": _relative_rms([a[k] for a, k in zip(qdd, keep)], [a[k] for a, k in zip(qdd_true, keep)]),
+        "coef_err": float(np.linalg.norm(coef - pi_true) / np.linalg.norm(pi_true)) if monomial else None,
+        "res_fit": float(np.linalg.norm(target - psi @ coef) / tn),
+        "res_true": float(np.linalg.norm(target - psi @ pi_true) / tn) if monomial else None,
+        "cond": float(s[0] / s[-1]),
+        "cond_scaled": float(s_scaled[0] / s_scaled[-1]),
+        "n_coef": int(psi.shape[1]),
+        "not_pd_train": not_pd(np.concatenate([x.q for x in X])),
+        "not_pd_val": not_pd(val.q),
+        # identified M against the simulator's on the validation states (relative Frobenius error, median)
+        "mass_err_val": float(np.median(
+            np.linalg.norm(model.mass_matrix(val.q) - m_val, axis=(1, 2)) / np.linalg.norm(m_val, axis=(1, 2)))),
+        "k_rel": ((-2 * coef[k_idx] if monomial else model.stiffness_) / robot.stiffness - 1).tolist(),
+        "fit_time": fit_time,
+        "warnings": [str(w.message)[:100] for w in caught],
+    }
+    if rollout:
+        n = robot.n_q
+        t0 = time.perf_counter()
+        try:
+            sim = model.simulate(np.zeros(n), np.zeros(n), val.tau, val.t)
+            tip = sim.poses(np.array([robot.kinematics.total_length]))
+            e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
+            row.update(e_p=e_p, e_theta=e_th, diverged_at=None)
+        except DivergenceError as err:
+            row.update(e_p=None, e_theta=None, diverged_at=err.t)
+        row["rollout_time"] = time.perf_counter() - t0
+    return row
+
+
+def _f(v, spec):
+    return "–" if v is None else format(v, spec)
+
+
+def render(rows):
+    lines = [
+        "two_segment, 8 noise-free training recordings (true strains from the simulator, no pose step), monomial "
+        "`PCSLagrangianLibrary` (258 columns), no strain removed in any row; rollout of the default scenario's 7 s "
+        "validation from rest (adaptive Dormand–Prince 5(4), rtol 1e-6). Derivative errors: relative RMS error against "
+        "the simulator's exact qd and qdd, worst strain (all six in the notes below). "
+        "coef err: ‖π̂ − π‖/‖π‖ against the true coefficients. Residual: ‖τ − Ψπ‖/‖τ‖ of the regression solved, "
+        "with the fitted and with the TRUE coefficients. M err val: median over the validation states of "
+        "‖M̂(q) − M(q)‖_F/‖M(q)‖_F.",
+        "",
+        "| variant | bend range train / val [1/m] | qd err | qdd err | coef err | residual fit / true π | M err val | cond Ψ (scaled) "
+        "| M not PD train / val | stiffness error (be1, sh1, ax1, be2, sh2, ax2) | rollout |",
+        "|---|---|---|---|---|---|---|---|---|---|---|",
+    ]
+    for r in rows:
+        tr, va = r["train_range"], r["val_range"]
+        roll = "–"
+        if "diverged_at" in r:
+            roll = f"diverged at {r['diverged_at']:.3g} s" if r["diverged_at"] is not None else (
+                f"e_p^EE {1e3 * r['e_p']:.3g} mm, e_θ^EE {r['e_theta']:.3g} rad")
+        lines.append(
+            f"| {ROWS[r['row']][0]} | {max(tr[0], tr[3]):.0f} / {max(va[0], va[3]):.0f} | {max(r['qd_err']):.2f} | "
+            f"{max(r['qdd_err']):.2f} | {_f(r['coef_err'], '.3g')} | {r['res_fit']:.3g} / {_f(r['res_true'], '.3g')} | "
+            f"{r.get('mass_err_val', float('nan')):.3g} | "
+            f"{r['cond']:.2g} ({r['cond_scaled']:.2g}) | {r['not_pd_train']:.1%} / {r['not_pd_val']:.1%} | "
+            f"{', '.join(f'{v:+.0%}' for v in r['k_rel'])} | {roll} |"
+        )
+    lines += ["", "Relative RMS derivative errors per strain (be1, sh1, ax1, be2, sh2, ax2):", ""]
+    for r in rows:
+        lines.append(
+            f"- {ROWS[r['row']][0]}: qd {', '.join(f'{v:.2f}' for v in r['qd_err'])}; "
+            f"qdd {', '.join(f'{v:.2f}' for v in r['qdd_err'])}"
+        )
+    return "\n".join(lines)
+
+
+FINDINGS = """
+Findings (from the rows above):
+"""
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--rows", nargs="*", default=list(ROWS), choices=list(ROWS))
+    parser.add_argument("--no-rollout", action="store_true")
+    parser.add_argument("--no-write", action="store_true")
+    args = parser.parse_args(argv)
+    rows = json.loads(CACHE.read_text()) if CACHE.exists() else []
+    for name in args.rows:
+        print(f"== {name}", flush=True)
+        try:
+            row = run_row(name, rollout=not args.no_rollout)
+        except Exception:  # a failing row is reported, not fatal for the others
+            traceback.print_exc()
+            continue
+        print(json.dumps(row), flush=True)
+        rows = json.loads(CACHE.read_text()) if CACHE.exists() else rows
+        rows = [r for r in rows if r["row"] != name] + [row]
+        CACHE.parent.mkdir(parents=True, exist_ok=True)
+        CACHE.write_text(json.dumps(rows))
+    order = {k: i for i, k in enumerate(ROWS)}
+    rows = sorted((r for r in rows if r["row"] in ROWS), key=lambda r: order[r["row"]])
+    body = render(rows) + "\n" + FINDINGS.strip()
+    print(body)
+    if not args.no_write and rows:
+        write_section(
+            "monomial_divergence",
+            "Why the seed's monomial SG 25 fit diverges on two_segment",
+            body,
+            "python benchmarks/monomial_divergence.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+        )
+
+
+if __name__ == "__main__":
+    main()
