@@ -761,15 +761,27 @@ def _demo_report(out: Path, args: argparse.Namespace, fusion: Any, model: Any, r
 
     # Fig. 10: validation stills rendered as the videos are, markers detected, model backbone overlaid
     picks = np.linspace(0, t.size - 1, 5).round().astype(int)[1:]
-    camera = Camera.fit_poses(truth, DEMO_SIZE)
+    # a camera framing these stills (a robot curled over its base can leave the training cameras' view)
+    xy = truth[picks][..., :2].reshape(-1, 2)
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    margin = 25.0
+    ppm = float(min((DEMO_SIZE[0] - 2 * margin) / max(hi[0] - lo[0], 1e-6),
+                    (DEMO_SIZE[1] - 2 * margin) / max(hi[1] - lo[1], 1e-6)))
+    centre = 0.5 * (lo + hi)
+    camera = Camera(pixels_per_metre=ppm, image_size=DEMO_SIZE,
+                    origin=(0.5 * (DEMO_SIZE[0] - 1) - ppm * centre[0], 0.5 * (DEMO_SIZE[1] - 1) - ppm * centre[1]))
     frames = render_frames(truth[picks], camera, marker_size=DEMO_MARKER_SIZE)
     s_dense = np.linspace(0.0, float(np.sum(model.kinematics_.segment_lengths)), 60)
     backbone = sim.poses(s_dense)
-    try:
-        det = MarkerPoseExtractor(camera=camera, dt=1e-3, on_missing="interpolate", progress=False).fit_transform(
-            [frames])[0].poses
-    except ValueError:
-        det = None  # stills without detections rather than no report
+    # each still on its own: they are far apart in time, so no tracking across them; a still whose
+    # markers touch (a tight curl) shows no detections rather than invented ones
+    det = []
+    for frame in frames:
+        try:
+            det.append(MarkerPoseExtractor(truth.shape[1] - 1, camera=camera, dt=1e-3, progress=False)
+                       .fit_transform([frame[None]])[0].poses[0])
+        except ValueError:
+            det.append(np.empty((0, 3)))
     save(plot_stills(frames, detected=det, backbone=backbone[picks], times=list(t[picks]), camera=camera,
                      title="validation stills: detected markers and the model's backbone"), "fig10_stills.png", "fig10")
 

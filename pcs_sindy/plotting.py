@@ -582,7 +582,8 @@ def plot_stills(
     poses : array_like (K, P, 2|3) or list of K (P_k, 2|3) arrays, optional
         True marker poses or positions (blue dots).
     detected : same form as ``poses``, optional
-        Detected marker centres (green dots); the count may vary per still.
+        Detected marker centres (green dots); the count may vary per still
+        (an empty array: nothing detected on that still).
     backbone : same form as ``poses`` with P >= 2, optional
         The model's backbone (red line).
     times : sequence of K floats, optional
@@ -631,7 +632,7 @@ def plot_stills(
     overlays: dict[str, list[NDArray[np.float64]] | None] = {
         "poses": None if poses is None else _per_still(poses, k, "poses"),
         "backbone": None if backbone is None else _per_still(backbone, k, "backbone", min_points=2),
-        "detected": None if detected is None else _per_still(detected, k, "detected"),
+        "detected": None if detected is None else _per_still(detected, k, "detected", min_points=0),
     }
     if camera is not None:
         if not callable(getattr(camera, "to_pixels", None)):

@@ -370,6 +370,14 @@ def test_stills_on_frames_with_camera():
         )
 
 
+def test_stills_with_a_still_where_nothing_was_detected():
+    poses = _arc_poses(K=2)
+    fig = plot_stills(poses=poses, detected=[poses[0], np.empty((0, 3))])
+    first, second = (ax.get_lines()[-1] for ax in fig.axes)
+    np.testing.assert_array_equal(first.get_xydata(), poses[0, :, :2])
+    assert second.get_xydata().shape == (0, 2)
+
+
 def test_stills_grey_frames_pixels_and_duck_typed_camera():
     class Doubler:
         def to_pixels(self, xy):
