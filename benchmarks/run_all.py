@@ -22,6 +22,7 @@ ORDER = [
     "rollout_speed",
     "noise_robustness",
     "end_to_end",
+    "monomial_divergence",
 ]
 
 

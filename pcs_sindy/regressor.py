@@ -628,7 +628,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 warnings.warn(
                     f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
                     f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or "
-                    "cleaner data",
+                    "cleaner data, or basis='physical' (bounded: positive definite by construction) with "
+                    "formulation='weak' (no second derivatives)",
                     UserWarning,
                     stacklevel=2,
                 )
