@@ -433,8 +433,9 @@ def _fuse(args: argparse.Namespace):
                f"threshold h = {args.threshold:g}")
     if args.total_length is None:
         _say(args, "note: the rest length was estimated as the median deformed length; a robot stretched on average "
-                   "(e.g. hanging) reads long by that stretch, which biases every length and the model: pass "
-                   "--total-length with the measured rest length")
+                   "(e.g. hanging) reads long by that stretch, which biases every length and strain ('fit' absorbs it "
+                   "in identified rest strains unless --no-rest-strain): pass --total-length with the measured "
+                   "rest length")
     _say(args, f"segmentation -> {seg}; {len(paths)} strain file(s) -> {out}")
     return fusion, strains, trajs
 
@@ -480,7 +481,7 @@ def _fit(args: argparse.Namespace):
     formulation = getattr(args, "formulation", None) or ("weak" if args.basis == "physical" else "strong")
     model = EulerLagrangeRegressor(
         basis=args.basis, formulation=formulation, window_length=args.window_length, polyorder=args.polyorder,
-        exclude_force_jumps=not args.no_exclude_force_jumps,
+        exclude_force_jumps=not args.no_exclude_force_jumps, rest_strain=bool(getattr(args, "rest_strain", True)) and args.basis == "physical",
     )
     start = time.perf_counter()
     model.fit(strains, taus)
@@ -958,6 +959,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--polyorder", type=_positive_int, default=3, help="Savitzky-Golay order (default 3)")
     p.add_argument("--no-exclude-force-jumps", action="store_true",
                    help="keep samples whose window straddles a jump of the held actuation (default: left out)")
+    p.add_argument("--rest-strain", action=argparse.BooleanOptionalAction, default=True,
+                   help="identify a constant force per strain, i.e. a rest strain: pre-curved robots, or a rest "
+                        "length estimated rather than measured (default on; physical basis only)")
     p.add_argument("--formulation", choices=["weak", "strong"], default=None,
                    help="regress window integrals (weak: no accelerations, robust to noise; default with the physical "
                         "basis) or every sample with Savitzky-Golay accelerations (strong; the seed's, default with "

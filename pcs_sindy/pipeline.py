@@ -280,9 +280,11 @@ def make_pcs_pipeline(
     regressor : EulerLagrangeRegressor, optional
         The ``dynamics`` step; default the recommended settings for held
         actuation, ``EulerLagrangeRegressor(basis="physical", formulation="weak",
-        window_length=7, exclude_force_jumps=True,
+        window_length=7, exclude_force_jumps=True, rest_strain=True,
         optimizer=StiffnessThresholdOptimizer())`` (the weak form needs no
-        accelerations; see the noise study in ``docs/results.md``)
+        accelerations, see the noise study in ``docs/results.md``; identified
+        rest strains absorb a rest length estimated rather than measured, see
+        "Rest length" there)
         (an explicit optimizer so that grid searches can reach
         ``dynamics__optimizer__youngs_modulus_max`` etc.).
     start : {"videos", "poses"}
@@ -362,6 +364,7 @@ def make_pcs_pipeline(
             formulation="weak",
             window_length=7,
             exclude_force_jumps=True,
+            rest_strain=True,
             optimizer=StiffnessThresholdOptimizer(),
         )
     steps: list[tuple[str, Any]] = []

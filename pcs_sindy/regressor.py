@@ -186,6 +186,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         (``"free"``), tied to the line density for a solid circular section of
         the optimizer's ``radius`` (``"tied"``; one mass unknown per segment,
         better conditioned under noise), or neglected.
+    rest_strain : bool, default False
+        ``basis="physical"``: identify a constant generalised force ``f0`` per
+        strain (``... + K q - f0 = tau``, ``f0 = K q*`` for a rest strain
+        ``q*``); also absorbs a wrong rest length.  Not available with the
+        monomial basis; ignored when ``library`` is a library object (set
+        ``PhysicalPCSLibrary(..., rest_strain=True)`` there).
 
     Attributes
     ----------
@@ -208,6 +214,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         for a strain that is not modelled (removed as rigid, or absent from the data).
     damping_ : ndarray, shape (3m,)
         Identified damping; ``0`` for strains that are not modelled.
+    rest_strain_ : ndarray, shape (3m,)
+        Identified rest strain ``f0 / stiffness`` (library with ``rest_strain``);
+        ``0`` without ``f0`` columns and for strains that are not modelled
+        (``inf`` for a strain of zero stiffness and nonzero ``f0``).
     removed_strains_ : list of str
         Strains removed by the stiffness threshold.
     optimizer_ : StiffnessThresholdOptimizer
@@ -262,6 +272,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         gravity: Sequence[float] = (0.0, 9.81),
         identify_gravity: bool = False,
         rotary_inertia: str = "free",
+        rest_strain: bool = False,
     ) -> None:
         self.library = library
         self.basis = basis
@@ -282,6 +293,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.gravity = gravity
         self.identify_gravity = identify_gravity
         self.rotary_inertia = rotary_inertia
+        self.rest_strain = rest_strain
 
     identifiability_tol = 0.1
 
@@ -307,6 +319,13 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if basis not in ("monomial", "physical"):
             name = "library" if isinstance(self.library, str) else "basis"
             raise ValueError(f"{name} must be 'monomial' or 'physical'; got {basis!r}")
+        if not isinstance(self.rest_strain, (bool, np.bool_)):
+            raise ValueError(f"rest_strain must be True or False; got {self.rest_strain!r}")
+        if self.rest_strain and (self.library is None or isinstance(self.library, str)) and basis != "physical":
+            raise ValueError(
+                f"rest_strain=True needs the physical basis (basis='physical'); got basis {basis!r}, whose "
+                "Lagrangian has no constant-force term"
+            )
 
     def _derivatives(
         self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None
@@ -416,6 +435,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                     gravity=self.gravity,
                     identify_gravity=self.identify_gravity,
                     rotary_inertia=self.rotary_inertia,
+                    rest_strain=bool(self.rest_strain),
                 )
             from .library import PCSLagrangianLibrary
 
@@ -612,6 +632,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         damping = np.zeros(kin.n_q)
         damping[final_mask] = self.model_coef_[np.asarray(self.library_.damping_index_)]
         self.damping_ = damping
+        rest = np.zeros(kin.n_q)
+        if hasattr(self.library_, "rest_force_from_coef"):
+            f0 = self.library_.rest_force_from_coef(self.model_coef_)
+            stiff = self.stiffness_[final_mask]
+            # f0 = K q*; a zero stiffness with a nonzero f0 has no finite rest strain
+            with np.errstate(divide="ignore", invalid="ignore"):
+                rest[final_mask] = np.where(f0 == 0.0, 0.0, f0 / stiff)
+        self.rest_strain_ = rest
         self.kinematics_ = PlanarPCS(kin.segment_lengths, self.active_strains_, kin.base_pose)
         self.n_features_in_ = kin.n_q
         self.identifiability_ = self._identifiability(
@@ -876,6 +904,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             state_names=state_names,
         )
         if lumped_model is not None:
+            # the compiled model has no constant force f0: it acts like extra actuation
+            f0 = self.library_.lumped_from_coef(self.model_coef_).get("rest_force")
+            if f0 is not None and np.any(f0 != 0):
+                u_in = np.ascontiguousarray(u_in + f0[None, :])
             y = lumped_model.rollout(np.concatenate([q0a, qd0a]), t, u_in, method=method, **tol)
             if lumped_model.reduced_quadrature:
                 # the reduced quadrature is only used where it is measured exact (see _lumped_model)
@@ -984,6 +1016,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         damp = ", ".join(
             f"{s}: {self.model_coef_[j]:.{precision}g}" for s, j in zip(strain, np.asarray(self.library_.damping_index_))
         )
+        if np.asarray(getattr(self.library_, "rest_force_index_", [])).size:
+            elastic += " - 2 f0^T q"
         return [
             f"L = 1/2 qd^T M(q) qd + sum_i int_0^L_i {gravity} ds - 1/2 ({elastic})",
             "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jo^T Jo) ds",

@@ -165,6 +165,15 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
             roll["q"], roll["marker_arc_lengths"]), atol=1e-12)
     assert (out / "rollout.png").is_file()
 
+    # rest strains are identified by default; --no-rest-strain leaves them out, with the same bending stiffness
+    rs_model = work / "model" / "model_plain.json"
+    assert main(["fit", *strains, "--tau", *recs, "--out", str(rs_model), "--no-rest-strain", "--quiet"]) == 0
+    from pcs_sindy.persistence import load
+
+    plain, default = load(rs_model), load(model)
+    assert plain.rest_strain is False and default.rest_strain is True and default.rest_strain_.shape == (3,)
+    assert plain.stiffness_[0] == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
+
     bare = work / "rollout_bare"
     assert main(["rollout", str(model), "--tau", recs[1], "--n-markers", "5", "--out", str(bare), "--quiet"]) == 0
     with np.load(bare / "rollout.npz") as roll:

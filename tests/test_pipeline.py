@@ -133,6 +133,7 @@ def test_pipeline_is_the_composition_of_its_steps(pose_fit) -> None:
         formulation="weak",
         window_length=7,
         exclude_force_jumps=True,
+        rest_strain=True,
         optimizer=StiffnessThresholdOptimizer(),
     ).fit(strains, y)
     np.testing.assert_array_equal(pipe.model_.coef_, reg.coef_)

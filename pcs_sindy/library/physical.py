@@ -22,12 +22,23 @@ Coefficient layout (``n_coefficients_`` columns)
 Per segment ``i``: ``rhoA_i``, ``rhoI_i``, (with ``identify_gravity``:
 ``rhoAgx_i``, ``rhoAgy_i`` = ``rhoA_i g_x``, ``rhoA_i g_y``), then the
 stiffness ``k_<strain>_i`` of each active strain of the segment; after all
-segments the damping ``d_<strain>_i`` of every active strain (damping last).
+segments (with ``rest_strain=True``) the constant generalised force
+``f0_<strain>_i`` of every active strain, then the damping ``d_<strain>_i`` of
+every active strain (damping last).
 With ``rotary_inertia="tied"`` (or ``"none"``) there is no ``rhoI_i``: the
 ``rhoA_i`` column carries ``r_i^2/4`` (or 0) times the rotary-inertia terms.
 Columns that vanish identically because every strain they act through is
 inactive are dropped (e.g. the rotary inertia of a segment when no bending
 strain at or before it is active).
+
+Rest strain
+-----------
+With ``rest_strain=True`` the model is
+``M q̈ + C q̇ + G + K q + D q̇ - f0 = tau``: ``f0 = K q*`` is the elastic force
+of a rest strain ``q*`` (``K (q - q*)``), a column ``-1`` in the row of its
+strain, lower bound ``-inf``.  It also absorbs a wrong rest length: with
+lengths scaled by ``1 + e`` the PCS shape is reproduced with strains scaled by
+``1 / (1 + e)`` except for a constant axial force ``k_ax e (1 + e)``.
 
 Stiffness convention
 --------------------
@@ -447,6 +458,14 @@ class _Spec:
                 if self.mask[e]:
                     names.append(f"k_{STRAIN_NAMES[c]}_{seg}")
                     kinds.append(("k", i, e))
+        rest = getattr(lib, "rest_strain", False)  # libraries pickled before the parameter existed
+        if not isinstance(rest, (bool, np.bool_)):
+            raise ValueError(f"rest_strain must be True or False; got {rest!r}")
+        self.rest_strain = bool(rest)
+        if self.rest_strain:
+            for e in self.active:
+                names.append(f"f0_{STRAIN_NAMES[e % 3]}_{e // 3 + 1}")
+                kinds.append(("f0", e // 3, e))
         for e in self.active:
             names.append(f"d_{STRAIN_NAMES[e % 3]}_{e // 3 + 1}")
             kinds.append(("d", e // 3, e))
@@ -457,8 +476,9 @@ class _Spec:
         kind_arr = np.array([k[0] for k in kinds])
         self.stiffness_index = np.array([j for j, k in enumerate(kinds) if k[0] == "k"], dtype=int)
         self.damping_index = np.array([j for j, k in enumerate(kinds) if k[0] == "d"], dtype=int)
+        self.rest_index = np.array([j for j, k in enumerate(kinds) if k[0] == "f0"], dtype=int)
         lower = np.zeros(self.n_coef)
-        lower[(kind_arr == "gx") | (kind_arr == "gy")] = -np.inf
+        lower[(kind_arr == "gx") | (kind_arr == "gy") | (kind_arr == "f0")] = -np.inf
         self.lower = lower
         # columns per kind for fast assembly
         self.cols_rhoA = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "rhoA"]
@@ -500,6 +520,10 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         ``rhoI_i = rhoA_i r_i^2 / 4`` (solid circular section of the library's
         ``radius``; one mass parameter per segment, better conditioned under
         noise); ``"none"``: neglect rotary inertia.
+    rest_strain : bool, default False
+        Identify a constant generalised force ``f0_<strain>`` per active strain
+        (``M q̈ + C q̇ + G + K q + D q̇ - f0 = tau``; ``f0 = K q*`` for a rest
+        strain ``q*``), placed after the stiffnesses and before the damping.
 
     Attributes
     ----------
@@ -507,16 +531,18 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         Number of parameters (damping last); see the module docstring for the layout.
     stiffness_index_, damping_index_ : ndarray of int, shape (n,)
         Column of each active strain's stiffness / damping parameter.
+    rest_force_index_ : ndarray of int, shape (n,) or (0,)
+        Column of each active strain's constant force ``f0`` (empty without ``rest_strain``).
     stiffness_factor_ : float
         ``1.0``: the stiffness is the coefficient itself (monomial library: ``-2``).
     lower_bounds_ : ndarray, shape (n_coefficients_,)
         0 for densities, stiffnesses and damping, ``-inf`` for identified gravity
-        terms; pass ``(lower_bounds_, inf)`` to :func:`scipy.optimize.lsq_linear`.
+        terms and constant forces ``f0``; pass ``(lower_bounds_, inf)`` to :func:`scipy.optimize.lsq_linear`.
     column_map_ : ndarray of int
         Only on libraries made by :meth:`restrict`: the parent's column of each column.
     n_features_in_, n_output_features_ : int
         After :meth:`fit` on states ``[q, qd]``: ``2n`` and the number of
-        Lagrangian basis terms (all parameters except damping).
+        Lagrangian basis terms (all parameters except damping; ``f0_e`` has ``q_e``).
     """
 
     def __init__(
@@ -528,6 +554,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         identify_gravity: bool = False,
         n_quadrature: int = 16,
         rotary_inertia: str = "free",
+        rest_strain: bool = False,
     ) -> None:
         self.segment_lengths = segment_lengths
         self.active_strains = active_strains
@@ -536,6 +563,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         self.identify_gravity = identify_gravity
         self.n_quadrature = n_quadrature
         self.rotary_inertia = rotary_inertia
+        self.rest_strain = rest_strain
 
     # -- structure -------------------------------------------------------------
     def _key(self) -> tuple:
@@ -548,6 +576,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             self.identify_gravity,
             self.n_quadrature,
             self.rotary_inertia,
+            self.rest_strain,
         )
 
     @property
@@ -582,6 +611,10 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         return self._spec.damping_index.copy()
 
     @property
+    def rest_force_index_(self) -> NDArray[np.intp]:
+        return self._spec.rest_index.copy()
+
+    @property
     def lower_bounds_(self) -> NDArray[np.float64]:
         return self._spec.lower.copy()
 
@@ -604,6 +637,15 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         """Damping coefficient of every active strain, shape (n,)."""
         coef = self._check_coef(coef)
         return coef[self._spec.damping_index].copy()
+
+    def rest_force_from_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
+        """Constant generalised force ``f0`` of every active strain, shape (n,) (0 without ``rest_strain``)."""
+        coef = self._check_coef(coef)
+        spec = self._spec
+        out = np.zeros(spec.n)
+        if spec.rest_index.size:
+            out[:] = coef[spec.rest_index]
+        return out
 
     # -- input checks ------------------------------------------------------------
     def _check_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
@@ -666,6 +708,8 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         rows = np.arange(n)
         out[:, rows, spec.stiffness_index] = q
         out[:, rows, spec.damping_index] = qd
+        if spec.rest_index.size:
+            out[:, rows, spec.rest_index] = -1.0
         return out
 
     def euler_lagrange_matrix(
@@ -714,13 +758,13 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         return out
 
     def bias_forces(self, q: ArrayLike, qd: ArrayLike, coef: ArrayLike) -> NDArray[np.float64]:
-        """All forces but ``M q̈``: ``C q̇ + G + K q + D q̇``, shape (n_samples, n)."""
+        """All forces but ``M q̈``: ``C q̇ + G + K q + D q̇ - f0``, shape (n_samples, n)."""
         coef = self._check_coef(coef)
         q, qd = self._check_states(q=q, qd=qd)
         return self.euler_lagrange_matrix(q, qd, np.zeros_like(q)) @ coef
 
     def potential_forces(self, q: ArrayLike, coef: ArrayLike) -> NDArray[np.float64]:
-        """Conservative forces ``G + K q``, shape (n_samples, n)."""
+        """Conservative forces ``G + K q - f0``, shape (n_samples, n)."""
         coef = self._check_coef(coef)
         (q,) = self._check_states(q=q)
         z = np.zeros_like(q)
@@ -759,6 +803,8 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             mom[:, :, j] = qd @ spec.rot[i].T
         rows = np.arange(n)
         integrand[:, rows, spec.stiffness_index] = q
+        if spec.rest_index.size:
+            integrand[:, rows, spec.rest_index] = -1.0  # integrates to -int phi dt
         mom[:, rows, spec.damping_index] = q  # int qd dt = q(t_b) - q(t_a), exactly
         return mom, integrand
 
@@ -862,7 +908,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
         -------
         ndarray
             ``rhoA = rho pi r^2``, ``rhoI = rho pi r^4 / 4``,
-            ``k = f_L [E I, c_sh G A, E A]``, ``d``, in the layout of
+            ``k = f_L [E I, c_sh G A, E A]``, ``d`` (and ``f0 = 0``: no rest strain), in the layout of
             :meth:`euler_lagrange_names`.
         """
         spec = self._spec
@@ -924,6 +970,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
                 "gy": lambda: rho[i] * area[i] * g[1],
                 "k": lambda: stiff[e],
                 "d": lambda: d[e],
+                "f0": lambda: 0.0,
             }[kind]()
         return out
 
@@ -963,6 +1010,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             identify_gravity=self.identify_gravity,
             n_quadrature=self.n_quadrature,
             rotary_inertia=self.rotary_inertia,
+            rest_strain=self.rest_strain,
         )
         child.column_map_ = np.array([spec.col[name] for name in child._spec.names], dtype=int)
         if hasattr(self, "n_features_in_"):  # keep a fitted library fitted
@@ -979,8 +1027,10 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             ``rhoA`` (m,), ``rhoI`` (m,) (rotary inertia per length, including
             the ``rotary_inertia='tied'`` share of ``rhoA``), ``rhoAg`` (m, 2)
             (identified or ``rhoA * gravity``), ``stiffness`` and ``damping`` (n,)
-            of the active strains, ``n_quadrature`` (this library's rule, so the
-            compiled kernels reproduce :meth:`mass_matrix` to round-off).
+            of the active strains, ``rest_force`` (n,) the constant force ``f0``
+            (not part of the compiled model: add it to the actuation),
+            ``n_quadrature`` (this library's rule, so the compiled kernels
+            reproduce :meth:`mass_matrix` to round-off).
             Parameters of segments that no active strain moves are 0.
         """
         coef = self._check_coef(coef)
@@ -1005,6 +1055,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             "rhoAg": rhoAg,
             "stiffness": self.stiffness_from_coef(coef),
             "damping": self.damping_from_coef(coef),
+            "rest_force": self.rest_force_from_coef(coef),
             "n_quadrature": int(self.n_quadrature),
         }
 
@@ -1012,7 +1063,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
     def compile_dynamics(self, coef: ArrayLike) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
         """Fast single-sample dynamics ``f(q, qd) -> (M (n, n), bias (n,))``.
 
-        ``bias = C q̇ + G + K q + D q̇`` so that ``q̈ = solve(M, tau - bias)``.
+        ``bias = C q̇ + G + K q + D q̇ - f0`` so that ``q̈ = solve(M, tau - bias)``.
         ``q`` and ``qd`` are 1-D arrays of the n active strains; they are not
         validated (integrator inner loop).  Everything that does not depend on
         the state (gather indices of the Jacobian, weights, constant rotary
@@ -1046,6 +1097,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             gw = spec.g_complex * wA
         stiff = coef[spec.stiffness_index].copy()
         damp = coef[spec.damping_index].copy()
+        f0 = self.rest_force_from_coef(coef)
         # Jacobian at the nodes as one gather from src = [own_be, own_sh, own_ax, 0] (each (m, K+1))
         # plus the rigid swing of earlier bending strains: J[p, col] += i L_k (z_p - zend_k)
         Kp = K + 1
@@ -1109,7 +1161,7 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
             J += swing * (z[:, None] - zend[col_seg])
             Jc = J.conj().T
             M = (Jc @ (J * wA[:, None])).real + M_rot
-            bias = (Jc @ (wA * acc - gw)).real + stiff * q + damp * qd
+            bias = (Jc @ (wA * acc - gw)).real + stiff * q + damp * qd - f0
             return M, bias
 
         return dynamics
@@ -1136,6 +1188,8 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
                 out[:, out_j] = pos[:, i].real
             elif kind == "gy":
                 out[:, out_j] = pos[:, i].imag
+            elif kind == "f0":  # the Lagrangian holds f0 q (potential -f0 q)
+                out[:, out_j] = q[:, spec.row_of[e]]
             else:  # stiffness: the Lagrangian holds -1/2 k q^2
                 out[:, out_j] = -0.5 * q[:, spec.row_of[e]] ** 2
         return out
@@ -1216,4 +1270,6 @@ class PhysicalPCSLibrary(BaseFeatureLibrary):
                 out.append(f"int y ds ({seg})")
             elif kind == "k":
                 out.append(f"-1/2 {names[spec.row_of[e]]}^2")
+            elif kind == "f0":
+                out.append(f"{names[spec.row_of[e]]}")
         return out
