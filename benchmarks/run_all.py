@@ -23,6 +23,7 @@ ORDER = [
     "noise_robustness",
     "end_to_end",
     "monomial_divergence",
+    "rest_length",
 ]
 
 
