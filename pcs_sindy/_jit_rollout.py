@@ -31,6 +31,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._numba_linalg import lu_factor, lu_solve, solve
 from .integrators import DOPRI5, METHODS, ROS34PW2, DivergenceError, _describe
 from .library._pcs_numeric import make_quadrature, rotary_mass
 
@@ -213,53 +214,15 @@ def _assemble(J, v, act, wts, rhoA, M_rot, stiff, damp, q, qd, M, bias):
 
 
 @numba.njit(cache=True)
-def _solve_lu(M, r, out):
-    """Solve ``M out = r`` by Gaussian elimination with partial pivoting; False if singular.
-
-    Not Cholesky: an identified M need not be positive definite, and the Python
-    path only fails on an exactly singular (or non-finite) matrix.
-    """
-    n = r.size
-    A = M.copy()
-    b = r.copy()
-    for j in range(n):
-        piv = j
-        big = abs(A[j, j])
-        for i in range(j + 1, n):
-            if abs(A[i, j]) > big:
-                big = abs(A[i, j])
-                piv = i
-        if not big > 0.0:  # also catches NaN
-            return False
-        if piv != j:
-            for k in range(n):
-                tmp = A[j, k]
-                A[j, k] = A[piv, k]
-                A[piv, k] = tmp
-            tmp = b[j]
-            b[j] = b[piv]
-            b[piv] = tmp
-        for i in range(j + 1, n):
-            f = A[i, j] / A[j, j]
-            for k in range(j, n):
-                A[i, k] -= f * A[j, k]
-            b[i] -= f * b[j]
-    for i in range(n - 1, -1, -1):
-        s = b[i]
-        for k in range(i + 1, n):
-            s -= A[i, k] * out[k]
-        out[i] = s / A[i, i]
-    return True
-
-
-@numba.njit(cache=True)
 def _rhs(y, u, act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, M, bias, J, v, acc, out):
     n = act.size
     _dynamics(y[:n], y[n:], act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, M, bias, J, v)
     for a in range(n):
         bias[a] = u[a] - bias[a]
         out[a] = y[n + a]
-    ok = _solve_lu(M, bias, acc)
+    # LU, not Cholesky: an identified M need not be positive definite, and the Python path
+    # only fails on an exactly singular (or non-finite) matrix
+    ok = solve(M, bias, acc)
     for a in range(n):
         out[n + a] = acc[a]
     return ok
@@ -281,6 +244,50 @@ def _mass_bias_batch(q, qd, act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp):
         Ms[b] = M
         bs[b] = bias
     return Ms, bs
+
+
+@numba.njit(cache=True)
+def _next_step(fixed_step, h_fixed, h, y, f, rtol, atol, remaining, max_step, dt_k):
+    """The next step towards the sample ``remaining`` ahead: ``(hk, last, h)``.
+
+    Fixed steps: ``h_fixed``, the last one of the interval absorbing round-off.
+    Adaptive: the proposal ``h`` (a starting guess from ``y`` and its rate ``f``
+    when ``h < 0``, which is returned as the new proposal), bounded by the sample
+    and ``max_step``; a step that would leave a sliver before the sample is halved.
+    The rule of :func:`pcs_sindy.integrators.integrate_zoh`, so both paths take the
+    same steps.
+    """
+    if fixed_step > 0:
+        return h_fixed, remaining <= 1.5 * h_fixed, h
+    d = y.size
+    if h < 0:
+        d0 = 0.0
+        d1 = 0.0
+        for j in range(d):
+            sc = atol + rtol * abs(y[j])
+            d0 += (y[j] / sc) ** 2
+            d1 += (f[j] / sc) ** 2
+        d0 = math.sqrt(d0 / d)
+        d1 = math.sqrt(d1 / d)
+        h = 0.01 * d0 / d1 if (d0 > 1e-5 and d1 > 1e-5) else 1e-6
+        h = min(h, dt_k)
+    hmax = max_step if max_step > 0 else dt_k
+    hk = min(h, remaining, hmax)
+    last = hk >= remaining * (1 - 1e-12)
+    if not last and remaining - hk < 0.1 * hk:
+        hk = 0.5 * remaining
+    return hk, last, h
+
+
+@numba.njit(cache=True)
+def _state_status(y, max_abs):
+    """``OK``, or why an accepted state ends the rollout (``NONFINITE``, ``TOO_LARGE``)."""
+    big = 0.0
+    for j in range(y.size):
+        if not math.isfinite(y[j]):
+            return NONFINITE
+        big = max(big, abs(y[j]))
+    return TOO_LARGE if big > max_abs else OK
 
 
 @numba.njit(cache=True)
@@ -332,27 +339,7 @@ def _dopri_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
             return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
         Ks[0] = kbuf
         while tc < t_end:
-            remaining = t_end - tc
-            if fixed_step > 0:
-                hk = h_fixed
-                last = remaining <= 1.5 * h_fixed
-            else:
-                if h < 0:
-                    d0 = 0.0
-                    d1 = 0.0
-                    for j in range(d):
-                        sc = atol + rtol * abs(y[j])
-                        d0 += (y[j] / sc) ** 2
-                        d1 += (Ks[0, j] / sc) ** 2
-                    d0 = math.sqrt(d0 / d)
-                    d1 = math.sqrt(d1 / d)
-                    h = 0.01 * d0 / d1 if (d0 > 1e-5 and d1 > 1e-5) else 1e-6
-                    h = min(h, dt_k)
-                hmax = max_step if max_step > 0 else dt_k
-                hk = min(h, remaining, hmax)
-                last = hk >= remaining * (1 - 1e-12)
-                if not last and remaining - hk < 0.1 * hk:
-                    hk = 0.5 * remaining
+            hk, last, h = _next_step(fixed_step, h_fixed, h, y, Ks[0], rtol, atol, t_end - tc, max_step, dt_k)
             ok = True
             for i in range(1, n_st):
                 for j in range(d):
@@ -403,68 +390,14 @@ def _dopri_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
                 n_rej += 1
             else:
                 n_steps += 1
-                big = 0.0
-                for j in range(d):
-                    if not math.isfinite(y_new[j]):
-                        return out, NONFINITE, k, tc + hk, y_new, n_steps, n_rej, n_eval
-                    big = max(big, abs(y_new[j]))
-                if big > max_abs:
-                    return out, TOO_LARGE, k, tc + hk, y_new, n_steps, n_rej, n_eval
+                status = _state_status(y_new, max_abs)
+                if status != OK:
+                    return out, status, k, tc + hk, y_new, n_steps, n_rej, n_eval
                 y[:] = y_new
                 tc = t_end if last else tc + hk
                 Ks[0] = Ks[n_st - 1]
         out[k + 1] = y
     return out, OK, T - 1, t[T - 1], y, n_steps, n_rej, n_eval
-
-
-@numba.njit(cache=True)
-def _lu_factor(A, piv):
-    """In-place LU with partial pivoting (``piv[j]`` = row swapped into j); False if singular."""
-    n = A.shape[0]
-    for j in range(n):
-        p = j
-        big = abs(A[j, j])
-        for i in range(j + 1, n):
-            if abs(A[i, j]) > big:
-                big = abs(A[i, j])
-                p = i
-        if not big > 0.0:  # also catches NaN
-            return False
-        piv[j] = p
-        if p != j:
-            for k in range(n):
-                tmp = A[j, k]
-                A[j, k] = A[p, k]
-                A[p, k] = tmp
-        inv = 1.0 / A[j, j]
-        for i in range(j + 1, n):
-            f = A[i, j] * inv
-            A[i, j] = f
-            for k in range(j + 1, n):
-                A[i, k] -= f * A[j, k]
-    return True
-
-
-@numba.njit(cache=True)
-def _lu_solve(A, piv, x):
-    """Solve in place with the factors of :func:`_lu_factor`."""
-    n = x.size
-    for j in range(n):
-        p = piv[j]
-        if p != j:
-            tmp = x[j]
-            x[j] = x[p]
-            x[p] = tmp
-    for i in range(n):
-        s = x[i]
-        for k in range(i):
-            s -= A[i, k] * x[k]
-        x[i] = s
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= A[i, k] * x[k]
-        x[i] = s / A[i, i]
 
 
 @numba.njit(cache=True)
@@ -531,33 +464,13 @@ def _ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
                     return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
                 M0[:, :] = M
                 need_f0 = False
-            remaining = t_end - tc
-            if fixed_step > 0:
-                hk = h_fixed
-                last = remaining <= 1.5 * h_fixed
-            else:
-                if h < 0:
-                    d0 = 0.0
-                    d1 = 0.0
-                    for j in range(d):
-                        sc = atol + rtol * abs(y[j])
-                        d0 += (y[j] / sc) ** 2
-                        d1 += (f0[j] / sc) ** 2
-                    d0 = math.sqrt(d0 / d)
-                    d1 = math.sqrt(d1 / d)
-                    h = 0.01 * d0 / d1 if (d0 > 1e-5 and d1 > 1e-5) else 1e-6
-                    h = min(h, dt_k)
-                hmax = max_step if max_step > 0 else dt_k
-                hk = min(h, remaining, hmax)
-                last = hk >= remaining * (1 - 1e-12)
-                if not last and remaining - hk < 0.1 * hk:
-                    hk = 0.5 * remaining
+            hk, last, h = _next_step(fixed_step, h_fixed, h, y, f0, rtol, atol, t_end - tc, max_step, dt_k)
             c = 1.0 / (hk * gam)
             for a in range(n):
                 for b in range(n):
                     S[a, b] = c * c * M0[a, b]
                 S[a, a] += c * damp[a] + stiff[a]
-            if not _lu_factor(S, piv):
+            if not lu_factor(S, piv):
                 return out, SINGULAR, k, tc, y, n_steps, n_rej, n_eval
             ok = True
             for i in range(n_st):
@@ -584,7 +497,7 @@ def _ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
                     for b in range(n):
                         s += M0[a, b] * (kbuf[n + b] + c * kbuf[b])
                     x1[a] = s + damp[a] * kbuf[a]
-                _lu_solve(S, piv, x1)
+                lu_solve(S, piv, x1)
                 for a in range(n):
                     U[i, a] = x1[a]
                     U[i, n + a] = c * x1[a] - kbuf[a]
@@ -611,7 +524,7 @@ def _ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
                     for b in range(n):
                         s += M0[a, b] * (kbuf[n + b] + c * kbuf[b])
                     x1[a] = s + damp[a] * kbuf[a]
-                _lu_solve(S, piv, x1)
+                lu_solve(S, piv, x1)
                 err = 0.0
                 for a in range(n):
                     e1 = c * x1[a]
@@ -637,13 +550,9 @@ def _ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs,
                 n_rej += 1  # f0 and M0 still hold the step's start
             else:
                 n_steps += 1
-                big = 0.0
-                for j in range(d):
-                    if not math.isfinite(y_new[j]):
-                        return out, NONFINITE, k, tc + hk, y_new, n_steps, n_rej, n_eval
-                    big = max(big, abs(y_new[j]))
-                if big > max_abs:
-                    return out, TOO_LARGE, k, tc + hk, y_new, n_steps, n_rej, n_eval
+                status = _state_status(y_new, max_abs)
+                if status != OK:
+                    return out, status, k, tc + hk, y_new, n_steps, n_rej, n_eval
                 y[:] = y_new
                 for j in range(d):
                     ymax[j] = max(ymax[j], abs(y_new[j]))

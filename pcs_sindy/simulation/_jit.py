@@ -25,6 +25,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from .._numba_linalg import lu_factor, lu_solve  # dense LU for the Newton systems
+
 _SERIES_LIMIT = 0.25
 
 # The Radau IIA tableau (A, C, E, mu) is passed in by dynamics.py, which defines it once;
@@ -364,60 +366,6 @@ def accel_jacobian(y, f0, tau, geo, ws, jac):
             jac[r, n + c] = (qdd[r] - f0[n + r]) / delta
 
 
-# --------------------------------------------------------------------------
-# dense LU for the Newton systems (sizes up to a few dozen)
-# --------------------------------------------------------------------------
-@njit(cache=True)
-def _lu_factor(A, piv):
-    """In-place LU with partial pivoting; False if singular."""
-    n = A.shape[0]
-    for k in range(n):
-        p = k
-        big = abs(A[k, k])
-        for i in range(k + 1, n):
-            if abs(A[i, k]) > big:
-                big = abs(A[i, k])
-                p = i
-        if big == 0.0 or not np.isfinite(big):
-            return False
-        piv[k] = p
-        if p != k:
-            for j in range(n):
-                tmp = A[k, j]
-                A[k, j] = A[p, j]
-                A[p, j] = tmp
-        inv = 1.0 / A[k, k]
-        for i in range(k + 1, n):
-            A[i, k] *= inv
-            f = A[i, k]
-            if f != 0.0:
-                for j in range(k + 1, n):
-                    A[i, j] -= f * A[k, j]
-    return True
-
-
-@njit(cache=True)
-def _lu_solve(A, piv, x):
-    """Solve in place with the factors of :func:`_lu_factor`."""
-    n = A.shape[0]
-    for k in range(n):
-        p = piv[k]
-        if p != k:
-            tmp = x[k]
-            x[k] = x[p]
-            x[p] = tmp
-    for i in range(n):
-        s = x[i]
-        for k in range(i):
-            s -= A[i, k] * x[k]
-        x[i] = s
-    for i in range(n - 1, -1, -1):
-        s = x[i]
-        for k in range(i + 1, n):
-            s -= A[i, k] * x[k]
-        x[i] = s / A[i, i]
-
-
 @njit(cache=True)
 def _stage_rms(D, scale):
     """Largest over the stages of the RMS of ``D / scale`` (the numpy path's norm)."""
@@ -463,7 +411,7 @@ def _factor_newton(jac, step, A, A2, big, piv):
                     big[i * n + r, j * n + c] = -a * jac[r, n + c] - a2 * jac[r, c]
     for r in range(3 * n):
         big[r, r] += 1.0
-    return _lu_factor(big, piv)
+    return lu_factor(big, piv)
 
 
 @njit(cache=True)
@@ -479,7 +427,7 @@ def _newton_solve(jac, step, A, big, piv, R, dZ, rhs_v):
                     for c in range(n):
                         v += a * jac[r, c] * R[j, c]
             rhs_v[i * n + r] = v
-    _lu_solve(big, piv, rhs_v)
+    lu_solve(big, piv, rhs_v)
     for i in range(3):
         for r in range(n):
             dZ[i, n + r] = rhs_v[i * n + r]
@@ -497,7 +445,7 @@ def _factor_error(jac, c0, small, piv):
         for c in range(n):
             small[r, c] = -jac[r, n + c] - jac[r, c] / c0
         small[r, r] += c0
-    return _lu_factor(small, piv)
+    return lu_factor(small, piv)
 
 
 @njit(cache=True)
@@ -509,7 +457,7 @@ def _error_solve(jac, c0, small, piv, rhs_in, out, tmp):
         for c in range(n):
             v += jac[r, c] * rhs_in[c] / c0
         tmp[r] = v
-    _lu_solve(small, piv, tmp)
+    lu_solve(small, piv, tmp)
     for r in range(n):
         out[n + r] = tmp[r]
         out[r] = (rhs_in[r] + tmp[r]) / c0
