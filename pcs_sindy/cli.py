@@ -478,10 +478,11 @@ def _fit(args: argparse.Namespace):
                 f"time stamps of tau file {tfile!r} and strain file {sfile!r} differ by more than half a sample"
             )
         taus.append(tau)
-    formulation = getattr(args, "formulation", None) or ("weak" if args.basis == "physical" else "strong")
+    formulation = args.formulation or ("weak" if args.basis == "physical" else "strong")
     model = EulerLagrangeRegressor(
         basis=args.basis, formulation=formulation, window_length=args.window_length, polyorder=args.polyorder,
-        exclude_force_jumps=not args.no_exclude_force_jumps, rest_strain=bool(getattr(args, "rest_strain", True)) and args.basis == "physical",
+        exclude_force_jumps=not args.no_exclude_force_jumps,
+        rest_strain=args.rest_strain and args.basis == "physical",
     )
     start = time.perf_counter()
     model.fit(strains, taus)
@@ -544,9 +545,8 @@ def _rollout(args: argparse.Namespace, model: Any = None, fusion: Any = None) ->
         raise CLIError(f"truth file {args.truth!r} has {truth.shape[1] - 1} markers; the segmentation has {s.size - 1}")
     out = _output_dir(args.out)
     start = time.perf_counter()
-    method = getattr(args, "method", "rosenbrock")
-    tol = {"rtol": 3e-5, "atol": 3e-8} if method == "rosenbrock" else {}
-    sim = model.simulate(q0, qd0, tau, t, progress=not args.quiet, method=method, **tol)
+    tol = {"rtol": 3e-5, "atol": 3e-8} if args.method == "rosenbrock" else {}
+    sim = model.simulate(q0, qd0, tau, t, progress=not args.quiet, method=args.method, **tol)
     seconds = time.perf_counter() - start
     poses = sim.poses(s)
     np.savez(out / "rollout.npz", t=t, q=sim.q, qd=sim.qd, poses=poses, marker_arc_lengths=s,
@@ -669,7 +669,8 @@ def _run_demo(args: argparse.Namespace, warmup: Any) -> Path:
     t0 = time.perf_counter()
     strain_files = [str(out / "strains" / (Path(p).stem + ".npz")) for p in pose_files]
     model = _fit(ns(strains=strain_files, tau=train_files, out=str(out / "model" / "model.json"), basis="physical",
-                    window_length=7, polyorder=3, no_exclude_force_jumps=False, quiet=quiet))
+                    window_length=7, polyorder=3, no_exclude_force_jumps=False, formulation=None,
+                    rest_strain=True, quiet=quiet))
     stage("fit", t0)
 
     t0 = time.perf_counter()
@@ -679,7 +680,8 @@ def _run_demo(args: argparse.Namespace, warmup: Any) -> Path:
         except Exception:  # noqa: BLE001 - an optimisation only
             warmup.kill()
     roll = _rollout(ns(model=str(out / "model" / "model.json"), tau=val_file, segmentation=None, truth=val_file,
-                       initial=None, n_markers=20, out=str(out / "rollout"), no_plot=True, quiet=quiet),
+                       initial=None, n_markers=20, out=str(out / "rollout"), no_plot=True, method="rosenbrock",
+                       quiet=quiet),
                     model=model, fusion=fusion)
     stage("rollout", t0)
 
