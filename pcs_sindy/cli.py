@@ -47,7 +47,7 @@ example ('pcs-sindy demo' step by step):
       --segmentation strains/segmentation.json --out rollout
 """
 
-SEED_TWO_SEGMENT = {  # DESIGN.md section 6, two_segment, no noise
+SEED_TWO_SEGMENT = {  # the seed's dynamics table, two_segment, no noise
     "segment_lengths": [0.068, 0.102],
     "e_p_dist_fusion": 2.40e-4,
     "e_theta_dist_fusion": 1.15e-2,
@@ -478,11 +478,13 @@ def _fit(args: argparse.Namespace):
                 f"time stamps of tau file {tfile!r} and strain file {sfile!r} differ by more than half a sample"
             )
         taus.append(tau)
-    formulation = args.formulation or ("weak" if args.basis == "physical" else "strong")
+    from .library import PhysicalPCSLibrary
+
+    library = PhysicalPCSLibrary(rest_strain=args.rest_strain) if args.basis == "physical" else "monomial"
+    defaults = EulerLagrangeRegressor().get_params()
     model = EulerLagrangeRegressor(
-        basis=args.basis, formulation=formulation, window_length=args.window_length, polyorder=args.polyorder,
-        exclude_force_jumps=not args.no_exclude_force_jumps,
-        rest_strain=args.rest_strain and args.basis == "physical",
+        library=library, formulation=args.formulation or defaults["formulation"], window_length=args.window_length,
+        polyorder=args.polyorder, exclude_force_jumps=not args.no_exclude_force_jumps,
     )
     start = time.perf_counter()
     model.fit(strains, taus)
@@ -546,7 +548,7 @@ def _rollout(args: argparse.Namespace, model: Any = None, fusion: Any = None) ->
     out = _output_dir(args.out)
     start = time.perf_counter()
     tol = {"rtol": 3e-5, "atol": 3e-8} if args.method == "rosenbrock" else {}
-    sim = model.simulate(q0, qd0, tau, t, progress=not args.quiet, method=args.method, **tol)
+    sim = model.simulate(q0, qd0, t, tau, progress=not args.quiet, method=args.method, **tol)
     seconds = time.perf_counter() - start
     poses = sim.poses(s)
     np.savez(out / "rollout.npz", t=t, q=sim.q, qd=sim.qd, poses=poses, marker_arc_lengths=s,
@@ -600,10 +602,11 @@ def _rollout_plot(path: Path, t: np.ndarray, sim: Any, poses: np.ndarray, truth:
 # simulation, so that a cold start compiles them on the otherwise idle second core.
 _ROLLOUT_WARMUP = """
 import numpy as np
-from pcs_sindy._jit_rollout import LumpedModel
-model = LumpedModel([0.07, 0.1], np.ones(6, bool), [1.0, 1.0], [1e-4, 1e-4], [[0.0, 10.0], [0.0, 10.0]],
-                    np.ones(6), 0.1 * np.ones(6))
-model.rollout(np.zeros(12), np.arange(3) * 1e-3, np.zeros((3, 6)))
+from pcs_sindy.forward import LumpedPCSModel
+from pcs_sindy.kinematics import PlanarPCS
+model = LumpedPCSModel(PlanarPCS((0.07, 0.1)), [1.0, 1.0], [1e-4, 1e-4], [[0.0, 10.0], [0.0, 10.0]],
+                       np.ones(6), 0.1 * np.ones(6))
+model.simulate(np.zeros(6), np.zeros(6), np.arange(3) * 1e-3, np.zeros((3, 6)))
 """
 
 
@@ -965,9 +968,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="identify a constant force per strain, i.e. a rest strain: pre-curved robots, or a rest "
                         "length estimated rather than measured (default on; physical basis only)")
     p.add_argument("--formulation", choices=["weak", "strong"], default=None,
-                   help="regress window integrals (weak: no accelerations, robust to noise; default with the physical "
-                        "basis) or every sample with Savitzky-Golay accelerations (strong; the seed's, default with "
-                        "the monomial basis)")
+                   help="regress window integrals (weak: no accelerations, robust to noise; the default) or every "
+                        "sample with Savitzky-Golay accelerations (strong; the seed's)")
     common(p)
 
     p = add("rollout", "simulate a model under tau: predicted strains and poses, metrics against a truth", _rollout)
@@ -999,7 +1001,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pcs-sindy`` console script; returns the exit code."""
-    from .integrators import DivergenceError
+    from .integration import SimulationError as DivergenceError
 
     parser = build_parser()
     args = parser.parse_args(argv)

@@ -195,12 +195,14 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         ``c_sh`` of the shear stiffness ``c_sh G A``.
     stiffness_scaling : {"seed", "length"}, default "seed"
         ``f_L = 1`` or ``f_L = L_i`` in ``K_max = f_L diag(...)``; must match
-        the convention of the data (see DESIGN.md §3).
+        the convention of the data (see docs/method.md).
     max_stiffness : array_like of shape (3m,), optional
         Explicit bounds per strain (full strain order); overrides the material
         parameters above.
-    threshold : bool, default True
-        Remove strains above the bound.  ``False`` fits all strains once.
+    threshold : float, default 1.0
+        Remove a strain whose identified stiffness exceeds ``threshold`` times
+        its bound (``max_stiffness_``); ``np.inf`` fits all strains once.  Lower
+        values treat softer strains as rigid (a hyperparameter to search over).
     rcond : float, default 1e-10
         Relative singular-value cut-off of the column-scaled design; a smaller
         singular value means rank deficiency and raises.
@@ -272,7 +274,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         shear_factor: float = 4.0 / 3.0,
         stiffness_scaling: str = "seed",
         max_stiffness: ArrayLike | None = None,
-        threshold: bool = True,
+        threshold: float = 1.0,
         rcond: float = 1e-10,
         bounded: bool = True,
         max_iter: int = 20,
@@ -325,6 +327,22 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             raise ValueError(f"max_iter must be a positive integer; got {self.max_iter!r}")
         if not np.isfinite(self.rcond) or not 0 < self.rcond < 1:
             raise ValueError(f"rcond must be in (0, 1); got {self.rcond!r}")
+        self._threshold()
+
+    def _threshold(self) -> float:
+        """The removal factor; booleans (the former switch) are translated with a FutureWarning."""
+        thr = self.threshold
+        if isinstance(thr, (bool, np.bool_)):
+            warnings.warn(
+                f"threshold={thr!r} (a switch) is deprecated: threshold is the factor on the stiffness bound; "
+                f"use threshold={'1.0' if thr else 'np.inf'}",
+                FutureWarning,
+                stacklevel=4,
+            )
+            return 1.0 if thr else np.inf
+        if not isinstance(thr, (int, float, np.integer, np.floating)) or np.isnan(thr) or not thr > 0:
+            raise ValueError(f"threshold must be a number > 0 (factor on the stiffness bound; np.inf: no removal); got {thr!r}")
+        return float(thr)
 
     def _bounds(self, library: Any) -> NDArray[np.float64]:
         lengths = library.kinematics.segment_lengths
@@ -487,6 +505,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             raise ValueError(f"x has {n_feat} columns but the library has {library.n_coefficients_} coefficients")
         tau = y.reshape(n_samples, n_act)
         bounds = self._bounds(library)
+        factor = self._threshold()
         names = kin.strain_names()
 
         mask = start_mask.copy()
@@ -502,11 +521,10 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb)
             stiff = np.full(3 * m, np.inf)
             # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
-            factor = float(getattr(lib_r, "stiffness_factor_", -2.0))
-            stiff[mask] = factor * coef_r[np.asarray(lib_r.stiffness_index_)]
+            stiff[mask] = float(lib_r.stiffness_factor_) * coef_r[np.asarray(lib_r.stiffness_index_)]
             coef_full = np.zeros(n_feat)
             coef_full[col_map] = coef_r
-            exceed = mask & (stiff > bounds) if self.threshold else np.zeros_like(mask)
+            exceed = mask & (stiff > factor * bounds) if np.isfinite(factor) else np.zeros_like(mask)
             new_removed = [names[e] for e in np.flatnonzero(exceed)]
             history.append(
                 {

@@ -108,11 +108,7 @@ class ClassSpec:
 
 
 def _validate_library(obj: Any) -> None:
-    obj._validate()
-
-
-def _validate_physical_library(obj: Any) -> None:
-    obj._spec  # builds (and so validates) the structure
+    obj._check_params()
 
 
 def _validate_pipeline(obj: Any) -> None:
@@ -133,7 +129,7 @@ REGISTRY: dict[str, ClassSpec] = {
         validate=lambda o: o._check_params(),
     ),
     "PCSLagrangianLibrary": ClassSpec("pcs_sindy.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library),
-    "PhysicalPCSLibrary": ClassSpec("pcs_sindy.library.physical", "PhysicalPCSLibrary", validate=_validate_physical_library),
+    "PhysicalPCSLibrary": ClassSpec("pcs_sindy.library.physical", "PhysicalPCSLibrary", validate=_validate_library),
     "MarkerPoseExtractor": ClassSpec(
         "pcs_sindy.vision", "MarkerPoseExtractor", params_only=True, validate=lambda o: o._validate()
     ),

@@ -1,14 +1,16 @@
 """One scikit-learn Pipeline from videos (or poses) and forces to a PCS model.
 
-:func:`make_pcs_pipeline` chains the three estimators of DESIGN.md §2::
+:func:`make_pcs_pipeline` chains the three estimators of the package::
 
     Pipeline([("poses", MarkerPoseExtractor),      # videos -> PoseTrajectory
               ("segments", KinematicFusion),        # poses  -> StrainTrajectory
               ("dynamics", EulerLagrangeRegressor)])  # strains + tau -> model
 
 ``pipeline.fit(videos, taus)`` fits it; ``predict``/``score`` are the
-regressor's (forces by inverse dynamics, R^2); :meth:`PCSPipeline.simulate`
-and :meth:`PCSPipeline.simulate_poses` roll the identified model out.
+regressor's (forces by inverse dynamics; R^2 of window-integrated forces);
+:meth:`PCSPipeline.simulate` and :meth:`PCSPipeline.simulate_poses` roll the
+identified model out, :meth:`PCSPipeline.rollout_error` scores rollouts (see
+:func:`pcs_sindy.metrics.rollout_scorer`).
 
 The sample unit is a recording: ``X`` is a list with one entry per recording
 and ``y`` the list of their force arrays, so scikit-learn's model selection
@@ -117,6 +119,11 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         )
 
     # -- shortcuts -------------------------------------------------------------
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False  # X is a list of videos or pose recordings
+        return tags
+
     def _fitted_step(self, name: str) -> Any:
         if name not in self.named_steps:
             raise AttributeError(f"this pipeline has no {name!r} step (steps: {list(self.named_steps)})")
@@ -192,16 +199,27 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         return st.q[sample].copy(), rate[sample].copy()
 
     # -- rollouts --------------------------------------------------------------
-    def simulate(self, q0: ArrayLike, qd0: ArrayLike, tau: Any, t: ArrayLike, **kw: Any) -> StrainTrajectory:
-        """Roll out the identified model: the ``dynamics`` step's ``simulate(q0, qd0, tau, t, **kw)``."""
-        return self.model_.simulate(q0, qd0, tau, t, **kw)
+    def simulate(self, q0: ArrayLike, qd0: ArrayLike, t: Any = None, u: Any = None, **kw: Any) -> StrainTrajectory:
+        """Roll out the identified model: the ``dynamics`` step's ``simulate(q0, qd0, t, u, **kw)``."""
+        from .regressor import _simulate_inputs
+
+        t, u = _simulate_inputs(t, u, kw.pop("tau", None))
+        return self.model_.simulate(q0, qd0, t, u, **kw)
+
+    def rollout_error(self, X: Any, y: Sequence[ArrayLike], **kw: Any) -> NDArray[np.float64]:
+        """Tip position error (m) of rolling each recording of ``X`` out under ``y``.
+
+        ``X`` goes through the fitted transformers (videos or poses), then the
+        ``dynamics`` step's :meth:`~pcs_sindy.regressor.EulerLagrangeRegressor.rollout_error`.
+        """
+        return self.model_.rollout_error(self.transform_strains(X), y, **kw)
 
     def simulate_poses(
         self,
         q0: ArrayLike,
         qd0: ArrayLike,
-        tau: Any,
-        t: ArrayLike,
+        t: Any = None,
+        u: Any = None,
         *,
         base_pose: ArrayLike | None = None,
         **kw: Any,
@@ -210,7 +228,7 @@ class PCSPipeline(PersistenceMixin, Pipeline):
 
         Parameters
         ----------
-        q0, qd0, tau, t, **kw
+        q0, qd0, t, u, **kw
             As :meth:`simulate`.
         base_pose : array_like, shape (3,), optional
             Pose of the robot's base (x, y, θ) in the frame of the extracted
@@ -223,7 +241,10 @@ class PCSPipeline(PersistenceMixin, Pipeline):
             marker arc lengths, via the ``segments`` step's ``inverse_transform``.
         """
         fusion = self.fusion_
-        sim = self.simulate(q0, qd0, tau, t, **kw)
+        from .regressor import _simulate_inputs
+
+        t, u = _simulate_inputs(t, u, kw.pop("tau", None))
+        sim = self.simulate(q0, qd0, t, u, **kw)
         if base_pose is not None:
             bp = np.asarray(base_pose, dtype=float)
             if bp.shape != (3,) or not np.all(np.isfinite(bp)):
@@ -278,15 +299,10 @@ def make_pcs_pipeline(
     fusion : KinematicFusion, optional
         The ``segments`` step; default ``KinematicFusion()`` (h = 0.2).
     regressor : EulerLagrangeRegressor, optional
-        The ``dynamics`` step; default the recommended settings for held
-        actuation, ``EulerLagrangeRegressor(basis="physical", formulation="weak",
-        window_length=7, exclude_force_jumps=True, rest_strain=True,
-        optimizer=StiffnessThresholdOptimizer())`` (the weak form needs no
-        accelerations, see the noise study in ``docs/results.md``; identified
-        rest strains absorb a rest length estimated rather than measured, see
-        "Rest length" there)
-        (an explicit optimizer so that grid searches can reach
-        ``dynamics__optimizer__youngs_modulus_max`` etc.).
+        The ``dynamics`` step; default ``EulerLagrangeRegressor()`` (its
+        defaults are the recommended settings) with an explicit
+        ``StiffnessThresholdOptimizer()`` so that grid searches can reach
+        ``dynamics__optimizer__threshold`` etc.
     start : {"videos", "poses"}
         ``"videos"``: X holds videos (paths, image folders, frame arrays);
         ``"poses"``: X holds pose trajectories (``PoseTrajectory`` or arrays
@@ -310,22 +326,24 @@ def make_pcs_pipeline(
     grid-search candidates (``GridSearchCV(n_jobs=...)``) goes through joblib,
     so the same code runs on a cluster by switching joblib's backend::
 
-        from joblib import parallel_backend
-        with parallel_backend("dask"):          # after dask.distributed.Client(...)
+        from dask.distributed import Client
+        from joblib import parallel_config
+        client = Client()                       # or Client("scheduler-address:8786")
+        with parallel_config(backend="dask"):
             search.fit(videos, taus, groups=groups)
 
     (``"ray"`` after ``ray.util.joblib.register_ray()``; the default is
     ``"loky"``, processes on this machine.)
 
     Cross-validation by recording, e.g. over the fusion threshold h and the
-    sparsification bound E_max::
+    sparsification threshold (a factor on the material bound)::
 
         from sklearn.model_selection import GridSearchCV, GroupKFold
         pipe = make_pcs_pipeline(start="poses")
         search = GridSearchCV(
             pipe,
             {"segments__threshold": [0.1, 0.2, 0.5],
-             "dynamics__optimizer__youngs_modulus_max": [1e7, 1e8]},
+             "dynamics__optimizer__threshold": [1.0, 0.1, 0.01]},
             cv=GroupKFold(4), error_score=np.nan)
         search.fit(poses, taus, groups=recording_groups(poses))
 
@@ -359,14 +377,7 @@ def make_pcs_pipeline(
     if fusion is None:
         fusion = KinematicFusion()
     if regressor is None:
-        regressor = EulerLagrangeRegressor(
-            basis="physical",
-            formulation="weak",
-            window_length=7,
-            exclude_force_jumps=True,
-            rest_strain=True,
-            optimizer=StiffnessThresholdOptimizer(),
-        )
+        regressor = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer())
     steps: list[tuple[str, Any]] = []
     if start == "videos":
         steps.append(("poses", MarkerPoseExtractor() if extractor is None else extractor))

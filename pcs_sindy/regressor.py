@@ -1,27 +1,20 @@
 """Euler–Lagrange regression of a PCS model from strain trajectories and forces.
 
-``EulerLagrangeRegressor().fit(strains, taus)`` differentiates the strains
-(Savitzky–Golay by default), evaluates the Euler–Lagrange images of the PCS
-Lagrangian basis (:class:`~pcs_sindy.library.PCSLagrangianLibrary`), and
-solves ``tau = Psi pi+`` with :class:`~pcs_sindy.optimizers.StiffnessThresholdOptimizer`
-(which removes over-stiff strains).  The fitted model predicts forces
-(inverse dynamics), exposes ``M(q)``, bias and potential forces, and rolls out
-(forward dynamics) with an explicit Dormand–Prince 5(4) scheme or, for stiff
-models, the linearly implicit Rosenbrock-W scheme ROS34PW2 (``method="rosenbrock"``).
+:class:`EulerLagrangeRegressor` composes three parts and adds nothing of its own
+physics:
 
-With actuation held piecewise constant (the seed's data), ``qdd`` jumps at
-every change of the force and a Savitzky–Golay window straddling a jump
-misestimates it; on the seed's one-segment data that bias costs 15-30 % on the
-stiffness.  ``window_length=7, exclude_force_jumps=True`` removes most of it;
-the weak form ``formulation="weak"`` (window integrals, no ``qdd``, held forces
-integrated exactly) with ``basis="physical"`` (numeric physical parameters,
-bounded least squares) removes it entirely and is the recommended setting:
-``EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=7)``;
-see ``benchmarks/dynamic_identification.py`` and ``benchmarks/noise_robustness.py``.
-After ``fit``, ``identifiability_`` / :meth:`EulerLagrangeRegressor.identifiability_report`
-say which coefficients the recordings determined.
+* a Lagrangian library (the contract :class:`~pcs_sindy.library.base.LagrangianLibrary`:
+  :class:`~pcs_sindy.library.PhysicalPCSLibrary` by default, the seed's
+  monomial :class:`~pcs_sindy.library.PCSLagrangianLibrary` in the seed preset),
+* a formulation (:mod:`pcs_sindy.formulations`: window integrals by default,
+  sample-wise rows in the seed preset),
+* an optimizer (:class:`~pcs_sindy.optimizers.StiffnessThresholdOptimizer`, which
+  removes strains stiffer than the material maximum, or any pysindy optimizer),
 
-Identification side: never imports :mod:`pcs_sindy.simulation`.
+and hands rollouts to the library's compiled forward model
+(:mod:`pcs_sindy.forward`).  The defaults are the best measured settings
+(docs/results.md); :meth:`EulerLagrangeRegressor.seed_method` reproduces the
+seed's method.
 """
 
 from __future__ import annotations
@@ -32,21 +25,29 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.signal import savgol_filter
+from pysindy.optimizers import BaseOptimizer
 from sklearn.base import BaseEstimator, RegressorMixin, clone
 from sklearn.utils.validation import check_is_fitted
 
-from .integrators import DivergenceError, integrate_zoh
+from . import formulations as _form
+from . import identifiability as _ident
 from ._saving import PersistenceMixin
+from .integration import DivergenceError
 from .kinematics import PlanarPCS
+from .forward import reduce_strains
+from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
 from .trajectory import StrainTrajectory, as_strain_trajectories
 
-__all__ = ["EulerLagrangeRegressor", "DivergenceError"]
+__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "SCORE_WINDOWS"]
 
-# compiled rollouts: Gauss–Legendre nodes per segment while |kappa_i L_i| stays below the bound
-_FAST_QUAD_NODES = 8
-_FAST_QUAD_MAX_KL = 6.0
+#: Savitzky–Golay window and order of the rates in :meth:`EulerLagrangeRegressor.score` (fixed, so every
+#: candidate of a search is scored against the same targets)
+SCORE_DERIVATIVES = (7, 3)
+#: weak-form windows (sampling intervals, stride) of :meth:`EulerLagrangeRegressor.score` (shorter in recordings
+#: too short for three of them)
+SCORE_WINDOWS = (40, 20)
+_LIBRARIES = ("physical", "monomial")
 
 
 def _check_list(y: Any, n: int, name: str) -> list:
@@ -59,284 +60,202 @@ def _check_list(y: Any, n: int, name: str) -> list:
     return list(y)
 
 
-def _solve3(mass: NDArray[np.float64], rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-    # Cramer's rule on Python floats: ~10x cheaper than np.linalg.solve for 3 x 3,
-    # which dominates the per-stage cost of a rollout
-    (a, b, c), (d, e, f), (g, h, i) = mass.tolist()
-    r0, r1, r2 = rhs.tolist()
-    c0 = e * i - f * h
-    c1 = f * g - d * i
-    c2 = d * h - e * g
-    det = a * c0 + b * c1 + c * c2
-    if det == 0.0 or det != det:
-        raise np.linalg.LinAlgError(f"singular mass matrix (det = {det})")
-    inv = 1.0 / det
-    return np.array(
-        [
-            (c0 * r0 + (c * h - b * i) * r1 + (b * f - c * e) * r2) * inv,
-            (c1 * r0 + (a * i - c * g) * r1 + (c * d - a * f) * r2) * inv,
-            (c2 * r0 + (b * g - a * h) * r1 + (a * e - b * d) * r2) * inv,
-        ]
-    )
-
-
-def _make_rhs(dyn: Callable, n: int) -> Callable[[NDArray[np.float64], NDArray[np.float64]], NDArray[np.float64]]:
-    """State derivative ``[qd, M^-1 (tau - bias)]`` with minimal per-call overhead."""
-    solve = _solve3 if n == 3 else np.linalg.solve
-    out = np.empty(2 * n)
-
-    def rhs(y: NDArray[np.float64], u_k: NDArray[np.float64]) -> NDArray[np.float64]:
-        qdk = y[n:]
-        mass, bias = dyn(y[:n], qdk)
-        res = out.copy()
-        res[:n] = qdk
-        res[n:] = solve(mass, u_k - bias)
-        return res
-
-    return rhs
+def _is_int(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, np.integer))
 
 
 class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     """Identify ``M(q) qdd + C(q, qd) qd + G(q) + K q + D qd = tau`` by regression.
 
+    The defaults are the package's recommended method; :meth:`seed_method`
+    gives the seed's.
+
     Parameters
     ----------
-    library : PCSLagrangianLibrary, PhysicalPCSLibrary or {"monomial", "physical"}, optional
-        Library to use; default: one built in ``fit`` from the segmentation
-        carried by the strain trajectories.  A given library must describe the
-        same segmentation and active strains as the data.  A string names the
-        ``basis`` of the default library.
-    basis : {"monomial", "physical"}, default "monomial"
-        Basis of the default library.  ``"monomial"``: the seed's symbolic
-        :class:`~pcs_sindy.library.PCSLagrangianLibrary`, one coefficient per
-        distinct basis function.  ``"physical"``: the numeric
-        :class:`~pcs_sindy.library.PhysicalPCSLibrary`, one coefficient per
-        physical unknown (line density, rotary inertia, stiffness and damping
-        per segment; no symbolic derivation, any number of segments), fitted by
-        bounded least squares so every density, stiffness and damping is
-        ``>= 0`` (positive-definite mass matrix, passive model).  The symbolic
-        lumped basis stays available as
-        ``library=PCSLagrangianLibrary(lengths, basis="physical")``.  Ignored
-        when ``library`` is a library object.
-    optimizer : StiffnessThresholdOptimizer, optional
-        Cloned in ``fit``; default ``StiffnessThresholdOptimizer()`` (the
-        seed's bounds, ``f_L = 1``).
-    differentiation_method : pysindy differentiation object, optional
-        Called as ``method(x, t)``; used for ``qd`` from ``q`` and ``qdd`` from
-        ``qd``.  Default: Savitzky–Golay (``window_length``, ``polyorder``).
-    window_length : int, default 25
-        Savitzky–Golay window (odd, samples).
+    library : LagrangianLibrary or {"physical", "monomial"}, optional
+        The Lagrangian library, cloned and fitted on the data's segmentation in
+        :meth:`fit`.  Default ``PhysicalPCSLibrary()``: one coefficient per
+        physical unknown (line density, rotary inertia, stiffness, damping,
+        rest force per strain), any number of segments, bounded fits (passive
+        model, positive-definite ``M``).  ``"monomial"``: the seed's symbolic
+        :class:`~pcs_sindy.library.PCSLagrangianLibrary`.
+    formulation : {"weak", "strong"}, default "weak"
+        ``"weak"``: regress window integrals ``int phi tau dt = int phi Psi dt @ coef``
+        with the bump test function over windows of ``weak_window`` intervals
+        (no ``qdd``; held forces integrated exactly).  ``"strong"``: regress
+        ``tau = Psi(q, qd, qdd) @ coef`` sample by sample.
+    optimizer : pysindy optimizer, optional
+        Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
+        material bounds; removes over-stiff strains).  Any other pysindy
+        ``BaseOptimizer`` (``STLSQ``, ``SR3``, ...) fits the same rows without
+        strain removal or bounds.
+    differentiation_method : callable, optional
+        ``method(x, t)`` giving ``qd`` from ``q`` and ``qdd`` from ``qd`` (e.g. a
+        pysindy differentiation object).  Default: Savitzky–Golay.
+    window_length : int, default 7
+        Savitzky–Golay window (odd, samples) of the rates (and accelerations).
+        Short windows keep the kink of ``qd`` at every jump of a held force.
     polyorder : int, default 3
         Savitzky–Golay polynomial order.
     exclude_force_jumps : bool, default False
-        Leave out of the regression every sample whose Savitzky–Golay window
-        contains a jump of the (piecewise-constant, held) actuation, and the
-        ``window_length // 2`` samples at each end.  ``qdd`` jumps with the
-        force, so a polynomial fit across a jump misestimates it; with the
-        seed's data (forces held 10 ms, axial/shear time constants below 1 ms)
-        this bias dominates.  Needs a window shorter than the hold (e.g. 5 or 7
-        samples for 10 ms holds at 1 kHz); raises if no sample is left.  Only
-        for held (step) actuation: smooth actuation changes every sample.
-    cache_dir : str, optional
-        Disk cache of the default library.
-    check_mass_matrix : bool, default True
-        After fit, evaluate ``M(q)`` on the training samples and warn if it is
-        not positive definite on some of them.
-    rtol, atol : float
-        Tolerances of the adaptive rollout in :meth:`simulate`.
-    progress : bool, default False
-        Progress bars in ``simulate``.
-    formulation : {"strong", "weak"}, default "strong"
-        ``"strong"``: regress ``tau`` sample by sample on ``Psi(q, qd, qdd)``
-        (needs ``qdd``).  ``"weak"``: regress the window integrals
-        ``int phi tau dt = (int phi Psi dt) coef`` with the bump test function
-        ``phi = (4x(1-x))^3`` over windows of ``weak_window`` sampling
-        intervals; integration by parts removes ``qdd`` and moves the time
-        derivative onto ``phi``, so only ``q`` and ``qd`` (Savitzky–Golay of
-        ``window_length``, or given) enter, averaged over each window; the
-        forces are integrated exactly as held (zero-order hold, see
-        ``weak_hold``).  Needs a library with ``integrated_euler_lagrange_matrix``
-        (``basis="physical"``).  ``exclude_force_jumps`` is not used (held
-        forces integrate exactly across their jumps).  :meth:`predict` and
-        :meth:`score` stay strong-form force predictions (they need ``qdd``).
-        Use a short ``window_length`` (e.g. 7): ``qd`` has a kink at every
-        force jump, which a long Savitzky–Golay window smooths away (measured
-        on two_segment, noise-free, 7 s validation tip error: 0.024 mm with
-        7, 0.26 mm with 15).
+        Strong form: leave out every sample whose Savitzky–Golay window contains
+        a jump of the held actuation (and the ends); for step actuation only.
     weak_window : int, default 40
-        Window length of the weak form in sampling intervals (>= 2); every
-        recording needs more samples than this.
+        Weak form: window length in sampling intervals (every recording needs more samples).
     weak_stride : int, default 20
-        Step between consecutive weak-form windows in samples (>= 1).
-        Overlapping windows (stride < window) reuse data; their residuals are
-        correlated, which ``identifiability_`` (independent rows assumed)
-        does not account for: its standard errors are then optimistic.
+        Weak form: step between windows in samples.
     weak_hold : {"zoh", "trapezoid"}, default "zoh"
-        How ``tau`` is integrated in the weak form: held constant on
-        ``[t_k, t_{k+1})`` (exact for the scenarios' and the seed's held
-        actuation) or by the trapezoid rule (smooth actuation).
-    gravity : sequence of float, shape (2,), default (0, 9.81)
-        Known gravity in the base frame for ``basis="physical"`` (the monomial
-        basis identifies gravity inside its coefficients).
-    identify_gravity : bool, default False
-        ``basis="physical"``: identify ``rho A g`` per segment (two free
-        columns each) instead of using ``gravity``.
-    rotary_inertia : {"free", "tied", "none"}, default "free"
-        ``basis="physical"``: rotary inertia per segment identified
-        (``"free"``), tied to the line density for a solid circular section of
-        the optimizer's ``radius`` (``"tied"``; one mass unknown per segment,
-        better conditioned under noise), or neglected.
-    rest_strain : bool, default False
-        ``basis="physical"``: identify a constant generalised force ``f0`` per
-        strain (``... + K q - f0 = tau``, ``f0 = K q*`` for a rest strain
-        ``q*``); also absorbs a wrong rest length.  Not available with the
-        monomial basis; ignored when ``library`` is a library object (set
-        ``PhysicalPCSLibrary(..., rest_strain=True)`` there).
+        Weak form: ``tau`` held on ``[t_k, t_{k+1})`` (exact for held actuation)
+        or integrated by the trapezoid rule (smooth actuation).
+    check_mass_matrix : bool, default True
+        Warn after ``fit`` if ``M(q)`` is not positive definite on some training samples.
+    rtol, atol : float, default 3e-5, 3e-8
+        Default tolerances of :meth:`simulate`.
+    progress : bool, default False
+        Progress bars in :meth:`simulate` (solve_ivp paths).
 
     Attributes
     ----------
     coef_ : ndarray, shape (n_psi,)
-        Coefficients in the columns of ``full_library_`` (Lagrangian terms,
-        then one damping coefficient per strain); columns dropped by strain
-        removal are exactly 0.
+        Coefficients in the columns of ``full_library_``; columns dropped by
+        strain removal are exactly 0.
     model_coef_ : ndarray
-        ``coef_[column_map_]``: coefficients of ``library_``.
-    full_library_, library_ : PCSLagrangianLibrary
-        The library of the data's strains and the limit-rule library of the
-        kept strains (the same object when nothing was removed).
+        ``coef_[column_map_]``: the coefficients of ``library_``.
+    full_library_, library_ : LagrangianLibrary
+        The library fitted on the data and the library of the kept strains.
     column_map_ : ndarray of int
         Columns of ``full_library_`` kept in ``library_``.
     active_strains_ : ndarray of bool, shape (m, 3)
         Modelled strains after sparsification.
-    stiffness_ : ndarray, shape (3m,)
-        Identified stiffness: ``-2 *`` the ``q_e^2`` coefficient of a Lagrangian
-        basis, the stiffness parameter itself for ``PhysicalPCSLibrary``; ``inf``
-        for a strain that is not modelled (removed as rigid, or absent from the data).
-    damping_ : ndarray, shape (3m,)
-        Identified damping; ``0`` for strains that are not modelled.
-    rest_strain_ : ndarray, shape (3m,)
-        Identified rest strain ``f0 / stiffness`` (library with ``rest_strain``);
-        ``0`` without ``f0`` columns and for strains that are not modelled
-        (``inf`` for a strain of zero stiffness and nonzero ``f0``).
+    stiffness_, damping_, rest_strain_ : ndarray, shape (3m,)
+        Identified stiffness (``inf`` for a strain not modelled), damping (0
+        there) and rest strain ``f0 / stiffness`` (0 without constant forces).
     removed_strains_ : list of str
         Strains removed by the stiffness threshold.
-    optimizer_ : StiffnessThresholdOptimizer
-        The fitted optimizer (``history_`` of the removal rounds).
+    optimizer_ : the fitted optimizer
     kinematics_ : PlanarPCS
         Segmentation with ``active_strains_``.
-    mass_matrix_not_pd_fraction_ : float
-        Fraction of training samples where the identified ``M(q)`` is not
-        positive definite (reported as 0 when ``check_mass_matrix=False``).
-    n_regression_samples_ : int
-        Samples used in the regression (after ``exclude_force_jumps``); with
-        ``formulation="weak"`` the number of windows.
     identifiability_ : dict or None
-        What the data determined, from the final regression (strong rows or
-        weak-form windows) of the kept strains:
-        ``condition_number`` (column-scaled regression matrix), ``rank``,
-        ``singular_values``, ``residual_std``, ``names`` (``model_coef_``
-        names), ``standard_errors`` and ``relative_standard_errors`` of
-        ``model_coef_`` (``s^2 (X^T X)^-1`` with the residual variance ``s^2``;
-        ``inf`` for undetermined coefficients), ``poorly_determined`` (names
-        with relative standard error above ``identifiability_tol``) and
-        ``poorly_excited_strains`` (strains whose stiffness or damping is
-        poorly determined: the recordings did not excite them enough).
-        Coefficients held at a bound of the bounded fit are reported like the
-        others.  None (with a warning) when the regression has no more rows
-        than coefficients.  See :meth:`identifiability_report`.
-    identifiability_tol : float
-        (class attribute, 0.1) relative standard error above which a
-        coefficient is reported as poorly determined.
+        What the data determined (see :mod:`pcs_sindy.identifiability`);
+        None when the regression has no more rows than coefficients.
+    mass_matrix_not_pd_fraction_ : float
+        Fraction of training samples where ``M(q)`` is not positive definite.
+    n_regression_samples_ : int
+        Rows of the regression per strain (samples, or windows in the weak form).
     fit_time_ : float
         Wall time of ``fit`` (s).
     """
 
+    identifiability_tol = 0.1
+
     def __init__(
         self,
         library: Any = None,
-        basis: str = "monomial",
-        optimizer: StiffnessThresholdOptimizer | None = None,
+        formulation: str = "weak",
+        optimizer: Any = None,
         differentiation_method: Any = None,
-        window_length: int = 25,
+        window_length: int = 7,
         polyorder: int = 3,
         exclude_force_jumps: bool = False,
-        cache_dir: str | None = None,
-        check_mass_matrix: bool = True,
-        rtol: float = 1e-6,
-        atol: float = 1e-9,
-        progress: bool = False,
-        formulation: str = "strong",
         weak_window: int = 40,
         weak_stride: int = 20,
         weak_hold: str = "zoh",
-        gravity: Sequence[float] = (0.0, 9.81),
-        identify_gravity: bool = False,
-        rotary_inertia: str = "free",
-        rest_strain: bool = False,
+        check_mass_matrix: bool = True,
+        rtol: float = 3e-5,
+        atol: float = 3e-8,
+        progress: bool = False,
     ) -> None:
         self.library = library
-        self.basis = basis
+        self.formulation = formulation
         self.optimizer = optimizer
         self.differentiation_method = differentiation_method
         self.window_length = window_length
         self.polyorder = polyorder
         self.exclude_force_jumps = exclude_force_jumps
-        self.cache_dir = cache_dir
+        self.weak_window = weak_window
+        self.weak_stride = weak_stride
+        self.weak_hold = weak_hold
         self.check_mass_matrix = check_mass_matrix
         self.rtol = rtol
         self.atol = atol
         self.progress = progress
-        self.formulation = formulation
-        self.weak_window = weak_window
-        self.weak_stride = weak_stride
-        self.weak_hold = weak_hold
-        self.gravity = gravity
-        self.identify_gravity = identify_gravity
-        self.rotary_inertia = rotary_inertia
-        self.rest_strain = rest_strain
 
-    identifiability_tol = 0.1
+    @classmethod
+    def seed_method(cls, **overrides: Any) -> "EulerLagrangeRegressor":
+        """The seed's method: monomial Lagrangian basis, strong form, Savitzky–Golay 25/3.
 
-    # ------------------------------------------------------------------
-    # data handling
-    # ------------------------------------------------------------------
+        Parameters
+        ----------
+        **overrides
+            Other constructor arguments (e.g. ``optimizer``).
+
+        Returns
+        -------
+        EulerLagrangeRegressor
+        """
+        params = {"library": "monomial", "formulation": "strong", "window_length": 25, "polyorder": 3}
+        params.update(overrides)
+        return cls(**params)
+
+    # ------------------------------------------------------------------ parameters and data
     def _check_params(self) -> None:
         wl, po = self.window_length, self.polyorder
-        if isinstance(wl, bool) or int(wl) != wl or wl < 3 or wl % 2 == 0:
+        if not _is_int(wl) or wl < 3 or wl % 2 == 0:
             raise ValueError(f"window_length must be an odd integer >= 3; got {wl!r}")
-        if isinstance(po, bool) or int(po) != po or po < 2 or po >= wl:
+        if not _is_int(po) or po < 2 or po >= wl:
             raise ValueError(f"polyorder must be an integer with 2 <= polyorder < window_length; got {po!r}")
-        if self.formulation not in ("strong", "weak"):
-            raise ValueError(f"formulation must be 'strong' or 'weak'; got {self.formulation!r}")
-        ww, ws = self.weak_window, self.weak_stride
-        if isinstance(ww, bool) or not isinstance(ww, (int, np.integer)) or ww < 2:
-            raise ValueError(f"weak_window must be an integer >= 2 (sampling intervals); got {ww!r}")
-        if isinstance(ws, bool) or not isinstance(ws, (int, np.integer)) or ws < 1:
-            raise ValueError(f"weak_stride must be an integer >= 1 (samples); got {ws!r}")
+        if self.formulation not in _form.FORMULATIONS:
+            raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
+        if not _is_int(self.weak_window) or self.weak_window < 2:
+            raise ValueError(f"weak_window must be an integer >= 2 (sampling intervals); got {self.weak_window!r}")
+        if not _is_int(self.weak_stride) or self.weak_stride < 1:
+            raise ValueError(f"weak_stride must be an integer >= 1 (samples); got {self.weak_stride!r}")
         if self.weak_hold not in ("zoh", "trapezoid"):
             raise ValueError(f"weak_hold must be 'zoh' or 'trapezoid'; got {self.weak_hold!r}")
-        basis = self.library if isinstance(self.library, str) else self.basis
-        if basis not in ("monomial", "physical"):
-            name = "library" if isinstance(self.library, str) else "basis"
-            raise ValueError(f"{name} must be 'monomial' or 'physical'; got {basis!r}")
-        if not isinstance(self.rest_strain, (bool, np.bool_)):
-            raise ValueError(f"rest_strain must be True or False; got {self.rest_strain!r}")
-        if self.rest_strain and (self.library is None or isinstance(self.library, str)) and basis != "physical":
+        lib = self.library
+        ok = lib is None or (lib in _LIBRARIES if isinstance(lib, str) else isinstance(lib, LagrangianLibrary))
+        if not ok:
             raise ValueError(
-                f"rest_strain=True needs the physical basis (basis='physical'); got basis {basis!r}, whose "
-                "Lagrangian has no constant-force term"
+                f"library must be a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary) or one of "
+                f"{_LIBRARIES}; got {lib!r}"
             )
+        opt = self.optimizer
+        if opt is not None and not isinstance(opt, BaseOptimizer):
+            raise ValueError(
+                "optimizer must be a pysindy optimizer (StiffnessThresholdOptimizer, or a pysindy BaseOptimizer "
+                f"such as STLSQ or SR3); got {type(opt).__name__}"
+            )
+        for name in ("rtol", "atol"):
+            val = getattr(self, name)
+            if isinstance(val, bool) or not isinstance(val, (int, float, np.floating)) or not (np.isfinite(val) and val > 0):
+                raise ValueError(f"{name} must be a finite number > 0; got {val!r}")
+
+    def _new_library(self) -> LagrangianLibrary:
+        if self.library is None or self.library == "physical":
+            from .library import PhysicalPCSLibrary
+
+            return PhysicalPCSLibrary()
+        if isinstance(self.library, str):
+            from .library import PCSLagrangianLibrary
+
+            return PCSLagrangianLibrary()
+        return clone(self.library)
 
     def _derivatives(
-        self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None
-    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None, *, fixed: bool = False
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Rates and accelerations of one recording: given, by ``differentiation_method`` or Savitzky–Golay.
+
+        ``fixed``: Savitzky–Golay of :data:`SCORE_DERIVATIVES` whatever the
+        estimator's settings (scores).
+        """
         q, t = rec.q, rec.t
-        n_s = q.shape[0]
-        if (qd is None) != (qdd is None):
-            raise ValueError("give both qd and qdd (known derivatives) or neither")
         if qd is not None:
             out = []
             for name, arr in (("qd", qd), ("qdd", qdd)):
+                if arr is None:
+                    out.append(None)
+                    continue
                 arr = np.asarray(arr, dtype=float)
                 if arr.shape != q.shape:
                     raise ValueError(f"{name}[{k}] must have the shape of X[{k}].q {q.shape}; got {arr.shape}")
@@ -344,189 +263,85 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                     raise ValueError(f"{name}[{k}] contains NaN or inf")
                 out.append(arr)
             return out[0], out[1]
-        if self.differentiation_method is not None:
+        if self.differentiation_method is not None and not fixed:
             rate = np.asarray(self.differentiation_method(q, t), dtype=float)
             acc = np.asarray(self.differentiation_method(rate, t), dtype=float)
             if rate.shape != q.shape or acc.shape != q.shape or not (np.all(np.isfinite(rate)) and np.all(np.isfinite(acc))):
                 raise ValueError(
-                    f"differentiation_method returned derivatives of shape {rate.shape}/{acc.shape} or with NaN for X[{k}] "
-                    f"(q has shape {q.shape}); NaN edges are not accepted"
+                    f"differentiation_method returned derivatives of shape {rate.shape}/{acc.shape} or with NaN for "
+                    f"X[{k}] (q has shape {q.shape}); NaN edges are not accepted"
                 )
             return rate, acc
-        wl = int(self.window_length)
-        if n_s < wl:
-            raise ValueError(
-                f"X[{k}] has {n_s} samples, fewer than the Savitzky-Golay window_length = {wl}; "
-                "use longer recordings or a shorter window"
-            )
-        dts = np.diff(t)
-        dt = float(np.median(dts))
-        if np.max(np.abs(dts - dt)) > 1e-6 * dt:
-            raise ValueError(
-                f"X[{k}] is not uniformly sampled (sample periods from {dts.min():.6g} to {dts.max():.6g} s); "
-                "Savitzky-Golay needs a constant period: resample or pass differentiation_method"
-            )
-        po = int(self.polyorder)
-        rate = savgol_filter(q, wl, po, deriv=1, delta=dt, axis=0)
-        acc = savgol_filter(q, wl, po, deriv=2, delta=dt, axis=0)
-        return rate, acc
+        wl, po = SCORE_DERIVATIVES if fixed else (self.window_length, self.polyorder)
+        return _form.savgol_derivatives(q, t, wl, po, name=f"X[{k}]")
 
-    def _prepare(
-        self, X: Any, y: Any | None, qd: Any | None, qdd: Any | None, *, kin: PlanarPCS | None = None
-    ) -> tuple[PlanarPCS, list[tuple[NDArray, NDArray, NDArray, NDArray | None]]]:
+    def _recordings(
+        self,
+        X: Any,
+        y: Any,
+        qd: Any,
+        qdd: Any,
+        *,
+        kin: PlanarPCS | None,
+        formulation: str,
+        fixed: bool = False,
+    ) -> tuple[PlanarPCS, list[StrainTrajectory], list[_form.Recording]]:
+        """Validated recordings of the strains ``kin`` models (default: the data's), ready for a formulation."""
         X = as_strain_trajectories(X)
-        if kin is None:
-            kin = X[0].kinematics
-        for k, rec in enumerate(X):
-            rk = rec.kinematics
-            if not np.allclose(rk.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0):
-                raise ValueError(
-                    f"X[{k}] has segment_lengths {list(rk.segment_lengths)}, expected {list(kin.segment_lengths)}; "
-                    "every recording must share one segmentation"
-                )
-        n_full = kin.n_q
-        ys = None if y is None else _check_list(y, len(X), "y")
+        data_kin = segmentation_of(X)
+        if kin is not None and not np.allclose(data_kin.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0):
+            raise ValueError(
+                f"X has segment_lengths {list(data_kin.segment_lengths)}, the model {list(kin.segment_lengths)}; "
+                "transform the poses with the model's segmentation"
+            )
+        kin = data_kin if kin is None else kin
+        mask = kin.active_mask
+        if not mask.any():
+            raise ValueError("the data model no strain (active_strains all False)")
+        ys = _check_list(y, len(X), "y")
         qds = None if qd is None else _check_list(qd, len(X), "qd")
         qdds = None if qdd is None else _check_list(qdd, len(X), "qdd")
-        out = []
+        if (qds is None) != (qdds is None) and formulation == "strong":
+            raise ValueError("give both qd and qdd (known derivatives) or neither")
+        taus = []
         for k, rec in enumerate(X):
-            tau = None
-            if ys is not None:
-                tau = np.asarray(ys[k], dtype=float)
-                if tau.ndim != 2 or tau.shape[1] != n_full:
-                    raise ValueError(f"y[{k}] must have shape (T, {n_full}) (one force per strain); got {tau.shape}")
-                if tau.shape[0] != rec.n_frames:
-                    raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
-                if not np.all(np.isfinite(tau)):
-                    raise ValueError(f"y[{k}] contains NaN or inf (first at sample {np.argwhere(~np.isfinite(tau))[0][0]})")
-            rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k])
-            out.append((rec.q, rate, acc, tau))
-        return kin, out
-
-    @staticmethod
-    def _jump_free(tau: NDArray[np.float64], window: int) -> NDArray[np.bool_]:
-        """Samples whose centred window holds no change of the held actuation."""
-        n_s = tau.shape[0]
-        half = int(window) // 2
-        # change[j]: the force differs between samples j - 1 and j
-        change = np.r_[False, np.any(np.diff(tau, axis=0) != 0, axis=1)]
-        # a window k - half .. k + half contains a jump if change[j] for k - half < j <= k + half
-        csum = np.r_[0, np.cumsum(change)]
-        k = np.arange(n_s)
-        lo = np.clip(k - half + 1, 0, n_s)
-        hi = np.clip(k + half + 1, 0, n_s)
-        keep = (csum[hi] - csum[lo]) == 0
-        keep[:half] = False
-        keep[n_s - half :] = False
-        return keep
-
-    def _make_library(self, kin: PlanarPCS) -> Any:
-        """The library of ``fit``: the given object (checked against the data) or a default one."""
-        if self.library is None or isinstance(self.library, str):
-            basis = self.basis if self.library is None else self.library
-            if basis == "physical":
-                from .library import PhysicalPCSLibrary
-
-                radius = getattr(self.optimizer, "radius", 0.02)
-                return PhysicalPCSLibrary(
-                    kin.segment_lengths,
-                    active_strains=kin.active_strains,
-                    radius=radius,
-                    gravity=self.gravity,
-                    identify_gravity=self.identify_gravity,
-                    rotary_inertia=self.rotary_inertia,
-                    rest_strain=bool(self.rest_strain),
-                )
-            from .library import PCSLagrangianLibrary
-
-            return PCSLagrangianLibrary(
-                kin.segment_lengths, active_strains=kin.active_strains, basis=basis, cache_dir=self.cache_dir
-            )
-        lib = self.library
-        lk = lib.kinematics
-        if not (
-            np.allclose(lk.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0)
-            and np.array_equal(lk.active_strains, kin.active_strains)
-        ):
+            tau = np.asarray(ys[k], dtype=float)
+            if tau.ndim != 2 or tau.shape[1] != kin.n_q:
+                raise ValueError(f"y[{k}] must have shape (T, {kin.n_q}) (one force per strain); got {tau.shape}")
+            if tau.shape[0] != rec.n_frames:
+                raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
+            if not np.all(np.isfinite(tau)):
+                raise ValueError(f"y[{k}] contains NaN or inf (first at sample {np.argwhere(~np.isfinite(tau))[0][0]})")
+            taus.append(tau)
+        recs = []
+        for k, (rec, tau) in enumerate(zip(X, taus)):
+            rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k],
+                                          fixed=fixed)
+            r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau[:, mask])
+            if formulation == "weak":
+                if fixed:  # at least three windows per recording, whatever its length
+                    width = min(SCORE_WINDOWS[0], max(2, (rec.n_frames - 1) // 2))
+                    stride = max(1, min(SCORE_WINDOWS[1], width // 2))
+                else:
+                    width, stride = int(self.weak_window), int(self.weak_stride)
+                if rec.n_frames <= width:
+                    raise ValueError(
+                        f"X[{k}] has {rec.n_frames} samples, too few for weak_window = {width} sampling intervals "
+                        f"(needs at least {width + 1}); use a shorter weak_window"
+                    )
+                r.windows = _form.sliding_windows(rec.n_frames, width, stride)
+            elif self.exclude_force_jumps and not fixed:
+                r.rows = _form.jump_free(tau, self.window_length)
+            recs.append(r)
+        if formulation == "strong" and self.exclude_force_jumps and not fixed and not any(r.rows.any() for r in recs):
             raise ValueError(
-                f"library describes segments {list(lk.segment_lengths)} with active strains "
-                f"{lk.active_strains.astype(int).tolist()}, the data {list(kin.segment_lengths)} with "
-                f"{kin.active_strains.astype(int).tolist()}"
+                f"exclude_force_jumps left no sample: every window of {self.window_length} samples contains a jump "
+                "of the actuation; use a window shorter than the actuation hold (or smooth actuation without "
+                "exclude_force_jumps)"
             )
-        return lib
+        return kin, X, recs
 
-    def _weak_windows(self, n_samples: int, k: int) -> NDArray[np.intp]:
-        """Weak-form windows ``(start, stop)`` of recording ``k``."""
-        from .library.physical import sliding_windows
-
-        width, stride = int(self.weak_window), int(self.weak_stride)
-        if n_samples <= width:
-            raise ValueError(
-                f"X[{k}] has {n_samples} samples, too few for weak_window = {width} sampling intervals "
-                f"(needs at least {width + 1}); use a shorter weak_window"
-            )
-        return sliding_windows(n_samples, width, stride)
-
-    def _identifiability(
-        self, design: Callable, psi: NDArray[np.float64], target: NDArray[np.float64], mask: NDArray[np.bool_]
-    ) -> dict | None:
-        """:func:`~pcs_sindy.library.physical.identifiability` of the final regression (None if too few rows)."""
-        from .library.physical import identifiability
-
-        final = self.active_strains_.reshape(-1)
-        kept = final[mask]
-        # the first round's matrix is the final one unless a strain was removed
-        x = psi if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
-        x = x.reshape(-1, x.shape[-1])
-        y = np.asarray(target, dtype=float)[:, kept].reshape(-1)
-        try:
-            names = list(self.library_.euler_lagrange_names())
-        except AttributeError:
-            names = [f"c{j}" for j in range(x.shape[1])]
-        if x.shape[0] <= x.shape[1]:
-            warnings.warn(
-                f"the final regression has {x.shape[0]} rows for {x.shape[1]} coefficients: too few to estimate "
-                "standard errors (identifiability_ is None); record more data",
-                UserWarning,
-                stacklevel=3,
-            )
-            return None
-        info = identifiability(x, y, self.model_coef_, names, tol=self.identifiability_tol)
-        rel = info["relative_standard_errors"]
-        bad = ~(rel <= self.identifiability_tol)
-        strains = self.kinematics_.strain_names(active_only=True)
-        cols = np.stack([np.asarray(self.library_.stiffness_index_), np.asarray(self.library_.damping_index_)], axis=1)
-        info["poorly_excited_strains"] = [nm for nm, c in zip(strains, cols) if np.any(bad[c])]
-        info["coef"] = self.model_coef_.copy()
-        info["formulation"] = self.formulation
-        return info
-
-    def identifiability_report(self) -> str:
-        """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
-        check_is_fitted(self, "identifiability_")
-        info = self.identifiability_
-        if info is None:
-            return "identifiability not available: the regression had no more rows than coefficients"
-        tol = self.identifiability_tol
-        lines = [
-            f"{info['formulation']}-form regression: condition number {info['condition_number']:.3g} "
-            f"(column-scaled), rank {info['rank']} of {len(info['names'])}, residual std {info['residual_std']:.3g}",
-            f"{'coefficient':<14} {'value':>12} {'std error':>12} {'rel. error':>11}",
-        ]
-        for nm, c, se, rel in zip(info["names"], info["coef"], info["standard_errors"], info["relative_standard_errors"]):
-            flag = "" if rel <= tol else "  <- poorly determined"
-            lines.append(f"{nm:<14} {c:>12.4g} {se:>12.3g} {rel:>11.2%}{flag}")
-        lines.append(
-            f"poorly determined (rel. error > {tol:.0%}): " + (", ".join(info["poorly_determined"]) or "none")
-        )
-        excited = info["poorly_excited_strains"]
-        lines.append(
-            "strains the data did not excite enough (stiffness or damping poorly determined): "
-            + (", ".join(excited) if excited else "none")
-        )
-        return "\n".join(lines)
-
-    # ------------------------------------------------------------------
+    # ------------------------------------------------------------------ fit
     def fit(
         self,
         X: Sequence[StrainTrajectory],
@@ -545,7 +360,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             Generalized forces of each recording (held constant per sample).
         qd, qdd : list of array_like, optional
             Known strain rates and accelerations (e.g. from a simulator)
-            instead of differentiating ``q``.
+            instead of differentiating ``q`` (the weak form needs only ``qd``).
 
         Returns
         -------
@@ -553,133 +368,103 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         """
         start = time.perf_counter()
         self._check_params()
-        kin, data = self._prepare(X, y, qd, qdd)
-        mask = kin.active_mask
-        if not mask.any():
-            raise ValueError("the data model no strain (active_strains all False)")
-        weak = self.formulation == "weak"
-        if weak:
-            times = [rec.t for rec in as_strain_trajectories(X)]
-            windows = [self._weak_windows(d[0].shape[0], k) for k, d in enumerate(data)]
-            keep = [np.ones(d[0].shape[0], dtype=bool) for d in data]
-        elif self.exclude_force_jumps:
-            keep = [self._jump_free(d[3], self.window_length) for d in data]
-            if not any(k.any() for k in keep):
-                raise ValueError(
-                    f"exclude_force_jumps left no sample: every window of {self.window_length} samples contains a jump "
-                    "of the actuation; use a window shorter than the actuation hold (or smooth actuation without "
-                    "exclude_force_jumps)"
-                )
-        else:
-            keep = [np.ones(d[0].shape[0], dtype=bool) for d in data]
-        q = np.concatenate([d[0][k][:, mask] for d, k in zip(data, keep)])
-        rate = np.concatenate([d[1][k][:, mask] for d, k in zip(data, keep)])
-        acc = np.concatenate([d[2][k][:, mask] for d, k in zip(data, keep)])
-        tau = np.concatenate([d[3][k][:, mask] for d, k in zip(data, keep)])
-        self.n_regression_samples_ = int(q.shape[0])
-
-        lib = self._make_library(kin)
-        if weak and not hasattr(lib, "integrated_euler_lagrange_matrix"):
-            raise ValueError(
-                f"formulation='weak' needs a library with integrated_euler_lagrange_matrix (PhysicalPCSLibrary, "
-                f"basis='physical'); got {type(lib).__name__}"
-                + (f"(basis={lib.basis!r})" if hasattr(lib, "basis") else "")
-            )
-        lib.fit(np.hstack([q, rate]))
+        kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation)
+        lib = self._new_library().fit(X)
+        x, target, design = _form.regression(lib, recs, self.formulation, hold=self.weak_hold)
+        self.n_regression_samples_ = int(x.shape[0])
         opt = StiffnessThresholdOptimizer() if self.optimizer is None else clone(self.optimizer)
-        if weak:
-            from .library.physical import integrate_forces
-
-            def design(lib_r: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
-                # kept: strains of lib_r among the data's active strains
-                return np.concatenate(
-                    [
-                        lib_r.integrated_euler_lagrange_matrix(
-                            tk, d[0][:, mask][:, kept], d[1][:, mask][:, kept], wk, test_function="bump"
-                        )
-                        for tk, d, wk in zip(times, data, windows)
-                    ]
-                )
-
-            target = np.concatenate(
-                [
-                    integrate_forces(tk, d[3][:, mask], wk, hold=self.weak_hold, test_function="bump")
-                    for tk, d, wk in zip(times, data, windows)
-                ]
-            )
-            psi = design(lib, np.ones(int(mask.sum()), dtype=bool))
-            self.n_regression_samples_ = int(psi.shape[0])
-            opt.fit(psi, target, library=lib, design=design)
+        if isinstance(opt, StiffnessThresholdOptimizer):
+            opt.fit(x, target, library=lib, design=design)
+            library_, column_map = opt.library_, np.asarray(opt.column_map_)
+            coef = np.asarray(opt.coef_[0], dtype=float)
+            active, removed = opt.active_strains_, list(opt.removed_strains_)
         else:
-
-            def design(lib_r: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
-                return lib_r.euler_lagrange_matrix(q[:, kept], rate[:, kept], acc[:, kept])
-
-            target = tau
-            psi = np.asarray(design(lib, np.ones(int(mask.sum()), dtype=bool)), dtype=float)
-            opt.fit(psi, tau, library=lib, states=(q, rate, acc))
-
+            opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
+            coef = np.asarray(opt.coef_, dtype=float).reshape(-1)
+            if coef.shape != (lib.n_coefficients_,) or not np.all(np.isfinite(coef)):
+                raise ValueError(f"{type(opt).__name__} returned coefficients of shape {coef.shape} or with NaN; "
+                                 f"expected ({lib.n_coefficients_},) finite values")
+            library_, column_map = lib, np.arange(lib.n_coefficients_)
+            active, removed = kin.active_strains.copy(), []
         self.optimizer_ = opt
         self.full_library_ = lib
-        self.library_ = opt.library_
-        self.column_map_ = np.asarray(opt.column_map_)
-        self.coef_ = np.asarray(opt.coef_[0], dtype=float)
-        self.model_coef_ = self.coef_[self.column_map_]
-        self.active_strains_ = opt.active_strains_
-        self.removed_strains_ = list(opt.removed_strains_)
-        self.stiffness_ = np.asarray(opt.stiffness_, dtype=float)
-        final_mask = self.active_strains_.reshape(-1)
-        damping = np.zeros(kin.n_q)
-        damping[final_mask] = self.model_coef_[np.asarray(self.library_.damping_index_)]
-        self.damping_ = damping
-        rest = np.zeros(kin.n_q)
-        if hasattr(self.library_, "rest_force_from_coef"):
-            f0 = self.library_.rest_force_from_coef(self.model_coef_)
-            stiff = self.stiffness_[final_mask]
-            # f0 = K q*; a zero stiffness with a nonzero f0 has no finite rest strain
-            with np.errstate(divide="ignore", invalid="ignore"):
-                rest[final_mask] = np.where(f0 == 0.0, 0.0, f0 / stiff)
-        self.rest_strain_ = rest
+        self.library_ = library_
+        self.column_map_ = column_map
+        self.coef_ = coef
+        self.model_coef_ = coef[column_map]
+        self.active_strains_ = np.asarray(active, dtype=bool).reshape(kin.n_segments, 3)
+        self.removed_strains_ = removed
         self.kinematics_ = PlanarPCS(kin.segment_lengths, self.active_strains_, kin.base_pose)
+        self._set_physical_attributes(kin)
         self.n_features_in_ = kin.n_q
-        self.identifiability_ = self._identifiability(
-            design, np.asarray(psi, dtype=float), np.asarray(target).reshape(-1, int(mask.sum())), mask
-        )
+        kept = self.active_strains_.reshape(-1)[kin.active_mask]
+        x_final = x if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
+        self.identifiability_ = self._identifiability(x_final, np.asarray(target)[:, kept])
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix:
-            q_fin = np.concatenate([d[0] for d in data])[:, final_mask]
-            eig = np.linalg.eigvalsh(self.library_.mass_matrix(q_fin, self.model_coef_))
-            bad = ~(eig[:, 0] > 0)
-            frac = float(np.mean(bad))
-            self.mass_matrix_not_pd_fraction_ = frac
-            if frac > 0:
-                warnings.warn(
-                    f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
-                    f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or "
-                    "cleaner data, or basis='physical' (bounded: positive definite by construction) with "
-                    "formulation='weak' (no second derivatives)",
-                    UserWarning,
-                    stacklevel=2,
-                )
+            self._check_mass_matrix(np.concatenate([r.q[:, kept] for r in recs]))
+        self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
 
-    # ------------------------------------------------------------------
-    # model evaluation
-    # ------------------------------------------------------------------
+    def _set_physical_attributes(self, kin: PlanarPCS) -> None:
+        final = self.active_strains_.reshape(-1)
+        lib, coef = self.library_, self.model_coef_
+        stiff = np.full(kin.n_q, np.inf)
+        stiff[final] = lib.stiffness_from_coef(coef)
+        damping = np.zeros(kin.n_q)
+        damping[final] = lib.damping_from_coef(coef)
+        rest = np.zeros(kin.n_q)
+        f0 = lib.rest_force_from_coef(coef)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # f0 = K q*; a zero stiffness with a nonzero f0 has no finite rest strain
+            rest[final] = np.where(f0 == 0.0, 0.0, f0 / stiff[final])
+        self.stiffness_, self.damping_, self.rest_strain_ = stiff, damping, rest
+
+    def _identifiability(self, x: NDArray[np.float64], target: NDArray[np.float64]) -> dict | None:
+        x2 = x.reshape(-1, x.shape[-1])
+        if x2.shape[0] <= x2.shape[1]:
+            warnings.warn(
+                f"the final regression has {x2.shape[0]} rows for {x2.shape[1]} coefficients: too few to estimate "
+                "standard errors (identifiability_ is None); record more data",
+                UserWarning,
+                stacklevel=3,
+            )
+            return None
+        lib = self.library_
+        info = _ident.identifiability(x2, target.reshape(-1), self.model_coef_, lib.coefficient_names(),
+                                      tol=self.identifiability_tol)
+        info["poorly_excited_strains"] = _ident.strain_excitation(
+            info, self.kinematics_.strain_names(active_only=True), lib.stiffness_index_, lib.damping_index_,
+            self.identifiability_tol)
+        info["coef"] = self.model_coef_.copy()
+        info["formulation"] = self.formulation
+        return info
+
+    def _check_mass_matrix(self, q: NDArray[np.float64]) -> None:
+        eig = np.linalg.eigvalsh(self.library_.mass_matrix(q, self.model_coef_))
+        frac = float(np.mean(~(eig[:, 0] > 0)))
+        self.mass_matrix_not_pd_fraction_ = frac
+        if frac > 0:
+            warnings.warn(
+                f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
+                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or cleaner "
+                "data, or the default EulerLagrangeRegressor() (physical library, bounded fit: positive definite "
+                "by construction; weak form: no second derivatives)",
+                UserWarning,
+                stacklevel=3,
+            )
+
+    def identifiability_report(self) -> str:
+        """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
+        check_is_fitted(self, "identifiability_")
+        return _ident.report(self.identifiability_, self.identifiability_tol)
+
+    # ------------------------------------------------------------------ the identified model
     def _model_q(self, q: ArrayLike, name: str = "q") -> NDArray[np.float64]:
         """Modelled strains from full (..., 3m) or already reduced (..., n_active) input."""
         check_is_fitted(self, "coef_")
-        q = np.asarray(q, dtype=float)
-        mask = self.active_strains_.reshape(-1)
-        if q.ndim == 0 or q.shape[-1] not in (mask.size, int(mask.sum())):
-            raise ValueError(
-                f"{name} must have a last axis of {mask.size} (all strains) or {int(mask.sum())} (modelled strains); "
-                f"got shape {q.shape}"
-            )
-        if not np.all(np.isfinite(q)):
-            raise ValueError(f"{name} contains NaN or inf")
-        return q[..., mask] if q.shape[-1] == mask.size else q
+        return reduce_strains(self.kinematics_, q, name)
 
     @staticmethod
     def _batch(fn: Callable, *arrays: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -688,24 +473,34 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         out = np.asarray(fn(*flat), dtype=float)
         return out.reshape(lead + out.shape[1:])
 
-    def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Identified ``M(q)`` over the modelled strains, shape (..., n, n).
+    def forward_model(self) -> Any:
+        """The identified model's :class:`~pcs_sindy.forward.ForwardModel` (built once, cached)."""
+        check_is_fitted(self, "coef_")
+        fm = self.__dict__.get("_forward")
+        if fm is None:
+            fm = self.library_.forward_model(self.model_coef_)
+            self.__dict__["_forward"] = fm
+        return fm
 
-        ``q`` holds all 3m strains (unmodelled ones are ignored) or only the
-        n modelled ones.
-        """
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state.pop("_forward", None)  # compiled kernels are rebuilt on demand
+        return state
+
+    def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Identified ``M(q)`` over the modelled strains, shape (..., n, n) (``q``: all or modelled strains)."""
         qa = self._model_q(q)
         return self._batch(lambda a: self.library_.mass_matrix(a, self.model_coef_), qa)
 
     def bias_forces(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
-        """``C(q, qd) qd + G(q) + K q + D qd`` of the identified model, shape (..., n)."""
+        """``C(q, qd) qd + G(q) + K q + D qd - f0`` of the identified model, shape (..., n)."""
         qa, qda = self._model_q(q), self._model_q(qd, "qd")
         if qa.shape != qda.shape:
             raise ValueError(f"q and qd must have the same shape; got {qa.shape} and {qda.shape}")
         return self._batch(lambda a, b: self.library_.bias_forces(a, b, self.model_coef_), qa, qda)
 
     def potential_forces(self, q: ArrayLike) -> NDArray[np.float64]:
-        """``G(q) + K q`` of the identified model, shape (..., n)."""
+        """``G(q) + K q - f0`` of the identified model, shape (..., n)."""
         qa = self._model_q(q)
         return self._batch(lambda a: self.library_.potential_forces(a, self.model_coef_), qa)
 
@@ -716,7 +511,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         qd: Sequence[ArrayLike] | None = None,
         qdd: Sequence[ArrayLike] | None = None,
     ) -> list[NDArray[np.float64]]:
-        """Forces ``tau_hat = Psi(q, qd, qdd) pi+`` (inverse dynamics) per recording.
+        """Forces ``tau_hat = Psi(q, qd, qdd) coef`` (inverse dynamics) per recording.
+
+        Rates and accelerations come from ``qd``/``qdd`` or from this
+        estimator's differentiation settings.
 
         Returns
         -------
@@ -726,306 +524,239 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self, "coef_")
         self._check_params()
-        _, data = self._prepare(X, None, qd, qdd, kin=self.kinematics_)
-        mask = self.active_strains_.reshape(-1)
+        X = as_strain_trajectories(X)
+        dummy = [np.zeros((r.n_frames, self.kinematics_.n_q)) for r in X]
+        kin, _, recs = self._recordings(X, dummy, qd, qdd, kin=self.kinematics_, formulation="strong")
         out = []
-        for k, (q, rate, acc, _) in enumerate(data):
-            psi = np.asarray(self.library_.euler_lagrange_matrix(q[:, mask], rate[:, mask], acc[:, mask]), dtype=float)
-            tau = np.zeros_like(q)
-            tau[:, mask] = psi @ self.model_coef_
+        for k, r in enumerate(recs):
+            psi = np.asarray(self.library_.euler_lagrange_matrix(r.q, r.qd, r.qdd), dtype=float)
+            tau = np.zeros((r.q.shape[0], kin.n_q))
+            tau[:, kin.active_mask] = psi @ self.model_coef_
             if not np.all(np.isfinite(tau)):
                 raise ValueError(f"the model predicts NaN or inf forces on X[{k}]")
             out.append(tau)
         return out
 
-    def score(
-        self,
-        X: Sequence[StrainTrajectory],
-        y: Sequence[ArrayLike],
-        sample_weight: None = None,
-        *,
-        qd: Sequence[ArrayLike] | None = None,
-        qdd: Sequence[ArrayLike] | None = None,
-    ) -> float:
-        """Coefficient of determination R^2 of the forces on the modelled strains.
+    def score(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], sample_weight: None = None) -> float:
+        """Coefficient of determination R^2 of window-integrated forces on every strain of the data.
 
-        Pooled over all samples and modelled strains: ``1 - SS_res / SS_tot``
-        with ``SS_tot`` about each strain's mean.  Higher is better; raises
-        (instead of returning NaN) when ``y`` has no variance.
+        The targets do not depend on this estimator's settings, so the candidates
+        of a search are compared on the same numbers: windows of
+        :data:`SCORE_WINDOWS` with the bump test function, rates by Savitzky–Golay
+        :data:`SCORE_DERIVATIVES`, and every strain of the data's segmentation.
+        A strain removed as rigid is predicted by the reduced model: the rows of
+        the full library with the removed strain's stiffness and damping at 0
+        (the forces the reduced model implies along the measured motion).
+        Pooled over windows and strains: ``1 - SS_res / SS_tot`` with ``SS_tot``
+        about each strain's mean.
+
+        Raises
+        ------
+        ValueError
+            Instead of returning NaN, when ``y`` has no variance.
         """
+        check_is_fitted(self, "coef_")
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported; weight recordings by their length instead")
-        pred = self.predict(X, qd=qd, qdd=qdd)
-        ys = _check_list(y, len(pred), "y")
-        mask = self.active_strains_.reshape(-1)
-        true = []
-        for k, yk in enumerate(ys):
-            yk = np.asarray(yk, dtype=float)
-            if yk.shape != pred[k].shape:
-                raise ValueError(f"y[{k}] must have shape {pred[k].shape}; got {yk.shape}")
-            if not np.all(np.isfinite(yk)):
-                raise ValueError(f"y[{k}] contains NaN or inf")
-            true.append(yk[:, mask])
-        yt = np.concatenate(true)
-        yp = np.concatenate([p[:, mask] for p in pred])
-        ss_tot = float(np.sum((yt - yt.mean(axis=0)) ** 2))
-        if not ss_tot > 0:
-            raise ValueError("y has no variance on the modelled strains; R^2 is undefined")
-        return 1.0 - float(np.sum((yt - yp) ** 2)) / ss_tot
+        kin = self.full_library_.kinematics
+        _, _, recs = self._recordings(X, y, None, None, kin=kin, formulation="weak", fixed=True)
+        x, target, _ = _form.regression(self.full_library_, recs, "weak", hold="zoh")
+        pred = x @ self.coef_
+        ss_tot = float(np.sum((target - target.mean(axis=0)) ** 2))
+        if not ss_tot > 1e-12 * float(np.sum(target**2)):  # round-off of window integrals of a constant
+            raise ValueError("y has no variance on the strains; R^2 is undefined")
+        return 1.0 - float(np.sum((target - pred) ** 2)) / ss_tot
 
-    # ------------------------------------------------------------------
-    # forward dynamics
-    # ------------------------------------------------------------------
+    # ------------------------------------------------------------------ forward dynamics
     def simulate(
         self,
         q0: ArrayLike,
         qd0: ArrayLike,
-        tau: ArrayLike | Callable[[float], ArrayLike],
-        t: ArrayLike,
+        t: ArrayLike | None = None,
+        u: ArrayLike | Callable[[float], ArrayLike] | None = None,
         *,
-        step: float | None = None,
+        tau: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        method: str | None = None,
         rtol: float | None = None,
         atol: float | None = None,
+        step: float | None = None,
         max_step: float | None = None,
         max_abs_state: float = 1e6,
         progress: bool | None = None,
-        backend: str = "auto",
-        method: str = "dopri5",
+        stats: dict | None = None,
     ) -> StrainTrajectory:
-        """Roll the identified model out under the actuation ``tau``.
+        """Roll the identified model out under the input ``u``: the contract of :mod:`pcs_sindy.integration`.
 
         Parameters
         ----------
         q0, qd0 : array_like, shape (3m,) or (n,)
-            Initial strains and rates (all strains, unmodelled ones ignored, or
-            only the modelled ones).
-        tau : array_like, shape (T, 3m), or callable
-            Forces held constant on ``[t[k], t[k+1])``, or ``tau(time)``
-            returning (3m,).  Columns of unmodelled strains are ignored.
+            Initial strains and rates (all strains, unmodelled ones ignored, or the modelled ones).
         t : array_like, shape (T,)
             Output times (strictly increasing).
+        u : array_like, shape (T, 3m), or callable
+            Generalised forces held constant on ``[t[k], t[k+1])``, or ``u(time)``
+            returning (3m,).  Columns of unmodelled strains are ignored.
+        tau : deprecated
+            Former name of ``u`` (FutureWarning).  The former argument order
+            ``simulate(q0, qd0, tau, t)`` also still works with a FutureWarning.
+        method : str, optional
+            Integration scheme (see the forward model's ``methods``); default
+            the model's best measured one (``"rosenbrock"`` for the physical
+            library: L-stable Rosenbrock-W, compiled; ``"radau"`` via solve_ivp
+            for the monomial library).
+        rtol, atol : float, optional
+            Tolerances (default: the estimator's).
         step : float, optional
-            Fixed step (must divide every sample period); default adaptive
-            with ``rtol``/``atol`` (default: the estimator's).
+            Fixed step of the compiled schemes (must divide every sample period).
         max_step : float, optional
-            Bound on the adaptive step (default: the sample period).
+            Bound on the adaptive step.
         max_abs_state : float
             A strain or rate larger than this in magnitude means divergence.
         progress : bool, optional
-            Progress bar (default: the estimator's ``progress``; the compiled
-            path has none, it is one call).
-        backend : {"auto", "numba", "python"}
-            ``"numba"``: compiled kernels of :mod:`pcs_sindy._jit_rollout`
-            (same Dormand–Prince scheme and step control, ~100x faster); needs a
-            library with lumped physical parameters (``lumped_from_coef``:
-            ``PhysicalPCSLibrary``, ``PCSLagrangianLibrary(basis="physical")``)
-            and an array ``tau``.  ``"python"``: ``integrate_zoh`` with
-            ``library.compile_dynamics``.  ``"auto"`` (default): ``"numba"``
-            when possible, else ``"python"``.  The compiled path evaluates
-            the model with 8 Gauss–Legendre nodes per segment (measured
-            within 2e-11 of the library's 16 for ``|kappa_i L_i| <= 6``) and
-            repeats the run with the library's rule if the rollout bends further.
-        method : {"dopri5", "rosenbrock"}
-            ``"dopri5"`` (default): explicit Dormand–Prince 5(4); its step is
-            bounded by the stiff, strongly damped shear/axial modes (time
-            constants of 0.1-3 ms), hence slow for two or more segments.
-            ``"rosenbrock"``: the L-stable Rosenbrock-W method ROS34PW2 (order 3),
-            linearly implicit in the structural Jacobian ``[[0, I], [-M^-1 K,
-            -M^-1 D]]`` on the compiled backend (finite differences of the
-            right-hand side on the Python backend); its step is set by accuracy
-            alone.  Adaptive, it filters its error estimate through
-            ``(I - h gamma J)^-1`` and measures it against the largest magnitude
-            each state has reached (strain rates cross zero).  Recommended for
-            validation rollouts: ``method="rosenbrock", rtol=3e-5, atol=3e-8``,
-            measured (true parameters, 7 s validation, ``benchmarks/rollout_speed.py``)
-            at 6.5e-6 / 6.3e-5 / 3.9e-5 relative error against the simulator and
-            53x / 13x / 6x real time (2-core machine at load 2.5) for one /
-            two / three segments, against 12x / 3.1x / 1.9x for ``"dopri5"`` at
-            rtol 1e-6.
-            Fixed steps are cheaper but not error controlled (``step=dt/3``:
-            3.8e-5 on two segments, 1.6e-3 on three).
+            Progress bar (default: the estimator's ``progress``).
+        stats : dict, optional
+            Filled with step counts (compiled schemes).
 
         Returns
         -------
         StrainTrajectory
-            Full strains ``q`` and rates ``qd`` (T, 3m) of the segmentation;
-            strains that are not modelled stay 0.
+            Full strains ``q`` and rates ``qd`` (T, 3m) of the segmentation; strains
+            that are not modelled stay 0.
 
         Raises
         ------
-        DivergenceError
-            If the state becomes non-finite or unbounded or ``M(q)`` singular;
-            the message names the time and the state.
+        SimulationError
+            (also importable as ``DivergenceError``) if the state becomes
+            non-finite or unbounded, ``M(q)`` singular or the step collapses.
         """
         check_is_fitted(self, "coef_")
-        if backend not in ("auto", "numba", "python"):
-            raise ValueError(f"backend must be 'auto', 'numba' or 'python'; got {backend!r}")
-        if method not in ("dopri5", "rosenbrock"):
-            raise ValueError(f"method must be 'dopri5' or 'rosenbrock'; got {method!r}")
-        kin = self.kinematics_
-        mask = kin.active_mask
-        n = int(mask.sum())
-        q0a = self._model_q(np.asarray(q0, dtype=float).reshape(-1), "q0")
-        qd0a = self._model_q(np.asarray(qd0, dtype=float).reshape(-1), "qd0")
-        t = np.asarray(t, dtype=float)
-        if t.ndim != 1 or t.size < 2:
-            raise ValueError(f"t must be a 1-D array of at least 2 times; got shape {t.shape}")
-        if callable(tau):
-            tau_fn = tau
+        t, u = _simulate_inputs(t, u, tau)
+        return self.forward_model().simulate(
+            q0, qd0, t, u, method=method, rtol=self.rtol if rtol is None else rtol,
+            atol=self.atol if atol is None else atol, step=step, max_step=max_step, max_abs_state=max_abs_state,
+            progress=self.progress if progress is None else progress, stats=stats)
 
-            def u(time_: float) -> NDArray[np.float64]:
-                val = np.asarray(tau_fn(time_), dtype=float).reshape(-1)
-                if val.size != mask.size:
-                    raise ValueError(f"tau(t) must return {mask.size} forces; got {val.size} at t = {time_!r}")
-                return val[mask]
+    def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
+        """Tip position error ``e_p^EE`` (m) of rolling each recording out from its first state under ``y``.
 
-            u_in: Any = u
-        else:
-            tau_arr = np.asarray(tau, dtype=float)
-            if tau_arr.ndim != 2 or tau_arr.shape != (t.size, mask.size):
-                raise ValueError(f"tau must have shape ({t.size}, {mask.size}) (one row per time); got {tau_arr.shape}")
-            if not np.all(np.isfinite(tau_arr)):
-                raise ValueError("tau contains NaN or inf")
-            u_in = np.ascontiguousarray(tau_arr[:, mask])
+        The first state takes its rates from Savitzky–Golay :data:`SCORE_DERIVATIVES`
+        (or ``X[k].qd`` when known).  A diverged rollout counts as ``inf``.
 
-        names = kin.strain_names(active_only=True)
-        state_names = names + [f"d{nm}/dt" for nm in names]
-        lumped_model = None
-        if backend != "python":
-            lumped_model, why = self._lumped_model(callable(tau))
-            if lumped_model is None and backend == "numba":
-                raise ValueError(f"backend='numba' is not available: {why}")
-        tol = dict(
-            step=step,
-            rtol=self.rtol if rtol is None else rtol,
-            atol=self.atol if atol is None else atol,
-            max_step=max_step,
-            max_abs_state=max_abs_state,
-            state_names=state_names,
-        )
-        if lumped_model is not None:
-            # the compiled model has no constant force f0: it acts like extra actuation
-            f0 = self.library_.lumped_from_coef(self.model_coef_).get("rest_force")
-            if f0 is not None and np.any(f0 != 0):
-                u_in = np.ascontiguousarray(u_in + f0[None, :])
-            y = lumped_model.rollout(np.concatenate([q0a, qd0a]), t, u_in, method=method, **tol)
-            if lumped_model.reduced_quadrature:
-                # the reduced quadrature is only used where it is measured exact (see _lumped_model)
-                bend = kin.to_full(y[:, :n])[:, 0::3] * kin.segment_lengths
-                if not np.abs(bend).max() <= _FAST_QUAD_MAX_KL:
-                    lumped_model, _ = self._lumped_model(False, reduced=False)
-                    y = lumped_model.rollout(np.concatenate([q0a, qd0a]), t, u_in, method=method, **tol)
-        else:
-            rhs = _make_rhs(self.library_.compile_dynamics(self.model_coef_), n)
-            y = integrate_zoh(
-                rhs, np.concatenate([q0a, qd0a]), t, u_in, progress=self.progress if progress is None else progress,
-                method=method, **tol
-            )
-        q_full = kin.to_full(y[:, :n])
-        qd_full = kin.to_full(y[:, n:])
-        return StrainTrajectory(
-            q_full,
-            t,
-            segment_lengths=kin.segment_lengths,
-            active_strains=self.active_strains_,
-            qd=qd_full,
-            base_pose=kin.base_pose,
-            metadata={"source": "EulerLagrangeRegressor.simulate"},
-        )
-
-    def _lumped_model(self, tau_callable: bool, reduced: bool = True) -> tuple[Any, str]:
-        """Compiled model of the fitted library, or ``(None, reason)`` when unsupported.
-
-        ``reduced``: at most ``_FAST_QUAD_NODES`` Gauss–Legendre nodes per segment
-        (~30 % cheaper per call on two segments).  Measured against the
-        library's 16 nodes: <= 5e-13 relative on ``M`` and the bias forces for
-        ``|kappa_i L_i| <= 4``, <= 2e-11 up to 6 (tests/test_rollout_jit.py);
-        ``simulate`` repeats a run with the library's rule when the rollout
-        leaves ``|kappa_i L_i| <= _FAST_QUAD_MAX_KL``.
+        Returns
+        -------
+        ndarray, shape (n_recordings,)
         """
-        if tau_callable:
-            return None, "tau is a callable (the compiled path needs an array held per sample)"
-        lib = self.library_
-        if not hasattr(lib, "lumped_from_coef"):
-            return None, f"{type(lib).__name__} has no lumped physical parameters (lumped_from_coef)"
-        if getattr(lib, "basis", "physical") != "physical":
-            return None, f"{type(lib).__name__}(basis={lib.basis!r}) has no lumped physical parameters"
-        from ._jit_rollout import LumpedModel  # numba import and kernel load only when used
+        from .metrics import end_effector_errors
 
-        model = LumpedModel.from_library(lib, self.model_coef_)
-        model.reduced_quadrature = False
-        if reduced and model.wts.shape[1] > _FAST_QUAD_NODES:
-            model = LumpedModel.from_library(lib, self.model_coef_, n_quadrature=_FAST_QUAD_NODES)
-            model.reduced_quadrature = True
-        return model, ""
+        check_is_fitted(self, "coef_")
+        X = as_strain_trajectories(X)
+        ys = _check_list(y, len(X), "y")
+        out = np.empty(len(X))
+        for k, rec in enumerate(X):
+            qd0 = rec.qd[0] if rec.qd is not None else self._derivatives(rec, k, None, None, fixed=True)[0][0]
+            try:
+                sim = self.simulate(rec.q[0], qd0, rec.t, ys[k], **simulate_kwargs)
+            except DivergenceError:
+                out[k] = np.inf
+                continue
+            s = np.asarray([rec.kinematics.total_length])
+            tip_true = rec.kinematics.forward_kinematics(rec.q, s).reshape(-1, 1, 3)
+            tip_sim = self.kinematics_.forward_kinematics(sim.q, s).reshape(-1, 1, 3)
+            out[k] = end_effector_errors(tip_sim, tip_true)[0]
+        return out
 
-    # ------------------------------------------------------------------
+    # ------------------------------------------------------------------ text and pysindy
     def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
-        """The identified Lagrangian and damping as text, like pysindy's ``equations``.
+        """The identified model as text (the library's own format; the last line starts ``D = diag(``).
 
         Parameters
         ----------
         precision : int
             Significant digits of the coefficients.
         threshold : float
-            Terms with ``|coefficient| <= threshold`` are hidden (exact zeros
-            always are).
+            Terms with ``|coefficient| <= threshold`` are hidden (exact zeros always are).
 
         Returns
         -------
         list of str
-            ``["L = c1 f1 + c2 f2 + ...", "D = diag(d_be_1, ...)"]``; for a
-            physically parameterised library the Lagrangian's structure, the
-            mass matrix, the identified parameters (``rhoA_i``, ``rhoI_i``,
-            ``k_<strain>``) and ``D`` (the last line always starts ``D = diag(``).
         """
         check_is_fitted(self, "coef_")
-        if hasattr(self.library_, "coefficients_from_parameters"):
-            return self._physical_equations(precision, threshold)
-        # the Euler-Lagrange column of f is named "EL[f]"; the Lagrangian is written in the f
-        names = [nm[3:-1] if nm.startswith("EL[") and nm.endswith("]") else nm for nm in self.library_.euler_lagrange_names()]
-        damp_idx = set(int(j) for j in np.asarray(self.library_.damping_index_))
-        terms = []
-        for j, (c, nm) in enumerate(zip(self.model_coef_, names)):
-            if j in damp_idx or c == 0 or abs(c) <= threshold:
-                continue
-            sign = "-" if c < 0 else "+"
-            terms.append(f"{sign} {abs(c):.{precision}g} {nm}")
-        lag = " ".join(terms).lstrip("+ ") if terms else "0"
-        if lag.startswith("- "):
-            lag = "-" + lag[2:]
-        strain = self.kinematics_.strain_names(active_only=True)
-        damp = ", ".join(
-            f"{s}: {self.model_coef_[j]:.{precision}g}" for s, j in zip(strain, np.asarray(self.library_.damping_index_))
-        )
-        return [f"L = {lag}", f"D = diag({damp})"]
-
-    def _physical_equations(self, precision: int, threshold: float) -> list[str]:
-        # A physical library's coefficients are parameters of a fixed Lagrangian, not weights of
-        # basis functions: print the Lagrangian's structure once, then the parameter values.
-        names = list(self.library_.euler_lagrange_names())
-        damp_idx = set(int(j) for j in np.asarray(self.library_.damping_index_))
-        values = [
-            f"{nm} = {c:.{precision}g}"
-            for j, (c, nm) in enumerate(zip(self.model_coef_, names))
-            if j not in damp_idx and abs(c) > threshold
-        ]
-        strain = self.kinematics_.strain_names(active_only=True)
-        elastic = " + ".join(f"k_{s} {s}^2" for s in strain)
-        gravity = "rhoAg_i . p" if getattr(self.library_, "identify_gravity", False) else "rhoA_i g . p"
-        damp = ", ".join(
-            f"{s}: {self.model_coef_[j]:.{precision}g}" for s, j in zip(strain, np.asarray(self.library_.damping_index_))
-        )
-        if np.asarray(getattr(self.library_, "rest_force_index_", [])).size:
-            elastic += " - 2 f0^T q"
-        return [
-            f"L = 1/2 qd^T M(q) qd + sum_i int_0^L_i {gravity} ds - 1/2 ({elastic})",
-            "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jo^T Jo) ds",
-            ", ".join(values) if values else "(all parameters 0)",
-            f"D = diag({damp})",
-        ]
+        return self.library_.equations(self.model_coef_, precision=precision, threshold=threshold)
 
     def print(self, precision: int = 3, threshold: float = 0.0) -> None:
         """Print :meth:`equations`."""
         for line in self.equations(precision=precision, threshold=threshold):
             print(line)
+
+    @classmethod
+    def from_sindy(cls, model: Any) -> "EulerLagrangeRegressor":
+        """A fitted regressor from a ``pysindy.SINDy`` fit of the stacked Euler–Lagrange form.
+
+        Parameters
+        ----------
+        model : pysindy.SINDy
+            Fitted with ``feature_library=StackedEulerLagrangeLibrary(library)``
+            (states ``[q, qd, qdd]``, forces as ``x_dot``).
+
+        Returns
+        -------
+        EulerLagrangeRegressor
+            With ``coef_`` the SINDy coefficients, no strain removed; it rolls
+            out (:meth:`simulate`), predicts and prints like any fitted regressor.
+        """
+        from .library.stacked import StackedEulerLagrangeLibrary
+
+        feat = getattr(model, "feature_library", None)
+        if not isinstance(feat, StackedEulerLagrangeLibrary) or not hasattr(model, "optimizer"):
+            raise ValueError(
+                "model must be a pysindy.SINDy fitted with feature_library=StackedEulerLagrangeLibrary(library); "
+                f"got {type(model).__name__} with feature_library {type(feat).__name__}"
+            )
+        coef = np.asarray(model.coefficients(), dtype=float)
+        lib = feat.library
+        if coef.shape != (1, lib.n_coefficients_):
+            raise ValueError(f"model.coefficients() must have shape (1, {lib.n_coefficients_}); got {coef.shape}")
+        reg = cls(library=lib, optimizer=model.optimizer)
+        kin = lib.kinematics
+        reg.optimizer_ = model.optimizer
+        reg.full_library_ = reg.library_ = lib
+        reg.column_map_ = np.arange(lib.n_coefficients_)
+        reg.coef_ = reg.model_coef_ = coef[0].copy()
+        reg.active_strains_ = kin.active_strains.copy()
+        reg.removed_strains_ = []
+        reg.kinematics_ = PlanarPCS(kin.segment_lengths, kin.active_strains, kin.base_pose)
+        reg._set_physical_attributes(kin)
+        reg.n_features_in_ = kin.n_q
+        reg.identifiability_ = None
+        reg.mass_matrix_not_pd_fraction_ = 0.0
+        reg.n_regression_samples_ = 0
+        reg.fit_time_ = 0.0
+        return reg
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        # samples are recordings (lists of trajectories), not rows of a 2-D array
+        tags.input_tags.two_d_array = False
+        tags.target_tags.required = True
+        tags.target_tags.single_output = False
+        tags.target_tags.multi_output = True
+        return tags
+
+
+def _simulate_inputs(t: Any, u: Any, tau: Any) -> tuple[Any, Any]:
+    """``(t, u)`` of the simulate contract, accepting the former ``tau=`` name and argument order."""
+    if tau is not None:
+        if u is not None:
+            raise ValueError("give the input as u (tau is its former name), not both")
+        warnings.warn("simulate(..., tau=...) is deprecated; pass the input as u (simulate(q0, qd0, t, u))",
+                      FutureWarning, stacklevel=3)
+        u = tau
+    if t is None or u is None:
+        raise ValueError("simulate needs the times t and the input u: simulate(q0, qd0, t, u)")
+    t_arr = None if callable(t) else np.asarray(t)
+    u_arr = None if callable(u) else np.asarray(u)
+    if callable(t) or (t_arr is not None and t_arr.ndim == 2 and u_arr is not None and u_arr.ndim == 1):
+        warnings.warn("simulate(q0, qd0, tau, t) is deprecated; the order is simulate(q0, qd0, t, u)",
+                      FutureWarning, stacklevel=3)
+        t, u = u, t
+    return t, u

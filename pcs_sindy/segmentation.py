@@ -710,6 +710,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         return trajs, chains, bases
 
     # -- fit -------------------------------------------------------------------
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False  # X is a list of pose recordings
+        return tags
+
     def fit(self, X: Any, y: Any = None) -> "KinematicFusion":
         """Find the segmentation from pose recordings.
 

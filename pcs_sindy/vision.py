@@ -752,6 +752,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
     def __sklearn_tags__(self):  # stateless: transform needs no fit
         tags = super().__sklearn_tags__()
         tags.requires_fit = False
+        tags.input_tags.two_d_array = False  # X is a list of videos
         return tags
 
 

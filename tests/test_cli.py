@@ -171,7 +171,8 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
     from pcs_sindy.persistence import load
 
     plain, default = load(rs_model), load(model)
-    assert plain.rest_strain is False and default.rest_strain is True and default.rest_strain_.shape == (3,)
+    assert plain.library.rest_strain is False and default.library.rest_strain is True
+    assert default.rest_strain_.shape == (3,) and np.all(plain.rest_strain_ == 0)
     assert plain.stiffness_[0] == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
 
     bare = work / "rollout_bare"

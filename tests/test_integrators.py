@@ -1,4 +1,11 @@
-"""Explicit RK rollout against closed forms (matrix exponential of linear systems)."""
+"""The rollout integrators against closed forms (matrix exponential of linear systems).
+
+A one-segment model with only the axial strain modelled and no gravity is a
+linear oscillator ``m sdd + d sd + k s = tau`` with ``m = rhoA L^3 / 3``: its
+zero-order-hold solution is exact by the matrix exponential, which checks the
+compiled Dormand–Prince and Rosenbrock-W loops (orders, tolerances, stiffness)
+and the solve_ivp path.
+"""
 
 from __future__ import annotations
 
@@ -6,20 +13,24 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from pcs_sindy.integrators import DOPRI5, ROS34PW2, DivergenceError, integrate_zoh
+from pcs_sindy.forward import LumpedPCSModel
+from pcs_sindy.integration import SimulationError, canonical_method
+from pcs_sindy.integrators import DOPRI5, ROS34PW2, solve_held
+from pcs_sindy.kinematics import PlanarPCS
 
-W, ZETA = 20.0, 0.1
+W, ZETA, L = 20.0, 0.1, 0.1
 A_OSC = np.array([[0.0, 1.0], [-(W**2), -2 * ZETA * W]])
 
 
-def _osc(y, u):
-    return A_OSC @ y + np.array([0.0, u[0]])
+def _oscillator(k: float = W**2, d: float = 2 * ZETA * W) -> LumpedPCSModel:
+    """``sdd + d sd + k s = tau`` (unit mass) as an axial-only PCS model."""
+    kin = PlanarPCS((L,), active_strains=[[False, False, True]])
+    return LumpedPCSModel(kin, [3.0 / L**3], [0.0], [[0.0, 0.0]], [k], [d])
 
 
-def _exact_zoh(y0, t, u):
-    """Damped oscillator under a zero-order-hold force: exact by the matrix exponential."""
+def _exact_zoh(A, y0, t, u):
     aug = np.zeros((3, 3))
-    aug[:2, :2] = A_OSC
+    aug[:2, :2] = A
     aug[1, 2] = 1.0
     y = np.asarray(y0, float)
     out = [y]
@@ -33,7 +44,12 @@ def _problem():
     rng = np.random.default_rng(0)
     t = np.arange(101) * 0.01
     u = rng.normal(size=(t.size, 1)) * 50.0
-    return t, u, _exact_zoh([1.0, 0.0], t, u)
+    return t, u, _exact_zoh(A_OSC, [1.0, 0.0], t, u)
+
+
+def _run(model, t, u, y0=(1.0, 0.0), **kw):
+    sim = model.simulate([0.0, 0.0, y0[0]], [0.0, 0.0, y0[1]], t, u, **kw)
+    return np.stack([sim.q[:, 2], sim.qd[:, 2]], axis=1)
 
 
 def test_tableau_order_conditions():
@@ -50,61 +66,6 @@ def test_tableau_order_conditions():
     assert b @ (a @ (a @ (a @ c))) == pytest.approx(1 / 120, abs=1e-14)
 
 
-def test_fixed_step_is_fifth_order_on_piecewise_constant_forcing():
-    t, u, exact = _problem()
-    errors = [np.abs(integrate_zoh(_osc, [1.0, 0.0], t, u, step=h) - exact).max() for h in (0.005, 0.0025, 0.00125)]
-    ratios = np.array(errors[:-1]) / np.array(errors[1:])
-    # halving the step divides the error by ~2^5 = 32
-    assert np.all(ratios > 25) and np.all(ratios < 40), ratios
-    assert errors[-1] < 1e-9
-
-
-def test_adaptive_step_meets_tolerance_and_callable_input():
-    t, u, exact = _problem()
-    out = integrate_zoh(_osc, [1.0, 0.0], t, u, rtol=1e-9, atol=1e-12)
-    assert np.abs(out - exact).max() < 1e-7
-    # callable input: a smooth forcing, reference from the forced response
-    # of y' = A y + [0, cos(w_f t)] written as an autonomous 4-state linear system
-    wf = 7.0
-    big = np.zeros((4, 4))
-    big[:2, :2] = A_OSC
-    big[1, 2] = 1.0
-    big[2, 3] = 1.0
-    big[3, 2] = -(wf**2)  # [c, c'] with c = cos(wf t)
-    ref = np.array([(expm(big * tk) @ np.array([0.5, 0.0, 1.0, 0.0]))[:2] for tk in t])
-    out_c = integrate_zoh(_osc, [0.5, 0.0], t, lambda tk: [np.cos(wf * tk)], rtol=1e-10, atol=1e-12)
-    assert np.abs(out_c - ref).max() < 1e-8
-
-
-def test_divergence_raises_with_time_and_state():
-    t = np.arange(200) * 0.01
-    grow = lambda y, u: 50.0 * y  # noqa: E731  e^(50 t) passes 1e6 well before t = 2 s
-    with pytest.raises(DivergenceError, match=r"t = .* s.*a=") as info:
-        integrate_zoh(grow, [1.0, 1.0], t, np.zeros((t.size, 1)), step=0.001, state_names=["a", "b"])
-    assert 0.2 < info.value.t < 0.35 and np.all(np.isfinite(info.value.y))
-
-    def singular(y, u):
-        return np.linalg.solve(np.zeros((2, 2)), y)
-
-    with pytest.raises(DivergenceError, match="right-hand side failed"):
-        integrate_zoh(singular, [1.0, 1.0], t, np.zeros((t.size, 1)))
-
-
-def test_bad_input():
-    t = np.arange(10) * 0.01
-    with pytest.raises(ValueError, match="does not divide"):
-        integrate_zoh(_osc, [1.0, 0.0], t, np.zeros((10, 1)), step=0.003)
-    with pytest.raises(ValueError, match="u must have shape"):
-        integrate_zoh(_osc, [1.0, 0.0], t, np.zeros((9, 1)))
-    with pytest.raises(ValueError, match="NaN"):
-        integrate_zoh(_osc, [np.nan, 0.0], t, np.zeros((10, 1)))
-    with pytest.raises(ValueError, match="increasing"):
-        integrate_zoh(_osc, [1.0, 0.0], t[::-1], np.zeros((10, 1)))
-
-
-# ---------------------------------------------------------------------------
-# Rosenbrock-W (ROS34PW2)
-# ---------------------------------------------------------------------------
 def test_rosenbrock_tableau_order_conditions():
     # Rosenbrock order conditions (Hairer & Wanner II, Table IV.7.1) up to order 3 for b,
     # up to order 2 for the embedded b_hat; beta = alpha + Gamma off the diagonal
@@ -122,67 +83,97 @@ def test_rosenbrock_tableau_order_conditions():
     np.testing.assert_allclose((a + g)[-1], b, atol=1e-15)
 
 
-@pytest.mark.parametrize("jac_scale", [1.0, 0.5, 0.0])
-def test_rosenbrock_w_is_third_order_whatever_the_jacobian(jac_scale):
-    # a W-method keeps order 3 with any approximation of J, even J = 0 (then it is explicit)
+@pytest.mark.parametrize("method,order", [("dopri5", 5), ("rosenbrock", 3)])
+def test_fixed_steps_have_the_scheme_order_on_held_forcing(method, order):
     t, u, exact = _problem()
-    jac = lambda y, uk: jac_scale * A_OSC  # noqa: E731
-    errors = [np.abs(integrate_zoh(_osc, [1.0, 0.0], t, u, step=h, method="rosenbrock", jac=jac) - exact).max()
-              for h in (0.005, 0.0025)]
-    assert 7 < errors[0] / errors[1] < 9, errors  # 2^3 = 8
-    assert errors[-1] < 1e-3
+    model = _oscillator()
+    errors = [np.abs(_run(model, t, u, method=method, step=h) - exact).max() for h in (0.005, 0.0025, 0.00125)]
+    ratios = np.array(errors[:-1]) / np.array(errors[1:])
+    # halving the step divides the error by ~2^order
+    assert np.all(ratios > 0.75 * 2**order) and np.all(ratios < 1.3 * 2**order), ratios
 
 
-def test_rosenbrock_finite_difference_jacobian_and_callable_input():
+@pytest.mark.parametrize("method", ["dopri5", "rosenbrock", "radau", "dop853", "bdf", "lsoda"])
+def test_adaptive_schemes_meet_their_tolerance(method):
     t, u, exact = _problem()
-    out = integrate_zoh(_osc, [1.0, 0.0], t, u, step=0.00125, method="rosenbrock")  # jac by differences
-    exact_jac = integrate_zoh(_osc, [1.0, 0.0], t, u, step=0.00125, method="rosenbrock", jac=lambda y, uk: A_OSC)
-    assert np.abs(out - exact_jac).max() < 1e-9
-    # smooth callable forcing: the time derivative of u is not in J, order 3 all the same
+    out = _run(_oscillator(), t, u, method=method, rtol=1e-8, atol=1e-10)
+    scale = np.abs(exact).max(axis=0)
+    assert np.all(np.abs(out - exact).max(axis=0) <= 1e-5 * scale), np.abs(out - exact).max(axis=0) / scale
+
+
+def test_callable_input_through_solve_ivp():
     wf = 7.0
-    big = np.zeros((4, 4))
-    big[:2, :2] = A_OSC
-    big[1, 2] = 1.0
-    big[2, 3] = 1.0
-    big[3, 2] = -(wf**2)
-    ref = np.array([(expm(big * tk) @ np.array([0.5, 0.0, 1.0, 0.0]))[:2] for tk in t])
-    errs = [np.abs(integrate_zoh(_osc, [0.5, 0.0], t, lambda tk: [np.cos(wf * tk)], step=h, method="rosenbrock",
-                                 jac=lambda y, uk: A_OSC) - ref).max() for h in (0.005, 0.0025)]
-    assert 6.5 < errs[0] / errs[1] < 9.5, errs
+    t = np.linspace(0.0, 1.0, 201)
+    out = _run(_oscillator(), t, lambda s: [0.0, 0.0, np.cos(wf * s)], y0=(0.5, 0.0), method="radau", rtol=1e-10,
+               atol=1e-12)
+    # the steady-state and the transient of a cosine-forced oscillator, in closed form
+    from scipy.integrate import solve_ivp
+
+    ref = solve_ivp(lambda s, y: A_OSC @ y + [0.0, np.cos(wf * s)], (0, 1), [0.5, 0.0], method="DOP853",
+                    t_eval=t, rtol=1e-12, atol=1e-14).y.T
+    assert np.abs(out - ref).max() < 1e-7
+    with pytest.raises(ValueError, match="tabulated inputs"):
+        _run(_oscillator(), t, lambda s: [0.0, 0.0, 1.0], method="rosenbrock")
 
 
-def test_rosenbrock_is_not_stability_limited_on_a_stiff_problem():
-    # y1' = -1e5 (y1 - cos t) (stiff, follows cos t), y2' = y1: explicit steps need h < 3.3e-5
-    lam = 1e5
-
-    def f(y, uk):
-        return np.array([-lam * (y[0] - uk[0]), y[0]])
-
+def test_rosenbrock_is_not_stability_limited_on_a_stiff_oscillator():
+    # overdamped with a 1e-5 s time constant: explicit steps must stay below ~3e-5 s
+    k, d = 1e5, 1e5 + 1.0
+    model = _oscillator(k, d)
     t = np.linspace(0.0, 0.3, 31)
-    u = np.cos(t)[:, None]
-    # exact zero-order-hold solution, interval by interval
-    h, decay = 0.01, np.exp(-lam * 0.01)
-    ref = [np.array([1.0, 0.0])]
-    for k in range(t.size - 1):
-        y1, y2 = ref[-1]
-        uk = u[k, 0]
-        ref.append(np.array([uk + (y1 - uk) * decay, y2 + uk * h + (y1 - uk) * (1 - decay) / lam]))
-    ref = np.array(ref)
+    u = np.cos(t)[:, None] * k
+    exact = _exact_zoh(np.array([[0.0, 1.0], [-k, -d]]), [1.0, 0.0], t, u)
     st_r, st_d = {}, {}
-    out = integrate_zoh(f, [1.0, 0.0], t, u, method="rosenbrock", rtol=1e-6, atol=1e-9, stats=st_r)
-    integrate_zoh(f, [1.0, 0.0], t, u, rtol=1e-6, atol=1e-9, stats=st_d)
-    assert np.abs(out - ref).max() < 1e-8
+    out = _run(model, t, u, method="rosenbrock", rtol=1e-4, atol=1e-7, stats=st_r)
+    _run(model, t, u, method="dopri5", rtol=1e-4, atol=1e-7, stats=st_d)
+    assert np.abs(out[:, 0] - exact[:, 0]).max() < 1e-5
     assert st_r["n_steps"] < 0.1 * st_d["n_steps"], (st_r, st_d)
 
 
-def test_rosenbrock_divergence_and_bad_method():
+@pytest.mark.parametrize("method", ["dopri5", "rosenbrock", "radau"])
+def test_divergence_raises_with_time_and_state(method):
     t = np.arange(200) * 0.01
-    grow = lambda y, u: 50.0 * y  # noqa: E731
-    with pytest.raises(DivergenceError, match=r"t = .* s.*a="):
-        integrate_zoh(grow, [1.0, 1.0], t, np.zeros((t.size, 1)), method="rosenbrock", state_names=["a", "b"])
-    with pytest.raises(ValueError, match="method must be one of.*'rk45'"):
-        integrate_zoh(_osc, [1.0, 0.0], t, np.zeros((t.size, 1)), method="rk45")
-    with pytest.raises(ValueError, match="jac is only used"):
-        integrate_zoh(_osc, [1.0, 0.0], t, np.zeros((t.size, 1)), jac=lambda y, u: A_OSC)
-    with pytest.raises(ValueError, match=r"jac must return shape \(2, 2\)"):
-        integrate_zoh(_osc, [1.0, 0.0], t, np.zeros((t.size, 1)), method="rosenbrock", jac=lambda y, u: np.eye(3))
+    unstable = _oscillator(k=-2500.0, d=0.0)
+    with pytest.raises(SimulationError, match=r"t = .* s.*ax_1="):
+        _run(unstable, t, np.zeros((t.size, 1)), method=method, max_abs_state=1e3)
+    singular = LumpedPCSModel(PlanarPCS((L,)), [0.0], [0.0], [[0.0, 0.0]], [1.0] * 3, [0.0] * 3)
+    with pytest.raises(SimulationError, match="singular") as err:
+        singular.simulate(np.ones(3), np.zeros(3), t[:5], np.zeros((5, 3)), method=method)
+    assert err.value.y.size == 6
+
+
+def test_bad_input_is_named():
+    t = np.arange(10) * 0.01
+    model = _oscillator()
+    with pytest.raises(ValueError, match="does not divide"):
+        _run(model, t, np.zeros((10, 1)), step=0.003)
+    with pytest.raises(ValueError, match=r"u must have shape \(10, 3\)"):
+        _run(model, t, np.zeros((9, 1)))
+    with pytest.raises(ValueError, match="q0 contains NaN"):
+        model.simulate([0.0, 0.0, np.nan], np.zeros(3), t, np.zeros((10, 1)))
+    with pytest.raises(ValueError, match="strictly increasing"):
+        _run(model, t[::-1], np.zeros((10, 1)))
+    with pytest.raises(ValueError, match=r"method must be one of \['rosenbrock'"):
+        _run(model, t, np.zeros((10, 1)), method="euler")
+    with pytest.raises(ValueError, match="rtol must be finite"):
+        _run(model, t, np.zeros((10, 1)), rtol=-1.0)
+
+
+def test_former_method_names_warn_and_map():
+    with pytest.warns(FutureWarning, match="method='radau'"):
+        assert canonical_method("Radau", ("radau", "dopri5")) == "radau"
+    with pytest.warns(FutureWarning, match="method='dopri5'"):
+        assert canonical_method("RK45", ("radau", "dopri5")) == "dopri5"
+    with pytest.raises(ValueError, match="must be one of"):
+        canonical_method("rosenbrock", ("radau",))
+
+
+def test_solve_held_on_a_plain_function():
+    t, u, exact = _problem()
+    out = solve_held(lambda y, uk: A_OSC @ y + np.array([0.0, uk[0]]), [1.0, 0.0], t, u, method="dop853",
+                     rtol=1e-10, atol=1e-12)
+    assert np.abs(out - exact).max() < 1e-8
+    with pytest.raises(SimulationError, match="a="):
+        solve_held(lambda y, uk: 50.0 * y, [1.0, 1.0], t, u, method="radau", max_abs_state=1e3, state_names=["a", "b"])
+    with pytest.raises(ValueError, match="for solve_ivp"):
+        solve_held(lambda y, uk: y, [1.0], t, u, method="rosenbrock")

@@ -92,7 +92,7 @@ def test_special_functions_match_quadrature_and_switch_smoothly():
         got = fns[name](us)
         want = np.array([ref(u) for u in us])
         np.testing.assert_allclose(got, want, rtol=1e-10, atol=1e-13, err_msg=name)
-    # the vectorised bank used by compile_dynamics agrees with the per-function evaluation
+    # the vectorised bank used by the forward model agrees with the per-function evaluation
     names = sorted(fns) + ["IEuEu_u", "IEEu_im_u"]
     bank = SpecialBank(names)
     got = bank(us)
@@ -212,10 +212,10 @@ def test_basis_sizes_one_segment(cache_dir):
 
 # ---------------------------------------------------------------- fast dynamics
 @pytest.mark.parametrize("case,mask", [(ONE, None), (ONE, [[1, 0, 1]]), (TWO, None)], ids=["1seg", "1seg-noshear", "2seg"])
-def test_compile_dynamics_matches_batched_and_simulator(case, mask, cache_dir):
+def test_forward_model_matches_batched_and_simulator(case, mask, cache_dir):
     lib = PCSLagrangianLibrary(case["lengths"], active_strains=mask, cache_dir=cache_dir)
     coef = true_coef(lib, case)
-    f = lib.compile_dynamics(coef)
+    fm = lib.forward_model(coef)
     n = lib.n_strains
     q, qd, _ = random_states(n, 8, seed=4)
     M_b = lib.mass_matrix(q, coef)
@@ -223,11 +223,15 @@ def test_compile_dynamics_matches_batched_and_simulator(case, mask, cache_dir):
     sim = robot(case)
     keep = lib.kinematics.active_mask
     M_sim = sim.mass_matrix(lib.kinematics.to_full(q))[:, keep][:, :, keep]
+    M_f, bias_f = fm.mass_and_bias(q, qd)
+    assert M_f.shape == (q.shape[0], n, n) and bias_f.shape == q.shape
+    tau = np.ones(n)
     for k in range(q.shape[0]):
-        M, bias = f(q[k], qd[k])
-        assert M.shape == (n, n) and bias.shape == (n,)
-        assert rel_err(M, M_b[k]) < 1e-10 and rel_err(M, M_sim[k]) < 1e-8
-        assert rel_err(bias, bias_b[k]) < 1e-10
+        assert rel_err(M_f[k], M_b[k]) < 1e-10 and rel_err(M_f[k], M_sim[k]) < 1e-8
+        assert rel_err(bias_f[k], bias_b[k]) < 1e-10
+        # the single-sample path of rollouts: qdd = M^-1 (tau - bias)
+        qdd = fm._state_derivative(np.r_[q[k], qd[k]], tau)[n:]
+        assert rel_err(qdd, np.linalg.solve(M_b[k], tau - bias_b[k])) < 1e-8
 
 
 # ---------------------------------------------------------------- pysindy / sklearn
@@ -306,7 +310,7 @@ def test_bad_input_raises_value_error_naming_the_argument(cache_dir):
         lib.coefficients_from_parameters(1.0, 0.02, 1e4, 1e3, np.ones(3), stiffness_scaling="weird")
     with pytest.raises(ValueError, match="active_strains must be a subset"):
         lib.restrict([[1, 0, 1]]).restrict([[1, 1, 0]])
-    with pytest.raises(ValueError, match="x must have 6 columns"):
+    with pytest.raises(ValueError, match="x must have 2n = 6 columns"):
         lib.fit(np.zeros((5, 4)))
 
 

@@ -97,9 +97,28 @@ def test_physical_bound_is_applied_in_physical_units():
     # with G_max raised above the shear stiffness nothing is removed
     opt2 = StiffnessThresholdOptimizer(shear_modulus_max=1e8).fit(psi, tau, library=lib, states=(q, qd, qdd))
     assert opt2.removed_strains_ == []
-    # threshold=False never removes
-    opt3 = StiffnessThresholdOptimizer(threshold=False).fit(psi, tau, library=lib, states=(q, qd, qdd))
+    # threshold=inf never removes
+    opt3 = StiffnessThresholdOptimizer(threshold=np.inf).fit(psi, tau, library=lib, states=(q, qd, qdd))
     assert opt3.removed_strains_ == [] and opt3.active_strains_.all()
+
+
+def test_threshold_is_a_factor_on_the_bound():
+    lib, q, qd, qdd, psi, tau = _data()
+    k = StiffnessThresholdOptimizer(threshold=np.inf).fit(psi, tau, library=lib, states=(q, qd, qdd)).stiffness_
+    bounds = StiffnessThresholdOptimizer().fit(psi, tau, library=lib, states=(q, qd, qdd)).max_stiffness_
+    # a factor just below k/bound of the softest strain removes every strain above it, and only those
+    ratio = np.sort(k / bounds)
+    factor = 0.5 * (ratio[0] + ratio[1])
+    opt = StiffnessThresholdOptimizer(threshold=factor).fit(psi, tau, library=lib, states=(q, qd, qdd))
+    softest = lib.kinematics.strain_names()[int(np.argmin(k / bounds))]
+    assert len(opt.removed_strains_) >= 1 and softest not in opt.removed_strains_
+    # the former switch keeps working for a release
+    with pytest.warns(FutureWarning, match="threshold=np.inf"):
+        old = StiffnessThresholdOptimizer(threshold=False).fit(psi, tau, library=lib, states=(q, qd, qdd))
+    assert old.removed_strains_ == []
+    for bad in (0.0, -1.0, "yes", np.nan, None):
+        with pytest.raises(ValueError, match="threshold must be a number > 0"):
+            StiffnessThresholdOptimizer(threshold=bad).fit(psi, tau, library=lib, states=(q, qd, qdd))
 
 
 def test_max_iter_exhausted_warns_and_keeps_a_consistent_model():

@@ -64,9 +64,10 @@ def noisy(scenario):
 
 
 def _fit_noisy(scenario, X, taus, bounded: bool) -> EulerLagrangeRegressor:
-    lib = PhysicalPCSLibrary(scenario.robot.kinematics.segment_lengths)
+    lib = PhysicalPCSLibrary(scenario.robot.kinematics.segment_lengths, rest_strain=False)
     model = EulerLagrangeRegressor(
         library=lib,
+        formulation="strong",
         window_length=7,
         exclude_force_jumps=True,
         optimizer=StiffnessThresholdOptimizer(bounded=bounded),
@@ -84,8 +85,8 @@ def test_exact_derivatives_recover_every_parameter(scenario):
     X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in data.train]
     # exact accelerations from the simulator's forward dynamics at the recorded states
     qdd = [robot.forward_dynamics(r.q, r.qd, r.tau) for r in data.train]
-    lib = PhysicalPCSLibrary(L)
-    model = EulerLagrangeRegressor(library=lib).fit(X, [r.tau for r in data.train], qd=[r.qd for r in data.train], qdd=qdd)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
+    model = EulerLagrangeRegressor(library=lib, formulation="strong").fit(X, [r.tau for r in data.train], qd=[r.qd for r in data.train], qdd=qdd)
 
     truth = _true_coefficients(scenario, lib)
     assert lib.n_coefficients_ == 5 * 8  # rhoA, rhoI, 3 stiffnesses, 3 dampings per segment

@@ -7,8 +7,10 @@ import pytest
 from scipy.optimize import lsq_linear
 from sklearn.base import clone
 
-from pcs_sindy.library.physical import PhysicalPCSLibrary, integrate_forces, sliding_windows, weak_form_rows
+from pcs_sindy.formulations import integrate_forces, sliding_windows, weak_form_rows
+from pcs_sindy.library.physical import PhysicalPCSLibrary
 from pcs_sindy.simulation.dynamics import PCSRobot
+from truth import simulate_truth
 
 # (lengths, density, E, G, damping) — the seed's Table I robots
 ROBOTS = {
@@ -84,10 +86,10 @@ def test_compiled_dynamics_match_simulator(m):
     robot, (L, rho, E, G, D) = make(m)
     for identify_gravity in (False, True):
         lib = PhysicalPCSLibrary(L, identify_gravity=identify_gravity)
-        f = lib.compile_dynamics(lib.coefficients_from_parameters(rho, None, E, G, D))
+        fm = lib.forward_model(lib.coefficients_from_parameters(rho, None, E, G, D))
         q, qd, _ = random_states(rng, m, 6)
         for k in range(6):
-            M, bias = f(q[k], qd[k])
+            M, bias = (a[0] for a in fm.mass_and_bias(q[k], qd[k]))
             assert M.shape == (3 * m, 3 * m) and bias.shape == (3 * m,)
             assert rel_err(M, robot.mass_matrix(q[k])) < 1e-10
             tau = rng.normal(size=3 * m)
@@ -98,12 +100,12 @@ def test_compiled_dynamics_match_simulator(m):
     keep[0, 1] = keep[-1, 2] = False
     sub = PhysicalPCSLibrary(L).restrict(keep)
     coef = sub.coefficients_from_parameters(rho, None, E, G, D)
-    f = sub.compile_dynamics(coef)
+    fm = sub.forward_model(coef)
     q, qd, _ = random_states(rng, m, 4)
     q, qd = q[:, keep.reshape(-1)], qd[:, keep.reshape(-1)]
     M_all, b_all = sub.mass_matrix(q, coef), sub.bias_forces(q, qd, coef)
     for k in range(4):
-        M, bias = f(q[k], qd[k])
+        M, bias = (a[0] for a in fm.mass_and_bias(q[k], qd[k]))
         assert rel_err(M, M_all[k]) < 1e-12 and rel_err(bias, b_all[k]) < 1e-12
 
 
@@ -111,7 +113,7 @@ def test_compiled_dynamics_match_simulator(m):
 def test_lagrangian_basis_gives_simulator_energies(m):
     rng = np.random.default_rng(20 + m)
     robot, (L, rho, E, G, D) = make(m)
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     coef = lib.coefficients_from_parameters(rho, None, E, G, D)
     q, qd, _ = random_states(rng, m, 25)
     x = np.hstack([q, qd])
@@ -128,7 +130,8 @@ def test_lagrangian_basis_gives_simulator_energies(m):
 
 
 def test_pysindy_params_and_clone():
-    lib = PhysicalPCSLibrary([0.1, 0.05], active_strains=[[1, 0, 1], [1, 1, 1]], identify_gravity=True)
+    lib = PhysicalPCSLibrary([0.1, 0.05], active_strains=[[1, 0, 1], [1, 1, 1]], identify_gravity=True,
+                             rest_strain=False)
     c = clone(lib)
     assert c.get_params() == lib.get_params()
     assert c.n_coefficients_ == lib.n_coefficients_
@@ -144,7 +147,7 @@ def test_pysindy_params_and_clone():
 
 def _simulate(m, t, tau_fn):
     robot, (L, rho, E, G, D) = make(m)
-    q, qd = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau_fn, rtol=1e-9, atol=1e-12)
+    q, qd = simulate_truth(robot, np.zeros(3 * m), np.zeros(3 * m), t, tau_fn, rtol=1e-9)
     return robot, q, qd
 
 
@@ -178,7 +181,7 @@ def held_trajectory():
     t = np.arange(0.0, 0.02 + 1e-12, 1e-4)
     tau = np.repeat(rng.uniform(-1, 1, (t.size // 50 + 1, 3)) * [2e-3, 5e-2, 5e-2], 50, axis=0)[: t.size]
     robot, _ = make(1)
-    q, qd = robot.simulate(np.zeros(3), np.zeros(3), t, tau, rtol=1e-9, atol=1e-12)
+    q, qd = simulate_truth(robot, np.zeros(3), np.zeros(3), t, tau, rtol=1e-9)
     return t, q, qd, tau
 
 
@@ -186,7 +189,7 @@ def test_weak_form_with_zero_order_hold(held_trajectory):
     """Held actuation: tau integrated exactly, windows aligned with the holds."""
     t, q, qd, tau = held_trajectory
     L, rho, E, G, D = ROBOTS[1]
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     coef = lib.coefficients_from_parameters(rho, None, E, G, D)
     windows = np.array([[a, a + 50] for a in range(0, t.size - 50, 50)])
     lhs = lib.integrated_euler_lagrange_matrix(t, q, qd, windows, rule="simpson") @ coef
@@ -211,7 +214,7 @@ def test_integrate_forces_rules_exact_cases():
 def test_bounded_fit_on_noisy_data_is_physical():
     rng = np.random.default_rng(50)
     robot, (L, rho, E, G, D) = make(2)
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     n = 6
     q, qd, _ = random_states(rng, 2, 300)
     tau = rng.normal(size=(300, n)) * np.tile([5e-3, 5e-2, 5e-1], 2)
@@ -245,7 +248,7 @@ def test_five_segments_recover_parameters_from_exact_derivatives():
     G = rng.uniform(1e3, 1e4, m)
     D = np.tile([5e-5, 5e-2, 5e-2], m) * rng.uniform(0.5, 2, 3 * m)
     robot = PCSRobot(L, rho, E, G, D)
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     true = lib.coefficients_from_parameters(rho, None, E, G, D)
     q, qd, _ = random_states(rng, m, 400)
     tau = rng.normal(size=(400, 3 * m)) * np.tile([5e-3, 5e-2, 5e-1], m)
@@ -260,7 +263,7 @@ def test_five_segments_recover_parameters_from_exact_derivatives():
 def test_restrict_is_the_library_with_strains_held_at_zero():
     rng = np.random.default_rng(70)
     L = ROBOTS[2][0]
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     keep = np.array([[False, True, True], [True, False, True]])
     sub = lib.restrict(keep)
     mask = keep.reshape(-1)
@@ -333,7 +336,7 @@ def test_bad_input_raises_naming_the_argument():
 
 
 def test_identifiability_standard_errors_and_unexcited_columns():
-    from pcs_sindy.library.physical import identifiability
+    from pcs_sindy.identifiability import identifiability
 
     rng = np.random.default_rng(80)
     x = rng.normal(size=(200, 3)) * [1.0, 1e3, 1e-3]
@@ -368,7 +371,7 @@ def test_tied_rotary_inertia_is_exact_for_circular_sections():
     q, qd, qdd = random_states(rng, 2, 10)
     assert rel_err(tied.euler_lagrange_matrix(q, qd, qdd) @ coef, robot.inverse_dynamics(q, qd, qdd)) < 1e-8
     assert rel_err(tied.mass_matrix(q, coef), robot.mass_matrix(q)) < 1e-8
-    M, bias = tied.compile_dynamics(coef)(q[3], qd[3])
+    M, bias = (a[0] for a in tied.forward_model(coef).mass_and_bias(q[3], qd[3]))
     assert rel_err(M, robot.mass_matrix(q[3])) < 1e-10
     x = np.hstack([q, qd])
     lag = np.asarray(tied.fit(x).transform(x)) @ coef[: tied.n_output_features_]
@@ -383,7 +386,7 @@ def test_bump_weighted_weak_form(held_trajectory):
     """Test-function weak form: no boundary samples; exact ZOH weights; matches the forces."""
     t, q, qd, tau = held_trajectory
     L, rho, E, G, D = ROBOTS[1]
-    lib = PhysicalPCSLibrary(L)
+    lib = PhysicalPCSLibrary(L, rest_strain=False)
     coef = lib.coefficients_from_parameters(rho, None, E, G, D)
     windows = sliding_windows(t.size, 50, stride=25)  # windows straddle actuation switches
     lhs = lib.integrated_euler_lagrange_matrix(t, q, qd, windows, test_function="bump") @ coef

@@ -31,7 +31,7 @@ def one_segment():
 
 
 def _physical(robot):
-    return PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
+    return PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity, rest_strain=False)
 
 
 @pytest.mark.parametrize("kind", ["physical", "lagrangian_physical"])
@@ -44,7 +44,7 @@ def test_sindy_stacked_equals_regressor(one_segment, kind, optimizer):
         lib = PCSLagrangianLibrary(robot.segment_lengths, basis="physical")
     L = robot.segment_lengths
     X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in recs]
-    reg = EulerLagrangeRegressor(library=lib, check_mass_matrix=False).fit(
+    reg = EulerLagrangeRegressor(library=lib, formulation="strong", check_mass_matrix=False).fit(
         X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
     assert reg.removed_strains_ == []
     opt = ps.STLSQ(threshold=0.0, alpha=0.0) if optimizer == "stlsq" else StiffnessThresholdOptimizer()
@@ -88,3 +88,45 @@ def test_stacked_layout_and_errors(one_segment):
         stack_forces(tau[:, 0])
     with pytest.raises(ValueError, match="not a multiple of n = 4"):
         unstack_forces(np.zeros(6), 4)
+
+
+def _strong_fit(one_segment, optimizer):
+    robot, recs, qdd = one_segment
+    X = [StrainTrajectory(r.q, r.t, segment_lengths=robot.segment_lengths) for r in recs]
+    reg = EulerLagrangeRegressor(library=_physical(robot), formulation="strong", optimizer=optimizer)
+    return reg.fit(X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
+
+
+@pytest.mark.parametrize("optimizer", [ps.STLSQ(threshold=0.0, alpha=0.0), ps.SR3(reg_weight_lam=0.0)])
+def test_any_pysindy_optimizer_drives_the_regressor(one_segment, optimizer):
+    robot = one_segment[0]
+    ref = _strong_fit(one_segment, StiffnessThresholdOptimizer(threshold=np.inf))
+    reg = _strong_fit(one_segment, optimizer)
+    truth = reg.library_.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus,
+                                                      robot.shear_modulus, robot.damping)
+    # exact rates and accelerations: every optimizer without a penalty lands on the truth
+    np.testing.assert_allclose(reg.coef_, ref.coef_, rtol=1e-5, atol=1e-6 * np.abs(truth).max())
+    np.testing.assert_allclose(ref.coef_, truth, rtol=1e-6)
+    assert reg.removed_strains_ == [] and type(reg.optimizer_) is type(optimizer)
+
+
+def test_from_sindy_rolls_out_like_the_regressor(one_segment):
+    robot, recs, qdd = one_segment
+    lib = _physical(robot)
+    model = ps.SINDy(feature_library=StackedEulerLagrangeLibrary(lib), optimizer=ps.STLSQ(threshold=0.0, alpha=0.0))
+    model.fit([np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd)], t=[r.t for r in recs],
+              x_dot=[stack_forces(r.tau) for r in recs])
+    from_sindy = EulerLagrangeRegressor.from_sindy(model)
+    reg = _strong_fit(one_segment, ps.STLSQ(threshold=0.0, alpha=0.0))
+    np.testing.assert_array_equal(from_sindy.coef_, model.coefficients()[0])
+    np.testing.assert_allclose(from_sindy.stiffness_, robot.stiffness, rtol=1e-6)
+    t = recs[1].t[:200]
+    a = from_sindy.simulate(recs[1].q[0], recs[1].qd[0], t, recs[1].tau[:200])
+    b = reg.simulate(recs[1].q[0], recs[1].qd[0], t, recs[1].tau[:200])
+    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-6 * np.abs(b.q).max())
+    # and both follow the recording (exact model): the rollout is the recorded motion
+    err = np.abs(a.q - recs[1].q[:200]).max(axis=0) / np.abs(recs[1].q[:200]).max(axis=0)
+    assert np.all(err < 1e-3), err
+    assert from_sindy.equations() == reg.library_.equations(from_sindy.coef_)
+    with pytest.raises(ValueError, match="StackedEulerLagrangeLibrary"):
+        EulerLagrangeRegressor.from_sindy(ps.SINDy())

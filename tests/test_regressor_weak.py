@@ -14,11 +14,13 @@ from pcs_sindy.optimizers import StiffnessThresholdOptimizer
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.trajectory import StrainTrajectory
 
-pytest.importorskip("pcs_sindy.library")
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.simulation import get_scenario  # noqa: E402
+from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
+from pcs_sindy.simulation import get_scenario
+from truth import simulate_truth
 
-WEAK = dict(basis="physical", formulation="weak", weak_window=40, weak_stride=20, window_length=7)
+# the defaults, written out (and a library without constant forces where the truth has none)
+WEAK = dict(library=PhysicalPCSLibrary(rest_strain=False), formulation="weak", weak_window=40, weak_stride=20,
+            window_length=7)
 
 
 def _robot(name):
@@ -35,7 +37,7 @@ def _held_recordings(robot, n_rec, n_samples=400, hold=25, seed=0, amp=(20.0, 0.
     for _ in range(n_rec):
         targets = rng.uniform(-1, 1, (n_samples // hold + 1, n)) * np.tile(amp, robot.n_segments)
         tau = np.repeat(robot.gravity_forces(targets) + robot.elastic_forces(targets), hold, axis=0)[:n_samples]
-        q, qd = robot.simulate(np.zeros(n), np.zeros(n), t, tau, rtol=1e-10, atol=1e-12)
+        q, qd = simulate_truth(robot, np.zeros(n), np.zeros(n), t, tau)
         X.append(StrainTrajectory(q, t, segment_lengths=L))
         taus.append(tau)
         qs.append(q)
@@ -71,7 +73,7 @@ def test_weak_form_on_held_simulator_data_recovers_stiffness_and_damping():
     # one row block per window: (400 - 40) // 20 + 1 = 19 windows per recording
     assert model.n_regression_samples_ == 3 * 18
     # the strong form on the same data with the seed's SG 25 is biased by the force jumps (measured 6-9 %)
-    strong = EulerLagrangeRegressor(basis="physical").fit(X, taus)
+    strong = EulerLagrangeRegressor(formulation="strong", window_length=25).fit(X, taus)
     assert np.max(np.abs(strong.stiffness_ / robot.stiffness - 1)) > 5 * np.max(np.abs(model.stiffness_ / robot.stiffness - 1))
     # the mass matrix of the weak-form model is the simulator's
     M_true = robot.mass_matrix(X[0].q[::40])
@@ -115,7 +117,8 @@ def test_weak_form_smooth_actuation_and_strain_removal():
 def test_identified_gravity_matches_known_gravity():
     robot = _robot("one_segment")
     X, taus, _ = _held_recordings(robot, 3, seed=2)
-    model = EulerLagrangeRegressor(identify_gravity=True, **WEAK).fit(X, taus)
+    model = EulerLagrangeRegressor(**{**WEAK, "library": PhysicalPCSLibrary(identify_gravity=True, rest_strain=False)})
+    model.fit(X, taus)
     names = model.library_.euler_lagrange_names()
     rhoA = model.model_coef_[names.index("rhoA_1")]
     rhoAg = model.model_coef_[[names.index("rhoAgx_1"), names.index("rhoAgy_1")]]
@@ -134,7 +137,7 @@ def test_bounded_weak_fit_on_noisy_poses_is_physical(seed):
     rng = np.random.default_rng(seed)
     sigma = np.tile([3.0, 0.05, 0.05], 2)
     noisy = [StrainTrajectory(x.q + sigma * rng.standard_normal(x.q.shape), x.t, segment_lengths=x.segment_lengths) for x in X]
-    kw = dict(optimizer=StiffnessThresholdOptimizer(threshold=False), **WEAK)
+    kw = dict(optimizer=StiffnessThresholdOptimizer(threshold=np.inf), **WEAK)
     model = EulerLagrangeRegressor(**kw).fit(noisy, taus)
     lb = model.library_.lower_bounds_
     assert np.all(model.model_coef_[np.isfinite(lb)] >= lb[np.isfinite(lb)])
@@ -144,7 +147,7 @@ def test_bounded_weak_fit_on_noisy_poses_is_physical(seed):
     assert model.mass_matrix_not_pd_fraction_ == 0.0
     # the bounds matter: unbounded, some density, stiffness or damping reads negative on this noise
     free = EulerLagrangeRegressor(
-        optimizer=StiffnessThresholdOptimizer(threshold=False, bounded=False), check_mass_matrix=False, **WEAK
+        optimizer=StiffnessThresholdOptimizer(threshold=np.inf, bounded=False), check_mass_matrix=False, **WEAK
     ).fit(noisy, taus)
     assert np.any(free.model_coef_ < 0)
 
@@ -158,8 +161,8 @@ def test_identifiability_flags_an_unexcited_strain():
     X = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs]
     taus = [r[4] + 0.01 * np.std(r[4], axis=0) * rng.standard_normal(r[4].shape) for r in recs]
     qds, qdds = [r[2] for r in recs], [r[3] for r in recs]
-    opt = StiffnessThresholdOptimizer(threshold=False)
-    model = EulerLagrangeRegressor(basis="physical", optimizer=opt).fit(X, taus, qd=qds, qdd=qdds)
+    opt = StiffnessThresholdOptimizer(threshold=np.inf)
+    model = EulerLagrangeRegressor(formulation="strong", optimizer=opt).fit(X, taus, qd=qds, qdd=qdds)
     info = model.identifiability_
     assert info["poorly_excited_strains"] == ["sh_1"]
     assert "k_sh_1" in info["poorly_determined"] and "d_sh_1" in info["poorly_determined"]
@@ -178,7 +181,8 @@ def test_identifiability_flags_an_unexcited_strain():
     recs2 = [_smooth_recording(robot, s, amp=(30.0, 0.1, 0.1)) for s in range(2)]
     X2 = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs2]
     taus2 = [r[4] + 0.01 * np.std(r[4], axis=0) * rng.standard_normal(r[4].shape) for r in recs2]
-    model2 = EulerLagrangeRegressor(basis="physical", optimizer=opt).fit(X2, taus2, qd=[r[2] for r in recs2], qdd=[r[3] for r in recs2])
+    model2 = EulerLagrangeRegressor(formulation="strong", optimizer=opt).fit(
+        X2, taus2, qd=[r[2] for r in recs2], qdd=[r[3] for r in recs2])
     assert model2.identifiability_["poorly_excited_strains"] == []
     kd = np.r_[model2.library_.stiffness_index_, model2.library_.damping_index_]
     assert np.all(model2.identifiability_["relative_standard_errors"][kd] < 0.1)
@@ -188,7 +192,7 @@ def test_weak_bad_input_raises_naming_the_argument():
     robot = _robot("one_segment")
     X, taus, _ = _held_recordings(robot, 1, n_samples=60, seed=3)
     with pytest.raises(ValueError, match="weak_window = 80"):
-        EulerLagrangeRegressor(basis="physical", formulation="weak", weak_window=80, window_length=7).fit(X, taus)
+        EulerLagrangeRegressor(weak_window=80).fit(X, taus)
     for kw, match in [
         (dict(weak_stride=0), "weak_stride"),
         (dict(weak_stride=2.5), "weak_stride"),
@@ -198,15 +202,17 @@ def test_weak_bad_input_raises_naming_the_argument():
         (dict(weak_hold="foh"), "weak_hold"),
     ]:
         with pytest.raises(ValueError, match=match):
-            EulerLagrangeRegressor(basis="physical", window_length=7, **{**dict(formulation="weak", weak_window=20), **kw}).fit(X, taus)
-    with pytest.raises(ValueError, match="basis"):
-        EulerLagrangeRegressor(basis="cubic").fit(X, taus)
-    with pytest.raises(ValueError, match="library"):
+            EulerLagrangeRegressor(**{**dict(weak_window=20), **kw}).fit(X, taus)
+    with pytest.raises(ValueError, match="library must be a LagrangianLibrary"):
         EulerLagrangeRegressor(library="cubic").fit(X, taus)
-    # the weak form needs the numeric physical library
-    mono = PCSLagrangianLibrary(robot.kinematics.segment_lengths)
-    with pytest.raises(ValueError, match="integrated_euler_lagrange_matrix"):
-        EulerLagrangeRegressor(library=mono, formulation="weak", weak_window=20).fit(X, taus)
+    with pytest.raises(ValueError, match="library must be a LagrangianLibrary"):
+        EulerLagrangeRegressor(library=object()).fit(X, taus)
+    with pytest.raises(ValueError, match="optimizer must be a pysindy optimizer"):
+        EulerLagrangeRegressor(optimizer="lstsq").fit(X, taus)
+    # a library given with another segmentation than the data's
+    mono = PCSLagrangianLibrary((0.05, 0.05))
+    with pytest.raises(ValueError, match="differ from the data's"):
+        EulerLagrangeRegressor(library=mono, weak_window=20).fit(X, taus)
     with pytest.raises(ValueError, match="design"):
         StiffnessThresholdOptimizer().fit(np.ones((6, 2)), np.ones(6), design=lambda lib, keep: None)
 
@@ -220,7 +226,7 @@ def test_physical_equations_print_the_parameters():
 
     d = get_scenario("one_segment").generate(seed=0)
     X = [StrainTrajectory(r.q, t=r.t, segment_lengths=[0.1]) for r in d.train[:3]]
-    model = EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=7)
+    model = EulerLagrangeRegressor()
     text = model.fit(X, [r.tau for r in d.train[:3]]).equations(precision=4)
     assert text[0].startswith("L = ") and "k_sh_1 sh_1^2" in text[0]
     assert text[-1].startswith("D = diag(be_1:")

@@ -15,13 +15,14 @@ import warnings
 import numpy as np
 import pytest
 
+from pcs_sindy.formulations import integrate_forces, sliding_windows
 from pcs_sindy.library import PhysicalPCSLibrary
-from pcs_sindy.library.physical import integrate_forces, sliding_windows
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import StrainTrajectory
+from truth import simulate_truth
 
-WEAK = dict(basis="physical", formulation="weak", weak_window=40, weak_stride=20, window_length=7)
+WEAK = dict(formulation="weak", weak_window=40, weak_stride=20, window_length=7)
 
 
 def _states(n, seed, n_samples=12):
@@ -32,7 +33,7 @@ def _states(n, seed, n_samples=12):
 
 def test_columns_layout_and_strong_form():
     L = [0.07, 0.1]
-    plain = PhysicalPCSLibrary(L)
+    plain = PhysicalPCSLibrary(L, rest_strain=False)
     lib = PhysicalPCSLibrary(L, rest_strain=True)
     n = 6
     assert lib.n_coefficients_ == plain.n_coefficients_ + n
@@ -81,15 +82,13 @@ def test_restrict_forces_compiled_dynamics_and_lagrangian():
     f0 = rng.normal(size=6)
     coef[lib.rest_force_index_] = f0
     q, qd, _ = _states(6, 3)
-    plain = PhysicalPCSLibrary(L)
+    plain = PhysicalPCSLibrary(L, rest_strain=False)
     c_plain = np.delete(coef, lib.rest_force_index_)
     np.testing.assert_allclose(lib.potential_forces(q, coef), plain.potential_forces(q, c_plain) - f0, rtol=1e-12, atol=1e-12)
     bias = lib.bias_forces(q, qd, coef)
     np.testing.assert_allclose(bias, plain.bias_forces(q, qd, c_plain) - f0, rtol=1e-12, atol=1e-12)
-    dyn = lib.compile_dynamics(coef)
-    for k in range(3):
-        M, b = dyn(q[k], qd[k])
-        np.testing.assert_allclose(b, bias[k], rtol=1e-10, atol=1e-12)
+    _, b = lib.forward_model(coef).mass_and_bias(q, qd)
+    np.testing.assert_allclose(b, bias, rtol=1e-10, atol=1e-12)
     np.testing.assert_array_equal(lib.rest_force_from_coef(coef), f0)
     np.testing.assert_array_equal(lib.lumped_from_coef(coef)["rest_force"], f0)
     np.testing.assert_array_equal(plain.rest_force_from_coef(c_plain), np.zeros(6))
@@ -124,7 +123,7 @@ def _held(robot, f0, n_rec=3, n_samples=400, hold=25, seed=0):
     for _ in range(n_rec):
         targets = rng.uniform(-1, 1, (n_samples // hold + 1, n)) * np.tile([20.0, 0.05, 0.02], robot.n_segments)
         tau = np.repeat(robot.gravity_forces(targets) + robot.elastic_forces(targets), hold, axis=0)[:n_samples]
-        q, _ = robot.simulate(np.zeros(n), np.zeros(n), t, tau + f0, rtol=1e-10, atol=1e-12)
+        q, _ = simulate_truth(robot, np.zeros(n), np.zeros(n), t, tau + f0)
         X.append(StrainTrajectory(q, t, segment_lengths=robot.kinematics.segment_lengths))
         taus.append(tau)
     return X, taus, t
@@ -134,20 +133,20 @@ def test_regressor_recovers_a_known_rest_strain_and_rolls_it_out():
     robot = get_scenario("one_segment").robot
     q_star = np.array([3.0, 0.01, 0.02])
     X, taus, t = _held(robot, robot.stiffness * q_star)
-    model = EulerLagrangeRegressor(rest_strain=True, **WEAK).fit(X, taus)
+    model = EulerLagrangeRegressor(**WEAK).fit(X, taus)  # rest strains are the default
     # measured: rest strain within 1e-5, stiffness 4e-5, damping 2e-5 (relative)
     np.testing.assert_allclose(model.rest_strain_, q_star, rtol=1e-3)
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-3)
     np.testing.assert_allclose(model.damping_, robot.damping, rtol=1e-3)
     # without the offsets the same data bias the stiffness (measured 13-69 %)
-    plain = EulerLagrangeRegressor(**WEAK).fit(X, taus)
+    plain = EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), **WEAK).fit(X, taus)
     assert np.max(np.abs(plain.stiffness_ / robot.stiffness - 1)) > 0.1
     np.testing.assert_array_equal(plain.rest_strain_, np.zeros(3))
-    # both rollout back ends add f0 and reproduce the simulator (measured 3.7e-4 rad/m on bending)
+    # the compiled and the solve_ivp rollouts both carry f0 and reproduce the simulator (measured 3.7e-4 rad/m)
     scale = np.abs(X[0].q).max(axis=0)
     runs = [
-        model.simulate(X[0].q[0], np.zeros(3), taus[0], t, backend=b, rtol=1e-9, atol=1e-11).q
-        for b in ("numba", "python")
+        model.simulate(X[0].q[0], np.zeros(3), t, taus[0], method=m, rtol=1e-9, atol=1e-11).q
+        for m in ("rosenbrock", "radau")
     ]
     np.testing.assert_allclose(runs[0], runs[1], rtol=0, atol=1e-6 * scale.max())
     assert np.all(np.abs(runs[0] - X[0].q).max(axis=0) <= 5e-3 * scale)
@@ -156,7 +155,7 @@ def test_regressor_recovers_a_known_rest_strain_and_rolls_it_out():
 def test_no_rest_strain_in_the_data_gives_zero_offsets():
     robot = get_scenario("one_segment").robot
     X, taus, _ = _held(robot, np.zeros(3), n_rec=2, seed=4)
-    model = EulerLagrangeRegressor(rest_strain=True, **WEAK).fit(X, taus)
+    model = EulerLagrangeRegressor(**WEAK).fit(X, taus)
     scale = np.abs(np.concatenate([x.q for x in X])).max(axis=0)
     # measured: |q*| / range below 1e-5
     assert np.all(np.abs(model.rest_strain_) <= 1e-3 * scale)
@@ -166,10 +165,8 @@ def test_no_rest_strain_in_the_data_gives_zero_offsets():
 def test_parameter_validation():
     X = [StrainTrajectory(np.zeros((50, 3)), np.arange(50) * 1e-3, segment_lengths=[0.1])]
     tau = [np.zeros((50, 3))]
-    with pytest.raises(ValueError, match="rest_strain=True needs the physical basis"):
-        EulerLagrangeRegressor(rest_strain=True).fit(X, tau)
     with pytest.raises(ValueError, match="rest_strain must be True or False"):
-        EulerLagrangeRegressor(basis="physical", rest_strain="yes").fit(X, tau)
+        EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain="yes")).fit(X, tau)
     with pytest.raises(ValueError, match="rest_strain must be True or False"):
         PhysicalPCSLibrary([0.1], rest_strain=1).n_coefficients_
 
@@ -191,11 +188,11 @@ def test_wrong_rest_length_is_absorbed_by_the_axial_offset():
     k = int(round(1.0 / (val.t[1] - val.t[0]))) + 1  # 1 s of the validation
     errors, models = [], []
     for rest in (False, True):
-        model = EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=15, rest_strain=rest)
+        model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=rest), window_length=15)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model.fit(strains, [r.tau for r in data.train])
-        sim = model.simulate(np.zeros(6), np.zeros(6), val.tau[:k], val.t[:k], method="rosenbrock", rtol=3e-5, atol=3e-8)
+        sim = model.simulate(np.zeros(6), np.zeros(6), val.t[:k], val.tau[:k])
         tip = sim.poses(np.array([L_true * (1 + e)]))
         errors.append(end_effector_errors(tip, val.poses_true[:k, -1:, :])[0])
         models.append(model)

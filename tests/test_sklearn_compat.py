@@ -1,13 +1,16 @@
-"""scikit-learn conformance: ``check_estimator`` wherever it applies, and the same invariants on recordings.
+"""scikit-learn conformance: ``check_estimator`` with correct tags and ``expected_failed_checks``, and the
+data invariants on recordings.
 
-Our estimators take a list of recordings as X (DESIGN.md §2: the sample unit
-is a trajectory), so the checks of ``check_estimator`` that feed random 2-D
-(n_samples, n_features) float arrays cannot apply to them.  Every check that
-does not apply is listed below with its reason; the test fails when an
-unlisted check fails *and* when a listed check passes (the list must stay
-exact).  The data checks are then repeated by hand on real inputs (fit returns
-self, idempotence, no parameter or state mutation, pickling, recording order
-and subset invariance, NaN and empty input), which is what they test.
+The extractor, the fusion, the regressor and the pipeline take a list of
+recordings as X (the sample unit is a trajectory): they declare
+``input_tags.two_d_array = False``, so ``check_estimator`` runs no data check
+on them; the structural checks (parameters, init, repr, tags, mixin order,
+clone) are run one by one, and the data checks are repeated by hand on real
+inputs below (fit returns self, idempotence, no parameter or state mutation,
+pickling, recording order and subset invariance, NaN and empty input).  The
+optimizer and the libraries take 2-D arrays and run every check; the checks
+that cannot apply are passed to sklearn as ``expected_failed_checks`` with
+their reasons, and the test fails when one of them starts passing.
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 from sklearn.exceptions import NotFittedError
+from sklearn.utils import estimator_checks as ec
 from sklearn.utils.estimator_checks import check_estimator
 
 from pcs_sindy import (
@@ -37,95 +41,76 @@ from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.simulation.rendering import render_frames
 
-# -- checks that do not apply, and why ---------------------------------------
-LIST_X = "X is a list of recordings (trajectories carrying time stamps), not a 2-D (n_samples, n_features) array"
-VIDEO_X = "X holds videos (paths, image folders, uint8 frame arrays (T, H, W[, 3])), not a 2-D float array"
 WIDTH_X = "x must be [q, qd] of the library's strains: its width 2n is fixed by the robot, the check feeds other widths"
-
-# checks that feed 2-D float arrays as X (shared by every trajectory estimator)
-_DATA_CHECKS = [
-    "check_complex_data",
-    "check_dict_unchanged",
-    "check_dont_overwrite_parameters",
-    "check_dtype_object",
-    "check_estimators_dtypes",
-    "check_estimators_empty_data_messages",
-    "check_estimators_fit_returns_self",
-    "check_estimators_nan_inf",
-    "check_estimators_overwrite_params",
-    "check_estimators_pickle",
-    "check_f_contiguous_array_estimator",
-    "check_fit2d_1feature",
-    "check_fit2d_1sample",
-    "check_fit2d_predict1d",
-    "check_fit_check_is_fitted",
-    "check_fit_idempotent",
-    "check_fit_score_takes_y",
-    "check_methods_sample_order_invariance",
-    "check_methods_subset_invariance",
-    "check_n_features_in",
-    "check_n_features_in_after_fitting",
-    "check_pipeline_consistency",
-    "check_positive_only_tag_during_fit",
-    "check_readonly_memmap_input",
+# checks that feed 2-D float arrays of arbitrary width to a library
+_WIDTH_CHECKS = [
+    "check_complex_data", "check_dict_unchanged", "check_dont_overwrite_parameters", "check_dtype_object",
+    "check_estimators_dtypes", "check_estimators_empty_data_messages", "check_estimators_fit_returns_self",
+    "check_estimators_nan_inf", "check_estimators_overwrite_params", "check_estimators_pickle",
+    "check_f_contiguous_array_estimator", "check_fit2d_1feature", "check_fit2d_1sample", "check_fit2d_predict1d",
+    "check_fit_check_is_fitted", "check_fit_idempotent", "check_fit_score_takes_y",
+    "check_methods_sample_order_invariance", "check_methods_subset_invariance", "check_n_features_in",
+    "check_n_features_in_after_fitting", "check_pipeline_consistency", "check_positive_only_tag_during_fit",
+    "check_readonly_memmap_input", "check_transformer_data_not_an_array", "check_transformer_general",
+    "check_transformer_preserve_dtypes", "check_estimator_sparse_array", "check_estimator_sparse_matrix",
+    "check_estimator_sparse_tag",
 ]
-_TRANSFORMER_CHECKS = ["check_transformer_data_not_an_array", "check_transformer_general", "check_transformer_preserve_dtypes"]
-_REGRESSOR_CHECKS = [
-    "check_regressor_data_not_an_array",
-    "check_regressors_int",
-    "check_regressors_no_decision_function",
-    "check_regressors_train",
-    "check_requires_y_none",
-    "check_supervised_y_2d",
-]
-# libraries and the extractor reject sparse input only through their shape check
-_SPARSE_CHECKS = ["check_estimator_sparse_array", "check_estimator_sparse_matrix", "check_estimator_sparse_tag"]
 
-NOT_APPLICABLE: dict[str, dict[str, str]] = {
-    "MarkerPoseExtractor": {
-        **{c: VIDEO_X for c in _DATA_CHECKS + _TRANSFORMER_CHECKS},
-        "check_transformers_unfitted_stateless": VIDEO_X,
-    },
-    "KinematicFusion": {c: LIST_X for c in _DATA_CHECKS + _TRANSFORMER_CHECKS},
-    "EulerLagrangeRegressor": {c: LIST_X for c in _DATA_CHECKS + _REGRESSOR_CHECKS},
+EXPECTED_FAILED_CHECKS: dict[str, dict[str, str]] = {
     "StiffnessThresholdOptimizer": {
         "check_sample_weight_equivalence_on_dense_data": (
             "feeds 27 rows for 30 unknowns: an underdetermined (rank-deficient) regression raises by design "
             "instead of returning one of infinitely many models"
         ),
     },
-    "PCSLagrangianLibrary": {c: WIDTH_X for c in _DATA_CHECKS + _TRANSFORMER_CHECKS + _SPARSE_CHECKS},
-    "PhysicalPCSLibrary": {c: WIDTH_X for c in _DATA_CHECKS + _TRANSFORMER_CHECKS + _SPARSE_CHECKS},
+    "PCSLagrangianLibrary": {c: WIDTH_X for c in _WIDTH_CHECKS},
+    "PhysicalPCSLibrary": {c: WIDTH_X for c in _WIDTH_CHECKS},
 }
-# "pending: <change>" reasons: failures that go away once a change outside this
-# helper's files is applied; such a check may pass or fail.
-PENDING_PREFIX = "pending:"
 
-ESTIMATORS = {
-    "MarkerPoseExtractor": lambda: MarkerPoseExtractor(progress=False),
-    "KinematicFusion": KinematicFusion,
-    "EulerLagrangeRegressor": EulerLagrangeRegressor,
+ARRAY_ESTIMATORS = {
     "StiffnessThresholdOptimizer": StiffnessThresholdOptimizer,
     "PCSLagrangianLibrary": lambda: PCSLagrangianLibrary([0.1], basis="physical"),
     "PhysicalPCSLibrary": lambda: PhysicalPCSLibrary([0.1]),
 }
+RECORDING_ESTIMATORS = {
+    "MarkerPoseExtractor": lambda: MarkerPoseExtractor(progress=False),
+    "KinematicFusion": KinematicFusion,
+    "EulerLagrangeRegressor": EulerLagrangeRegressor,
+    "PCSPipeline": make_pcs_pipeline,
+}
+# the checks of check_estimator that need no data
+STRUCTURAL_CHECKS = [
+    "check_estimator_cloneable", "check_no_attributes_set_in_init", "check_get_params_invariance",
+    "check_set_params", "check_estimator_repr", "check_valid_tag_types", "check_estimator_tags_renamed",
+    "check_mixin_order", "check_do_not_raise_errors_in_init_or_set_params", "check_parameters_default_constructible",
+]
 
 
-@pytest.mark.parametrize("name", list(ESTIMATORS))
-def test_check_estimator_where_it_applies(name: str) -> None:
+@pytest.mark.parametrize("name", list(ARRAY_ESTIMATORS))
+def test_check_estimator_with_expected_failures(name: str) -> None:
+    expected = EXPECTED_FAILED_CHECKS.get(name, {})
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        results = check_estimator(ESTIMATORS[name](), on_fail=None)
-    failed = {r["check_name"] for r in results if r["status"] == "failed"}
-    passed = {r["check_name"] for r in results if r["status"] == "passed"} - failed
-    listed = NOT_APPLICABLE[name]
-    unexpected = {c: next(str(r["exception"])[:300] for r in results if r["check_name"] == c and r["status"] == "failed")
-                  for c in failed - set(listed)}
-    assert not unexpected, f"{name} fails checks that should apply: {unexpected}"
-    firm = {c for c, why in listed.items() if not why.startswith(PENDING_PREFIX)}
-    assert not firm & passed, f"{name} now passes listed checks {sorted(firm & passed)}: remove them from NOT_APPLICABLE"
-    assert set(listed) <= {r["check_name"] for r in results}, f"check names listed for {name} that sklearn does not run"
-    assert len(passed) >= 14  # the structural checks (params, clone, tags, repr, init) always apply
+        results = check_estimator(ARRAY_ESTIMATORS[name](), expected_failed_checks=expected, on_fail=None, on_skip=None)
+    failed = {r["check_name"]: str(r["exception"])[:300] for r in results if r["status"] == "failed"}
+    assert not failed, f"{name} fails checks that should apply: {failed}"
+    now_passing = sorted({r["check_name"] for r in results if r["status"] == "passed" and r["expected_to_fail"]})
+    assert not now_passing, f"{name} now passes expected failures {now_passing}: remove them from the list"
+    assert set(expected) <= {r["check_name"] for r in results}, f"checks listed for {name} that sklearn does not run"
+    assert sum(r["status"] == "passed" for r in results) >= 14
+
+
+@pytest.mark.parametrize("name", list(RECORDING_ESTIMATORS))
+def test_recording_estimators_declare_their_input_and_pass_the_structural_checks(name: str) -> None:
+    est = RECORDING_ESTIMATORS[name]()
+    tags = est.__sklearn_tags__()
+    assert not tags.input_tags.two_d_array  # X is a list of recordings
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        ran = {r["check_name"] for r in check_estimator(est, on_fail="raise", on_skip=None)}
+    assert ran == {"check_estimator_cloneable"}  # sklearn runs no data check on non-array input
+    for check in STRUCTURAL_CHECKS:
+        getattr(ec, check)(type(est).__name__, est)
 
 
 def test_optimizer_plain_mode_is_a_regular_sklearn_regressor() -> None:
@@ -175,9 +160,9 @@ def _cases(recordings):
     X, y = recordings
     fusion = KinematicFusion(shape_fit="end_pose").fit(X)
     S = fusion.transform(X)
-    reg = EulerLagrangeRegressor(basis="physical", window_length=7, exclude_force_jumps=True)
+    reg = EulerLagrangeRegressor(formulation="strong", exclude_force_jumps=True)
     # the recordings are short: weak-form windows of 10 samples instead of the default 40
-    weak = EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=7, weak_window=10, weak_stride=5)
+    weak = EulerLagrangeRegressor(weak_window=10, weak_stride=5)
     pipe = make_pcs_pipeline(start="poses", fusion=KinematicFusion(shape_fit="end_pose"), regressor=weak)
     return {
         "KinematicFusion": (KinematicFusion(shape_fit="end_pose"), X, None, "transform"),
@@ -221,7 +206,7 @@ def test_nan_recordings_are_rejected(recordings) -> None:
     y_bad = [t.copy() for t in y]
     y_bad[2][7, 0] = np.inf
     with pytest.raises(ValueError, match=r"y\[2\].*NaN or inf"):
-        EulerLagrangeRegressor(basis="physical").fit(S, y_bad)
+        EulerLagrangeRegressor().fit(S, y_bad)
 
 
 def test_extractor_invariants_on_frames() -> None:

@@ -27,81 +27,25 @@ instead of O(m^2 K).
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
+from pcs_sindy import _jit_dynamics
+
 __all__ = ["moments", "Quadrature", "make_quadrature", "kinematic_fields", "project", "jacobian", "rotary_mass"]
 
-_SERIES_RADIUS = 3.0
-_N_SERIES = 34  # powers u^0 .. u^33: 3^34 / 34! < 1e-22 for |u| <= 3
-
-# E_n(u) = sum_k (i u)^k / (k! (n + k + 1)): one complex coefficient column per n, so
-# all three moments are one product of the powers of u with this (_N_SERIES, 3) table.
-_SERIES_TABLE = np.array(
-    [[1j**k / (math.factorial(k) * (n + k + 1)) for n in range(3)] for k in range(_N_SERIES)]
-)
-_POWERS = np.arange(_N_SERIES)
-
-
-# E_2 alone as two real polynomials in u^2 (even and odd k), for Horner on large arrays
-_E2_RE = [(-1) ** j / (math.factorial(2 * j) * (2 * j + 3)) for j in range(_N_SERIES // 2)][::-1]
-_E2_IM = [(-1) ** j / (math.factorial(2 * j + 1) * (2 * j + 4)) for j in range(_N_SERIES // 2)][::-1]
-_SMALL_ARRAY = 512  # below this many values one table product beats Horner (per-call overhead)
-
-
-def _series(u: NDArray[np.float64]) -> tuple[NDArray[np.complex128], ...]:
-    """``E_0, E_1, E_2`` by Taylor series (|u| <= 3).
-
-    Small arrays: one product of the powers of ``u`` with the coefficient table
-    (few numpy calls).  Large arrays: ``E_2`` by real Horner in ``u^2``, then
-    ``E_n = (e^{iu} - iu E_{n+1}) / (n+1)`` (error growth at most ``|u|^2/2``).
-    """
-    if u.size <= _SMALL_ARRAY:
-        e = (u[..., None] ** _POWERS) @ _SERIES_TABLE
-        return e[..., 0], e[..., 1], e[..., 2]
-    u2 = u * u
-    re = np.full(u.shape, _E2_RE[0])
-    im = np.full(u.shape, _E2_IM[0])
-    for cr, ci in zip(_E2_RE[1:], _E2_IM[1:]):
-        re *= u2
-        re += cr
-        im *= u2
-        im += ci
-    e2 = re + 1j * (u * im)
-    iu = 1j * u
-    eiu = np.exp(iu)
-    e1 = 0.5 * (eiu - iu * e2)
-    return eiu - iu * e1, e1, e2
-
-
 def moments(u: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
-    """``E_n(u) = int_0^1 t^n e^{iut} dt`` for n = 0, 1, 2, exact through ``u = 0``.
+    """``E_n(u) = int_0^1 t^n e^{iut} dt`` for n = 0, 1, 2 of every element, exact through ``u = 0``.
 
-    For ``|u| <= 3``: Taylor series (largest term 3^3/3! = 4.5, so at most one
-    digit is lost to cancellation; see :func:`_series`).  For ``|u| > 3``: integration by parts,
-    ``E_0 = (e^{iu} - 1)/(iu)``, ``E_{n+1} = (e^{iu} - (n+1) E_n) / (iu)``,
-    where dividing by ``|u| > 3`` only shrinks absolute errors.  The wide series
-    range keeps the common case (every ``|kappa L| <= 3``) on one cheap branch,
-    which matters for the per-call cost of ``compile_dynamics``.
-    Accuracy: about 1e-15 absolute for all ``u``.
+    The compiled :func:`pcs_sindy._jit_dynamics.moments` applied element-wise: the
+    one implementation of these integrals on the identification side (Taylor
+    series near 0, integration by parts elsewhere; about 1e-15 absolute).
     """
     u = np.asarray(u, dtype=float)
-    small = np.abs(u) <= _SERIES_RADIUS
-    if small.all():
-        return _series(u)
-    ul = np.where(small, 1.0, u)
-    iul = 1j * ul
-    eiul = np.exp(iul)
-    e0 = (eiul - 1.0) / iul
-    e1 = (eiul - e0) / iul
-    e2 = (eiul - 2.0 * e1) / iul
-    if not small.any():
-        return e0, e1, e2
-    s0, s1, s2 = _series(np.where(small, u, 0.0))
-    return np.where(small, s0, e0), np.where(small, s1, e1), np.where(small, s2, e2)
+    e0, e1, e2 = _jit_dynamics.moments_array(np.ascontiguousarray(u.reshape(-1)))
+    return e0.reshape(u.shape), e1.reshape(u.shape), e2.reshape(u.shape)
 
 
 @dataclass(frozen=True)

@@ -46,7 +46,7 @@ from .derivation import LagrangianTerm, atom_names, derive_lagrangian_terms
 __all__ = ["CompiledBasis", "build_basis", "default_cache_dir", "atom_expression"]
 
 #: bump when the derivation or the generated code changes meaning
-FORMAT_VERSION = 4
+FORMAT_VERSION = 5
 
 
 def default_cache_dir() -> Path:
@@ -221,9 +221,24 @@ def _generate_source(products: list[tuple[tuple[str, int], ...]], m: int, progre
             if e != 0:
                 ps.append(f"    out[:, {r}, {j}] = {printer.doprint(e.xreplace(repl))}")
     ps.append("    return out")
+    # weak form: Psi = d/dt dg/dqd - dg/dq, so P = dg/dqd and R = -dg/dq
+    wk = ["def weak(q, qd, L):", *head]
+    wk += [f"    {syms.qd[r].name} = qd[:, {r}]" for r in range(n)]
+    wk += func_lines
+    wk.append(f"    mom = np.zeros((q.shape[0], {n}, {len(g)}))")
+    wk.append(f"    rest = np.zeros((q.shape[0], {n}, {len(g)}))")
+    for j, e in enumerate(g):
+        for r in range(n):
+            p_e = sp.diff(e, syms.qd[r])
+            r_e = -sp.diff(e, syms.q[r])
+            if p_e != 0:
+                wk.append(f"    mom[:, {r}, {j}] = {printer.doprint(sp.expand(p_e).xreplace(repl))}")
+            if r_e != 0:
+                wk.append(f"    rest[:, {r}, {j}] = {printer.doprint(sp.expand(r_e).xreplace(repl))}")
+    wk.append("    return mom, rest")
     amap = _canonical_atom_map(funcs, syms)
     psi_data = [[_poly_data(e, amap, syms) for e in rows] for rows in psi]
-    return "\n".join(feat) + "\n\n\n" + "\n".join(ps) + "\n", psi_data
+    return "\n".join(feat) + "\n\n\n" + "\n".join(ps) + "\n\n\n" + "\n".join(wk) + "\n", psi_data
 
 
 def _terms_to_json(terms: list[LagrangianTerm]) -> list:
@@ -251,7 +266,8 @@ class CompiledBasis:
     psi_data : list
         ``psi_data[j][r]``: row r of the Euler–Lagrange image of ``g_j`` as
         ``[[atoms], num, den, [L exponents]]`` entries (qdd atoms named ``dd<q>``).
-    features(q, qd, L) -> (N, n_g);  psi(q, qd, qdd, L) -> (N, 3m, n_g)
+    features(q, qd, L) -> (N, n_g);  psi(q, qd, qdd, L) -> (N, 3m, n_g);
+    weak(q, qd, L) -> (P, R), each (N, 3m, n_g): ``psi = dP/dt + R`` (P = dg/dqd, R = -dg/dq)
     source : str
         The generated numpy source.
     from_cache : bool
@@ -277,6 +293,7 @@ class CompiledBasis:
         exec(compile(source, f"<pcs_sindy basis m={m}>", "exec"), namespace)  # our own generated, hash-checked text
         self.features: Callable = namespace["features"]
         self.psi: Callable = namespace["psi"]
+        self.weak: Callable = namespace["weak"]
 
 
 _SF_CALL = _re.compile(r"SF\['([A-Za-z0-9_]+)'\]")
@@ -294,12 +311,12 @@ _ALLOWED_NP = {"cos", "sin", "zeros", "empty"}
 def _check_generated_source(source: str) -> None:
     """Refuse cached text that is not of the shape we generate (defence beyond the hash).
 
-    Only two functions ``features``/``psi`` made of arithmetic, indexing, and calls
+    Only the functions ``features``/``psi``/``weak`` made of arithmetic, indexing, and calls
     of ``np.cos/sin/zeros/empty``, ``float`` and ``SF['name']`` are accepted.
     """
     tree = ast.parse(source)
-    if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi"] or len(tree.body) != 2:
-        raise ValueError("cached source must define exactly features() and psi()")
+    if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi", "weak"] or len(tree.body) != 3:
+        raise ValueError("cached source must define exactly features(), psi() and weak()")
     local = {a.arg for fn in tree.body for a in fn.args.args}
     local |= {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
     if local & _GLOBALS:

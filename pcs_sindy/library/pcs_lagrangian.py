@@ -1,19 +1,20 @@
-"""``PCSLagrangianLibrary``: the Lagrangian basis of a planar PCS robot as a pysindy library."""
+"""``PCSLagrangianLibrary``: the seed's symbolic Lagrangian basis of a planar PCS robot (a pysindy library)."""
 
 from __future__ import annotations
 
 from fractions import Fraction
-from typing import Callable, Sequence
+from typing import Any, Sequence
 
 import numpy as np
-from scipy import sparse
 from numpy.typing import ArrayLike, NDArray
-from pysindy.feature_library.base import BaseFeatureLibrary, x_sequence_or_item
+from pysindy.feature_library.base import x_sequence_or_item
 from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
 from ..kinematics import PlanarPCS
 from . import special as _special
+from ._monomial_dynamics import DynamicsTables
+from .base import LagrangianLibrary
 from .codegen import CompiledBasis, build_basis
 from .derivation import PARAM_KINDS
 
@@ -94,7 +95,7 @@ def _readable(atoms, state_names: dict[str, str], lengths_known: bool) -> str:
     return " ".join(parts) if parts else "1"
 
 
-class PCSLagrangianLibrary(BaseFeatureLibrary):
+class PCSLagrangianLibrary(LagrangianLibrary):
     """Lagrangian basis of an m-segment planar PCS robot (seed §III-C, eqs. 12–21).
 
     The Lagrangian ``L = T - U_g - U_e`` of a planar PCS robot with known
@@ -110,10 +111,15 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
     ``tau = Psi(q, qd, qdd) pi+`` use :meth:`euler_lagrange_matrix`; ``pi+``
     is ``pi`` followed by one damping coefficient per active strain.
 
+    Implements the :class:`~pcs_sindy.library.base.LagrangianLibrary` contract;
+    the library of the seed's method (:meth:`EulerLagrangeRegressor.seed_method
+    <pcs_sindy.regressor.EulerLagrangeRegressor.seed_method>`).
+
     Parameters
     ----------
-    segment_lengths : sequence of float
-        Rest lengths ``L_i`` in metres (geometry, known from the kinematic fusion).
+    segment_lengths : sequence of float, optional
+        Rest lengths ``L_i`` in metres; default: taken in :meth:`fit` from the
+        strain trajectories (the kinematic fusion's segmentation).
     active_strains : array_like of bool, shape (m, 3) or (3m,), optional
         Modelled strains (default all).  Removed strains follow the limit rule
         (seed eqs. 20–21): ``q_e, qd_e, qdd_e -> 0``, their rows dropped and
@@ -145,12 +151,15 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
     damping_index_ : ndarray of int, shape (n,)
     column_map_ : ndarray of int or None
         Set by :meth:`restrict`: indices of the kept columns in the parent's ``pi+``.
-    kinematics : PlanarPCS
+    segmentation_ : PlanarPCS
+        After :meth:`fit` on strain trajectories: their segmentation.
     """
+
+    stiffness_factor_ = -2.0
 
     def __init__(
         self,
-        segment_lengths: Sequence[float],
+        segment_lengths: Sequence[float] | None = None,
         active_strains: ArrayLike | None = None,
         cache_dir=None,
         basis: str = "monomial",
@@ -163,15 +172,16 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
         self.progress = progress
 
     # ------------------------------------------------------------------ setup
-    def _validate(self) -> None:
-        lengths = np.atleast_1d(np.asarray(self.segment_lengths, dtype=float)) if self.segment_lengths is not None else None
-        if lengths is None or lengths.ndim != 1 or lengths.size == 0:
-            raise ValueError(f"segment_lengths must be a non-empty 1-D sequence; got {self.segment_lengths!r}")
-        if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
-            raise ValueError(f"segment_lengths must be finite and > 0; got {lengths.tolist()}")
+    def _check_params(self) -> None:
+        """Validate the constructor arguments (no segmentation needed)."""
+        self._check_segmentation_params()
         if self.basis not in _BASES:
             raise ValueError(f"basis must be one of {_BASES}; got {self.basis!r}")
-        kin = PlanarPCS(tuple(lengths), active_strains=self.active_strains)
+
+    def _validate(self) -> None:
+        self._check_params()
+        kin = self.kinematics
+        lengths = np.asarray(kin.segment_lengths, dtype=float)
         if kin.n_active == 0:
             raise ValueError("active_strains must keep at least one strain; got none active")
         self._lengths = lengths
@@ -262,9 +272,8 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
             if col.size != 1:
                 raise ArithmeticError(f"stiffness of strain {k} is not carried by a single column")
             stiff.append(int(col[0]))
-        self.stiffness_index_ = np.array(stiff, dtype=int)
-        self.damping_index_ = np.arange(n_f, n_f + n)
-        self.n_coefficients_ = n_f + n
+        self._stiffness_index = np.array(stiff, dtype=int)
+        self._damping_index = np.arange(n_f, n_f + n)
         self._dyn_cache: dict = {}
         self._setup_key = self._current_key()
 
@@ -276,21 +285,23 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
         return state
 
     def _current_key(self):
-        act = None if self.active_strains is None else np.asarray(self.active_strains).tolist()
-        return (np.asarray(self.segment_lengths, dtype=float).tolist() if self.segment_lengths is not None else None,
-                act, self.basis, str(self.cache_dir))
+        kin = self.kinematics
+        return (kin.segment_lengths, kin.active_strains.tobytes(), self.basis, str(self.cache_dir))
 
     @property
-    def kinematics(self) -> PlanarPCS:
-        """The kinematic model (``PlanarPCS``) with the active strains."""
+    def n_coefficients_(self) -> int:
         self._ensure_setup()
-        return self._kin
+        return self._n_f + self._n
 
     @property
-    def n_strains(self) -> int:
-        """Number of active strains ``n``."""
+    def stiffness_index_(self) -> NDArray[np.intp]:
         self._ensure_setup()
-        return self._n
+        return self._stiffness_index.copy()
+
+    @property
+    def damping_index_(self) -> NDArray[np.intp]:
+        self._ensure_setup()
+        return self._damping_index.copy()
 
     @property
     def lumped_parameter_names(self) -> list[str]:
@@ -308,15 +319,6 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
         """Number of Lagrangian basis functions ``n_f``."""
         self._ensure_setup()
         return self._n_f
-
-    def __getattr__(self, name):
-        # learned structure is available lazily (before fit) for the regression helpers
-        if name in ("stiffness_index_", "damping_index_", "n_coefficients_"):
-            if name.startswith("__") or "_setup_key" in self.__dict__:
-                raise AttributeError(name)
-            self._ensure_setup()
-            return self.__dict__[name]
-        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     # ------------------------------------------------------------------ input checks
     def _states(self, name: str, value, n_samples: int | None = None) -> NDArray[np.float64]:
@@ -351,17 +353,6 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
         return arr @ self._W
 
     # ------------------------------------------------------------------ pysindy
-    @x_sequence_or_item
-    def fit(self, x_full, y=None):
-        """Check the state width ``2n`` and set ``n_features_in_``, ``n_output_features_``."""
-        self._ensure_setup()
-        width = x_full[0].shape[-1]
-        if width != 2 * self._n:
-            raise ValueError(f"x must have {2 * self._n} columns ([q, qd] of the {self._n} active strains); got {width}")
-        self.n_features_in_ = 2 * self._n
-        self.n_output_features_ = self._n_f
-        return self
-
     @x_sequence_or_item
     def transform(self, x_full):
         """Basis functions ``f_j(q, qd)`` of states ``x = [q, qd]`` -> (n_samples, n_f)."""
@@ -418,7 +409,7 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
                 out.append(f"{labels[kind]}_{seg}")
         return out
 
-    def euler_lagrange_names(self) -> list[str]:
+    def coefficient_names(self) -> list[str]:
         """Names of the ``n_psi`` Euler–Lagrange columns (damping last)."""
         self._ensure_setup()
         names = [f"EL[{n}]" for n in self.get_feature_names()]
@@ -444,9 +435,26 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
         damp[:, idx, idx] = qd
         return np.concatenate([lag, damp], axis=2)
 
-    def _tables(self) -> "_DynamicsTables":
+    def weak_terms(self, q, qd) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Momentum part ``P = df/dqd`` and remainder ``R = -df/dq`` of ``Psi = dP/dt + R``, each (n_samples, n, n_psi).
+
+        Removed strains follow the limit rule as in :meth:`euler_lagrange_matrix`;
+        a damping column has ``P = q_e``, ``R = 0``.
+        """
+        self._ensure_setup()
+        q = self._states("q", q)
+        qd = self._states("qd", qd, q.shape[0])
+        mom, rest = self._cb.weak(self._full(q), self._full(qd), self._lengths)
+        n, B = self._n, q.shape[0]
+        idx = np.arange(n)
+        p_damp = np.zeros((B, n, n))
+        p_damp[:, idx, idx] = q
+        return (np.concatenate([self._columns(mom[:, self._mask, :]), p_damp], axis=2),
+                np.concatenate([self._columns(rest[:, self._mask, :]), np.zeros((B, n, n))], axis=2))
+
+    def _tables(self) -> DynamicsTables:
         if "dyn" not in self._dyn_cache:
-            self._dyn_cache["dyn"] = _DynamicsTables(self)
+            self._dyn_cache["dyn"] = DynamicsTables(self)
         return self._dyn_cache["dyn"]
 
     def _pi_products(self, c: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -541,7 +549,7 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
             raise ValueError(f"active_strains must be a subset of the current active strains; got {np.asarray(active_strains).tolist()}")
         if not np.any(new_mask):
             raise ValueError("active_strains must keep at least one strain; got none active")
-        child = type(self)(self.segment_lengths, active_strains=new_mask.reshape(-1, 3), cache_dir=self.cache_dir,
+        child = type(self)(tuple(self._lengths), active_strains=new_mask.reshape(-1, 3), cache_dir=self.cache_dir,
                            basis=self.basis, progress=self.progress)
         child._ensure_setup()
         if self.basis == "monomial":
@@ -593,226 +601,41 @@ class PCSLagrangianLibrary(BaseFeatureLibrary):
             "n_quadrature": 16,
         }
 
-    # ------------------------------------------------------------------ fast single-sample dynamics
-    def compile_dynamics(self, coef) -> Callable[[NDArray, NDArray], tuple[NDArray, NDArray]]:
-        """Fast single-sample ``f(q, qd) -> (M (n, n), bias (n,))`` for explicit integration.
+    # ------------------------------------------------------------------ the model of given coefficients
+    def forward_model(self, coef) -> Any:
+        """The :class:`~pcs_sindy.forward.ForwardModel` of ``coef``.
 
-        ``bias`` is everything in ``Psi coef`` except ``M qdd`` (Coriolis, gravity,
-        elastic and damping forces), so ``qdd = solve(M, tau - bias)``.  ``q`` and
-        ``qd`` are 1-D arrays of the n active strains and are not validated (hot
-        path).  The structure (monomials of the Euler–Lagrange images, from the
-        cached derivation) is built once per library; each call is a fixed, small
-        number of numpy operations whatever the number of basis functions.
+        ``basis="physical"``: the compiled :class:`~pcs_sindy.forward.LumpedPCSModel`
+        of its lumped parameters.  ``basis="monomial"``: a
+        :class:`~pcs_sindy.forward.CallableModel` evaluating ``M`` and the bias
+        forces from the monomials of the Euler–Lagrange images (the structure is
+        built once per library; a call is a fixed number of numpy operations).
+        """
+        from pcs_sindy.forward import CallableModel, LumpedPCSModel
+
+        self._ensure_setup()
+        c = self._coef(coef)
+        if self.basis == "physical":
+            lp = self.lumped_from_coef(c)
+            return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"],
+                                  lp["damping"], n_quadrature=lp["n_quadrature"])
+        tables = self._tables()
+        pi_g, damping = self._pi_products(c), c[self._n_f :]
+        return CallableModel(self.kinematics, tables.make(pi_g, damping),
+                             lambda q, qd: tables.evaluate(pi_g, damping, q, qd))
+
+    def equations(self, coef, precision: int = 3, threshold: float = 0.0) -> list[str]:
+        """``L = c_1 f_1 + c_2 f_2 + ...`` over the basis functions, then ``D = diag(...)``.
+
+        Terms with ``|c_j| <= threshold`` (and exact zeros) are hidden.
         """
         self._ensure_setup()
         c = self._coef(coef)
-        return self._tables().make(self._pi_products(c), c[self._n_f :])
-
-
-#: single-sample path: shorter series (error < (2 * 1.5)**31 / 31! ~ 1e-19 for frequencies <= 2u)
-#: and the closed form beyond |u| = 1.5 (measured agreement with the series there: ~3e-14 relative)
-_FAST_SERIES_RADIUS = 1.5
-_FAST_SERIES_ORDER = 30
-
-
-class _DynamicsTables:
-    """Monomial structure of M and the bias forces, from the cached Psi polynomial data."""
-
-    def __init__(self, lib: PCSLagrangianLibrary) -> None:
-        cb = lib._cb
-        m = lib._lengths.size
-        mask = lib._mask
-        L = lib._lengths
-        q_names = [f"{n}_{i + 1}" for i in range(m) for n in ("kap", "sh", "ax")]
-        active = [q_names[k] for k in np.flatnonzero(mask)]
-        removed = {q_names[k] for k in range(3 * m) if not mask[k]}
-        n = len(active)
-        row_of = {name: r for r, name in enumerate(active)}
-        col_of = {"dd" + name: r for r, name in enumerate(active)}
-        # which products can contribute
-        if lib._select is None:
-            used = np.flatnonzero(np.any(lib._W != 0, axis=1))
-        else:
-            used = lib._select
-        atoms: dict[str, int] = {"1": 0}
-        monos: dict[tuple, int] = {}
-        entries = []  # (out index, mono index, product index, value)
-        n_m = n * n
-        for j in used:
-            for r_full, rows in enumerate(cb.psi_data[j]):
-                name_r = q_names[r_full]
-                if name_r not in row_of:
-                    continue
-                r = row_of[name_r]
-                for term_atoms, num, den, lexp in rows:
-                    value = num / den * float(np.prod(L ** np.array(lexp, dtype=float)))
-                    col = None
-                    mono = []
-                    zero = False
-                    for a, p in term_atoms:
-                        if a in col_of:
-                            col = col_of[a]
-                            continue
-                        if a.startswith("dd"):
-                            zero = True  # acceleration of a removed strain
-                            break
-                        base = a[1:] if a.startswith("d") else a
-                        if base in removed:
-                            zero = True
-                            break
-                        idx = atoms.setdefault(a, len(atoms))
-                        mono += [idx] * p
-                    if zero:
-                        continue
-                    key = tuple(sorted(mono))
-                    mi = monos.setdefault(key, len(monos))
-                    out = r * n + col if col is not None else n_m + r
-                    entries.append((out, mi, int(j), value))
-        depth = max((len(k) for k in monos), default=1) or 1
-        E = np.zeros((len(monos), depth), dtype=np.intp)
-        for key, mi in monos.items():
-            E[mi, : len(key)] = key
-        self.E = E
-        self.n = n
-        self.n_out = n_m + n
-        ent = np.array([(o, mi, j) for o, mi, j, _v in entries], dtype=np.intp).reshape(-1, 3)
-        self.ent_out, self.ent_mono, self.ent_prod = ent[:, 0], ent[:, 1], ent[:, 2]
-        self.ent_val = np.array([v for *_x, v in entries])
-        self.n_mono = len(monos)
-        # atom evaluation plan
-        names = list(atoms)
-        self.n_atoms = len(names)
-        self.iq = np.array([atoms.get(a, -1) for a in active])
-        self.iqd = np.array([atoms.get("d" + a, -1) for a in active])
-        self.kap_full = np.array([3 * i for i in range(m)])
-        self.active_pos = {k: r for r, k in enumerate(np.flatnonzero(mask))}
-        self.kap_from_active = np.array([self.active_pos.get(3 * i, -1) for i in range(m)])
-        self.L = L.copy()
-        sf_atoms = [a for a in names if a.startswith("F")]
-        sf_names = sorted({a[1:].rsplit("_", 1)[0] for a in sf_atoms})
-        self.bank = _special.SpecialBank(sf_names) if sf_names else None
-        self.isf = np.array([atoms[a] for a in sf_atoms], dtype=np.intp)
-        self.sf_pick = np.array([(int(a.rsplit("_", 1)[1]) - 1) * len(sf_names) + sf_names.index(a[1:].rsplit("_", 1)[0])
-                                 for a in sf_atoms], dtype=np.intp)
-        trig_atoms = [a for a in names if a[0] in "cs" and not a.startswith("sh_")]
-        phases = np.array([[-int(p[1:]) if p.startswith("m") else int(p) for p in a[1:].split("_")] for a in trig_atoms],
-                          dtype=float).reshape(-1, m)
-        self.phases = phases
-        self.itrig = np.array([atoms[a] for a in trig_atoms], dtype=np.intp)
-        self.is_cos = np.array([a[0] == "c" for a in trig_atoms], dtype=bool)
-        self.msym = np.arange(n * n)
-
-    def matrix(self, pi_g: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.intp]]:
-        """Outputs = A @ monomials for these coefficients (unused monomials dropped)."""
-        A = np.zeros((self.n_out, self.n_mono))
-        np.add.at(A, (self.ent_out, self.ent_mono), self.ent_val * pi_g[self.ent_prod])
-        keep = np.flatnonzero(np.any(A != 0, axis=0))
-        A = np.ascontiguousarray(A[:, keep])
-        if A.shape[1] > 256:  # two or more segments: A is sparse, CSR products are far cheaper
-            A = sparse.csr_matrix(A)
-        return A, np.ascontiguousarray(self.E[keep].T)
-
-    def evaluate(self, pi_g, damping, q, qd, chunk: int = 256):
-        """Batched M (N, n, n) and bias (N, n) for active-strain states q, qd (N, n)."""
-        A, E = self.matrix(pi_g)
-        N, n = q.shape[0], self.n
-        m = self.L.size
-        kap_pos = self.kap_from_active
-        kap_ok = kap_pos >= 0
-        is_cos = self.is_cos
-        out = np.empty((N, self.n_out))
-        for start in range(0, N, chunk):
-            sl = slice(start, min(start + chunk, N))
-            k = sl.stop - sl.start
-            a = np.zeros((k, self.n_atoms))
-            a[:, 0] = 1.0
-            has_q, has_qd = self.iq >= 0, self.iqd >= 0
-            a[:, self.iq[has_q]] = q[sl][:, has_q]
-            a[:, self.iqd[has_qd]] = qd[sl][:, has_qd]
-            u = np.zeros((k, m))
-            u[:, kap_ok] = q[sl][:, kap_pos[kap_ok]] * self.L[kap_ok]
-            if self.bank is not None:
-                a[:, self.isf] = self.bank(u.reshape(-1)).reshape(k, -1)[:, self.sf_pick]
-            if self.itrig.size:
-                ang = u @ self.phases.T
-                a[:, self.itrig[is_cos]] = np.cos(ang[:, is_cos])
-                a[:, self.itrig[~is_cos]] = np.sin(ang[:, ~is_cos])
-            out[sl] = (A @ a[:, E].prod(axis=1).T).T
-        n_m = n * n
-        return out[:, :n_m].reshape(N, n, n), out[:, n_m:] + np.asarray(damping) * qd
-
-    def _block_tables(self):
-        """Per-atom special-function tables: one matmul evaluates every (function, segment) atom."""
-        if hasattr(self, "_blocks"):
-            return self._blocks
-        bank = self.bank
-        m = self.L.size
-        K = _FAST_SERIES_ORDER + 1
-        nb = bank.closed.shape[0]
-        n_sf = len(bank.names)
-        seg = self.sf_pick // n_sf
-        fn = self.sf_pick % n_sf
-        T = np.zeros((m * K, fn.size))
-        C = np.zeros((m * nb, fn.size))
-        for k, (sg, f) in enumerate(zip(seg, fn)):
-            T[sg * K : (sg + 1) * K, k] = bank.taylor[:K, f]
-            C[sg * nb : (sg + 1) * nb, k] = bank.closed[:, f]
-        self._blocks = (T, C, seg)
-        return self._blocks
-
-    def make(self, pi_g: NDArray[np.float64], damping: NDArray[np.float64]):
-        A, E = self.matrix(pi_g)
-        n, n_m = self.n, self.n * self.n
-        m = self.L.size
-        # atoms re-ordered as [1, q (n), qd (n), special functions, cos, sin] so that the
-        # atom vector is one concatenate per call
-        pos = np.zeros(self.n_atoms, dtype=np.intp)
-        for r in range(n):
-            if self.iq[r] >= 0:
-                pos[self.iq[r]] = 1 + r
-            if self.iqd[r] >= 0:
-                pos[self.iqd[r]] = 1 + n + r
-        n_sfa = self.isf.size
-        pos[self.isf] = 1 + 2 * n + np.arange(n_sfa)
-        icos, isin = self.itrig[self.is_cos], self.itrig[~self.is_cos]
-        pos[icos] = 1 + 2 * n + n_sfa + np.arange(icos.size)
-        pos[isin] = 1 + 2 * n + n_sfa + icos.size + np.arange(isin.size)
-        E = np.ascontiguousarray(pos[E])
-        pcos, psin = self.phases[self.is_cos], self.phases[~self.is_cos]
-        kap_rows = [(int(self.kap_from_active[i]), float(self.L[i])) for i in range(m)]
-        d = np.array(damping, dtype=float)
-        one = np.ones(1)
-        radius = _FAST_SERIES_RADIUS
-        cos, sin, concatenate, asarray = np.cos, np.sin, np.concatenate, np.asarray
-        if self.bank is not None:
-            T, C, seg = self._block_tables()
-            powers = np.arange(_FAST_SERIES_ORDER + 1)
-            ms, mcos, msin, mone = self.bank._ms, self.bank._mcos, self.bank._msin, self.bank._mone
-            jpow = self.bank._jpowers
-            seg_of_atom = seg
-
-            def special_values(u_list):
-                u = asarray(u_list)
-                if all(-radius < x < radius for x in u_list):
-                    return (u[:, None] ** powers).ravel() @ T
-                small = [-radius < x < radius for x in u_list]
-                ul = np.where(small, 1.0, u)  # the closed form is only used away from 0
-                w = ul[:, None] * ms
-                trig = cos(w) * mcos + sin(w) * msin + mone
-                closed = (trig[:, :, None] * ((1.0 / ul)[:, None] ** jpow)[:, None, :]).ravel() @ C
-                if not any(small):
-                    return closed
-                series = (u[:, None] ** powers).ravel() @ T
-                return np.where(asarray(small)[seg_of_atom], series, closed)
-        else:
-            def special_values(u_list):
-                return np.zeros(0)
-
-        def dynamics(q, qd):
-            u_list = [q[k] * Lk if k >= 0 else 0.0 for k, Lk in kap_rows]
-            u = asarray(u_list)
-            a = concatenate((one, q, qd, special_values(u_list), cos(pcos @ u), sin(psin @ u)))
-            v = A @ a[E].prod(axis=0)
-            return v[:n_m].reshape(n, n), v[n_m:] + d * qd
-
-        return dynamics
+        terms = []
+        for cj, name in zip(c[: self._n_f], self.get_feature_names()):
+            if cj == 0 or abs(cj) <= threshold:
+                continue
+            terms.append(f"{'-' if cj < 0 else '+'} {abs(cj):.{precision}g} {name}")
+        lag = " ".join(terms) if terms else "0"
+        lag = lag[2:] if lag.startswith("+ ") else "-" + lag[2:] if lag.startswith("- ") else lag
+        return [f"L = {lag}", self._damping_line(c, precision)]
