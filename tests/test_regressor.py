@@ -103,14 +103,14 @@ def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form()
     exact = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
     exact.fit(X, taus, qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
     t, q, qd, _, tau = _toy_recording(11)
-    sim = exact.simulate(q[0], qd[0], t, tau, rtol=1e-10, atol=1e-12)
+    sim = exact.simulate(q[0], qd[0], t, tau, method="dop853", rtol=1e-10, atol=1e-12)
     assert isinstance(sim, StrainTrajectory)
     np.testing.assert_allclose(sim.q, q, rtol=0, atol=1e-7 * np.abs(q).max())
     np.testing.assert_allclose(sim.qd, qd, rtol=0, atol=1e-6 * np.abs(qd).max())
     # a callable forcing is evaluated at the stage times: a constant one equals the held array
     const = tau[5]
-    sim_a = exact.simulate(q[0], qd[0], t[:50], np.tile(const, (50, 1)), rtol=1e-10, atol=1e-12)
-    sim_c = exact.simulate(q[0], qd[0], t[:50], lambda s: const, rtol=1e-10, atol=1e-12)
+    sim_a = exact.simulate(q[0], qd[0], t[:50], np.tile(const, (50, 1)), method="dop853", rtol=1e-10, atol=1e-12)
+    sim_c = exact.simulate(q[0], qd[0], t[:50], lambda s: const, method="dop853", rtol=1e-10, atol=1e-12)
     np.testing.assert_allclose(sim_c.q, sim_a.q, rtol=0, atol=1e-8 * np.abs(sim_a.q).max())
 
 
@@ -124,7 +124,7 @@ def test_toy_stiff_strain_is_removed_and_stays_zero_in_rollout():
     assert model.stiffness_[1] == np.inf and model.damping_[1] == 0.0
     assert np.all(model.coef_[[1, 4, 6, 8]] == 0)
     t, q, qd, _, tau = _toy_recording(3, k=k_stiff)
-    sim = model.simulate(q[0], qd[0], t, tau)
+    sim = model.simulate(q[0], qd[0], t, tau, method="dop853")
     assert np.all(sim.q[:, 1] == 0) and np.all(sim.qd[:, 1] == 0)
     np.testing.assert_array_equal(sim.active_strains, [[True, False, True]])
     pred = model.predict(X, qd=qds, qdd=qdds)[0]
