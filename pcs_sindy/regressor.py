@@ -39,14 +39,11 @@ from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
 from .trajectory import StrainTrajectory, as_strain_trajectories
 
-__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "SCORE_WINDOWS"]
+__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES"]
 
-#: Savitzky–Golay window and order of the rates in :meth:`EulerLagrangeRegressor.score` (fixed, so every
-#: candidate of a search is scored against the same targets)
+#: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
+#: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
 SCORE_DERIVATIVES = (7, 3)
-#: weak-form windows (sampling intervals, stride) of :meth:`EulerLagrangeRegressor.score` (shorter in recordings
-#: too short for three of them)
-SCORE_WINDOWS = (40, 20)
 _LIBRARIES = ("physical", "monomial")
 
 
@@ -284,7 +281,6 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         *,
         kin: PlanarPCS | None,
         formulation: str,
-        fixed: bool = False,
     ) -> tuple[PlanarPCS, list[StrainTrajectory], list[_form.Recording]]:
         """Validated recordings of the strains ``kin`` models (default: the data's), ready for a formulation."""
         X = as_strain_trajectories(X)
@@ -315,25 +311,20 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             taus.append(tau)
         recs = []
         for k, (rec, tau) in enumerate(zip(X, taus)):
-            rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k],
-                                          fixed=fixed)
+            rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k])
             r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau[:, mask])
             if formulation == "weak":
-                if fixed:  # at least three windows per recording, whatever its length
-                    width = min(SCORE_WINDOWS[0], max(2, (rec.n_frames - 1) // 2))
-                    stride = max(1, min(SCORE_WINDOWS[1], width // 2))
-                else:
-                    width, stride = int(self.weak_window), int(self.weak_stride)
+                width, stride = int(self.weak_window), int(self.weak_stride)
                 if rec.n_frames <= width:
                     raise ValueError(
                         f"X[{k}] has {rec.n_frames} samples, too few for weak_window = {width} sampling intervals "
                         f"(needs at least {width + 1}); use a shorter weak_window"
                     )
                 r.windows = _form.sliding_windows(rec.n_frames, width, stride)
-            elif self.exclude_force_jumps and not fixed:
+            elif self.exclude_force_jumps:
                 r.rows = _form.jump_free(tau, self.window_length)
             recs.append(r)
-        if formulation == "strong" and self.exclude_force_jumps and not fixed and not any(r.rows.any() for r in recs):
+        if formulation == "strong" and self.exclude_force_jumps and not any(r.rows.any() for r in recs):
             raise ValueError(
                 f"exclude_force_jumps left no sample: every window of {self.window_length} samples contains a jump "
                 "of the actuation; use a window shorter than the actuation hold (or smooth actuation without "
@@ -538,34 +529,59 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         return out
 
     def score(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], sample_weight: None = None) -> float:
-        """Coefficient of determination R^2 of window-integrated forces on every strain of the data.
+        """R^2 of the tip positions of rollouts of the recordings ``X`` under their forces ``y``.
 
-        The targets do not depend on this estimator's settings, so the candidates
-        of a search are compared on the same numbers: windows of
-        :data:`SCORE_WINDOWS` with the bump test function, rates by Savitzky–Golay
-        :data:`SCORE_DERIVATIVES`, and every strain of the data's segmentation.
-        A strain removed as rigid is predicted by the reduced model: the rows of
-        the full library with the removed strain's stiffness and damping at 0
-        (the forces the reduced model implies along the measured motion).
-        Pooled over windows and strains: ``1 - SS_res / SS_tot`` with ``SS_tot``
-        about each strain's mean.
+        Each recording is rolled out from its measured state (as in
+        :meth:`rollout_error`) and the tip path (x, y) compared with the
+        recording's own: ``1 - SS_res / SS_tot``, pooled over recordings and
+        samples, ``SS_tot`` about the mean tip position.  The targets are the
+        recordings themselves, so every candidate of a search is scored on the
+        same numbers whatever its settings, and every strain counts: a strain
+        removed as rigid is predicted by the reduced model (held at 0).  A
+        diverged rollout scores ``-inf`` (never NaN).
 
         Raises
         ------
         ValueError
-            Instead of returning NaN, when ``y`` has no variance.
+            When the tip does not move in ``X`` (R^2 undefined).
         """
         check_is_fitted(self, "coef_")
         if sample_weight is not None:
             raise ValueError("sample_weight is not supported; weight recordings by their length instead")
-        kin = self.full_library_.kinematics
-        _, _, recs = self._recordings(X, y, None, None, kin=kin, formulation="weak", fixed=True)
-        x, target, _ = _form.regression(self.full_library_, recs, "weak", hold="zoh")
-        pred = x @ self.coef_
-        ss_tot = float(np.sum((target - target.mean(axis=0)) ** 2))
-        if not ss_tot > 1e-12 * float(np.sum(target**2)):  # round-off of window integrals of a constant
-            raise ValueError("y has no variance on the strains; R^2 is undefined")
-        return 1.0 - float(np.sum((target - pred) ** 2)) / ss_tot
+        pairs = self._rollout_tips(X, y)
+        truth = np.concatenate([true for _, true in pairs])
+        ss_tot = float(np.sum((truth - truth.mean(axis=0)) ** 2))
+        if not ss_tot > 1e-12 * float(np.sum(truth**2)):
+            raise ValueError("the tip does not move in X; the R^2 of its path is undefined")
+        if any(sim is None for sim, _ in pairs):
+            return -np.inf
+        ss_res = float(sum(np.sum((sim - true) ** 2) for sim, true in pairs))
+        return 1.0 - ss_res / ss_tot
+
+    def _rollout_tips(
+        self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any
+    ) -> list[tuple[NDArray[np.float64] | None, NDArray[np.float64]]]:
+        """Per recording: the rolled-out and the recorded tip positions (T', 2); None for a diverged rollout."""
+        check_is_fitted(self, "coef_")
+        X = as_strain_trajectories(X)
+        ys = _check_list(y, len(X), "y")
+        out = []
+        for k, rec in enumerate(X):
+            tau = np.asarray(ys[k], dtype=float)
+            if tau.shape != rec.q.shape or not np.all(np.isfinite(tau)):
+                raise ValueError(f"y[{k}] must be finite with the shape of X[{k}].q {rec.q.shape}; got {tau.shape}")
+            # start where the fixed Savitzky-Golay estimate of the rate is centred, not at the edge
+            k0 = 0 if rec.qd is not None else min(SCORE_DERIVATIVES[0] // 2, rec.n_frames - 2)
+            qd = rec.qd if rec.qd is not None else self._derivatives(rec, k, None, None, fixed=True)[0]
+            s = np.asarray([rec.kinematics.total_length])
+            true = rec.kinematics.forward_kinematics(rec.q[k0:], s)[:, 0, :2]
+            try:
+                sim = self.simulate(rec.q[k0], qd[k0], rec.t[k0:], tau[k0:], **simulate_kwargs)
+            except DivergenceError:
+                out.append((None, true))
+                continue
+            out.append((self.kinematics_.forward_kinematics(sim.q, s)[:, 0, :2], true))
+        return out
 
     # ------------------------------------------------------------------ forward dynamics
     def simulate(
@@ -637,33 +653,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             progress=self.progress if progress is None else progress, stats=stats)
 
     def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
-        """Tip position error ``e_p^EE`` (m) of rolling each recording out from its first state under ``y``.
+        """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.
 
-        The first state takes its rates from Savitzky–Golay :data:`SCORE_DERIVATIVES`
-        (or ``X[k].qd`` when known).  A diverged rollout counts as ``inf``.
+        The rollout starts at the first sample where the Savitzky–Golay rate of
+        :data:`SCORE_DERIVATIVES` is centred (sample 3), or at sample 0 when
+        ``X[k].qd`` is known.  A diverged rollout counts as ``inf``.
 
         Returns
         -------
         ndarray, shape (n_recordings,)
         """
-        from .metrics import end_effector_errors
-
-        check_is_fitted(self, "coef_")
-        X = as_strain_trajectories(X)
-        ys = _check_list(y, len(X), "y")
-        out = np.empty(len(X))
-        for k, rec in enumerate(X):
-            qd0 = rec.qd[0] if rec.qd is not None else self._derivatives(rec, k, None, None, fixed=True)[0][0]
-            try:
-                sim = self.simulate(rec.q[0], qd0, rec.t, ys[k], **simulate_kwargs)
-            except DivergenceError:
-                out[k] = np.inf
-                continue
-            s = np.asarray([rec.kinematics.total_length])
-            tip_true = rec.kinematics.forward_kinematics(rec.q, s).reshape(-1, 1, 3)
-            tip_sim = self.kinematics_.forward_kinematics(sim.q, s).reshape(-1, 1, 3)
-            out[k] = end_effector_errors(tip_sim, tip_true)[0]
-        return out
+        pairs = self._rollout_tips(X, y, **simulate_kwargs)
+        return np.array([np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean())
+                         for sim, true in pairs])
 
     # ------------------------------------------------------------------ text and pysindy
     def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:

@@ -191,8 +191,34 @@ def test_bad_input_raises_clear_errors():
         model.simulate(np.zeros(3), np.zeros(3), X[0].t, taus[0][:-1])
     with pytest.raises(ValueError, match="q0 must have"):
         model.simulate(np.zeros(4), np.zeros(3), X[0].t, taus[0])
-    with pytest.raises(ValueError, match="no variance"):
-        model.score(X[:1], [np.ones_like(taus[0])])
+    still = [StrainTrajectory(np.zeros((50, 3)), np.arange(50) * 1e-3, segment_lengths=[0.1])]
+    with pytest.raises(ValueError, match="tip does not move"):
+        model.score(still, [np.zeros((50, 3))])
+    with pytest.raises(ValueError, match=r"y\[0\] must be finite with the shape"):
+        model.score(X[:1], [taus[0][:, :2]])
+
+
+def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
+    X, taus, qds, qdds, _ = _toy_data()
+    exact = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong",
+                                   optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    exact.fit(X, taus, qd=qds, qdd=qdds)
+    held = [StrainTrajectory(r[1], r[0], segment_lengths=[0.1], qd=r[2]) for r in (_toy_recording(7), _toy_recording(8))]
+    tau_held = [_toy_recording(7)[4], _toy_recording(8)[4]]
+    # the exact model rolls the matrix-exponential truth out: R^2 = 1 to the integrator's tolerance
+    assert exact.score(held, tau_held) > 1 - 1e-6
+    assert np.all(exact.rollout_error(held, tau_held) < 1e-6)
+    # a model with a wrong stiffness scores lower, by the R^2 of its tip path computed here by hand
+    wrong = clone(exact).fit(X, [t * 1.3 for t in taus], qd=qds, qdd=qdds)
+    pairs = wrong._rollout_tips(held, tau_held)
+    sim = np.concatenate([a for a, _ in pairs])
+    true = np.concatenate([b for _, b in pairs])
+    from pcs_sindy.kinematics import forward_kinematics
+
+    tip = np.concatenate([forward_kinematics(x.q, [0.1], [0.1])[:, 0, :2] for x in held])
+    np.testing.assert_array_equal(true, tip)
+    r2 = 1 - np.sum((sim - tip) ** 2) / np.sum((tip - tip.mean(axis=0)) ** 2)
+    assert wrong.score(held, tau_held) == pytest.approx(r2, rel=1e-12) and r2 < exact.score(held, tau_held)
 
 
 def test_get_set_params_and_clone():
