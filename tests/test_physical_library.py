@@ -144,8 +144,8 @@ def test_pysindy_params_and_clone():
 
 def _simulate(m, t, tau_fn):
     robot, (L, rho, E, G, D) = make(m)
-    q, qd = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau_fn, rtol=1e-9, atol=1e-12)
-    return robot, q, qd
+    sim = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau_fn, rtol=1e-9, atol=1e-12)
+    return robot, sim.q, sim.qd
 
 
 @pytest.mark.parametrize("m,identify_gravity,rotary", [(1, True, "tied"), (2, False, "free")])
@@ -178,8 +178,8 @@ def held_trajectory():
     t = np.arange(0.0, 0.02 + 1e-12, 1e-4)
     tau = np.repeat(rng.uniform(-1, 1, (t.size // 50 + 1, 3)) * [2e-3, 5e-2, 5e-2], 50, axis=0)[: t.size]
     robot, _ = make(1)
-    q, qd = robot.simulate(np.zeros(3), np.zeros(3), t, tau, rtol=1e-9, atol=1e-12)
-    return t, q, qd, tau
+    sim = robot.simulate(np.zeros(3), np.zeros(3), t, tau, rtol=1e-9, atol=1e-12)
+    return t, sim.q, sim.qd, tau
 
 
 def test_weak_form_with_zero_order_hold(held_trajectory):

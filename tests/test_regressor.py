@@ -303,7 +303,8 @@ def test_pcs_savitzky_golay_and_rollout():
     exact = EulerLagrangeRegressor().fit(X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
     t = np.arange(40) * 1e-3
     tau = np.tile(robot.gravity_forces(np.zeros(3)) + robot.elastic_forces(np.array([20.0, 0.1, 0.1])), (t.size, 1))
-    q_ref, qd_ref = robot.simulate(np.zeros(3), np.zeros(3), t, tau, rtol=1e-10, atol=1e-12)
+    ref = robot.simulate(np.zeros(3), np.zeros(3), t, tau, rtol=1e-10, atol=1e-12)
+    q_ref, qd_ref = ref.q, ref.qd
     sim = exact.simulate(np.zeros(3), np.zeros(3), tau, t, rtol=1e-10, atol=1e-12)
     scale = np.abs(q_ref).max(axis=0)
     assert np.all(np.abs(sim.q - q_ref).max(axis=0) <= 1e-6 * scale)

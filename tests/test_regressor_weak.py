@@ -35,7 +35,8 @@ def _held_recordings(robot, n_rec, n_samples=400, hold=25, seed=0, amp=(20.0, 0.
     for _ in range(n_rec):
         targets = rng.uniform(-1, 1, (n_samples // hold + 1, n)) * np.tile(amp, robot.n_segments)
         tau = np.repeat(robot.gravity_forces(targets) + robot.elastic_forces(targets), hold, axis=0)[:n_samples]
-        q, qd = robot.simulate(np.zeros(n), np.zeros(n), t, tau, rtol=1e-10, atol=1e-12)
+        sim = robot.simulate(np.zeros(n), np.zeros(n), t, tau, rtol=1e-10, atol=1e-12)
+        q, qd = sim.q, sim.qd
         X.append(StrainTrajectory(q, t, segment_lengths=L))
         taus.append(tau)
         qs.append(q)

@@ -124,7 +124,7 @@ def _held(robot, f0, n_rec=3, n_samples=400, hold=25, seed=0):
     for _ in range(n_rec):
         targets = rng.uniform(-1, 1, (n_samples // hold + 1, n)) * np.tile([20.0, 0.05, 0.02], robot.n_segments)
         tau = np.repeat(robot.gravity_forces(targets) + robot.elastic_forces(targets), hold, axis=0)[:n_samples]
-        q, _ = robot.simulate(np.zeros(n), np.zeros(n), t, tau + f0, rtol=1e-10, atol=1e-12)
+        q = robot.simulate(np.zeros(n), np.zeros(n), t, tau + f0, rtol=1e-10, atol=1e-12).q
         X.append(StrainTrajectory(q, t, segment_lengths=robot.kinematics.segment_lengths))
         taus.append(tau)
     return X, taus, t

@@ -131,7 +131,8 @@ def test_true_parameters_follow_simulator(name):
     rng = np.random.default_rng(2)
     tau = robot.gravity_forces(np.zeros(3 * m)) + _square_wave(
         t, m, rng, np.abs(robot.elastic_forces(np.tile([10.0, 0.05, 0.05], m))))
-    q_ref, qd_ref = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-10, atol=1e-12)
+    ref = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-10, atol=1e-12)
+    q_ref, qd_ref = ref.q, ref.qd
     y = LumpedModel.from_library(lib, coef).rollout(np.zeros(6 * m), t, tau, rtol=1e-10, atol=1e-12)
     assert np.all(np.abs(y[:, : 3 * m] - q_ref).max(axis=0) <= 1e-7 * np.abs(q_ref).max(axis=0))
     assert np.all(np.abs(y[:, 3 * m:] - qd_ref).max(axis=0) <= 1e-6 * np.abs(qd_ref).max(axis=0))
@@ -160,7 +161,7 @@ def test_regressor_backends_agree_and_divergence_is_reported():
     for k in (a, c):
         assert np.all(np.abs(k.q - b.q).max(axis=0) <= 1e-8 * np.abs(b.q).max(axis=0))
         assert np.all(np.abs(k.qd - b.qd).max(axis=0) <= 1e-8 * np.abs(b.qd).max(axis=0))
-    q_ref, _ = robot.simulate(q0, np.zeros(3), t, tau, rtol=1e-10, atol=1e-12)
+    q_ref = robot.simulate(q0, np.zeros(3), t, tau, rtol=1e-10, atol=1e-12).q
     assert np.all(np.abs(a.q - q_ref).max(axis=0) <= 1e-5 * np.abs(q_ref).max(axis=0))
     with pytest.raises(DivergenceError, match=r"t = .*exceeded max_abs_state.*be_1="):
         model.simulate(np.zeros(3), np.zeros(3), np.full((t.size, 3), 1e6), t, max_abs_state=1e3, backend="numba")
@@ -233,7 +234,8 @@ def test_rosenbrock_true_parameters_follow_simulator(name):
     rng = np.random.default_rng(2)
     tau = robot.gravity_forces(np.zeros(3 * m)) + _square_wave(
         t, m, rng, np.abs(robot.elastic_forces(np.tile([10.0, 0.05, 0.05], m))))
-    q_ref, qd_ref = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-10, atol=1e-12)
+    ref = robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-10, atol=1e-12)
+    q_ref, qd_ref = ref.q, ref.qd
     model = LumpedModel.from_library(lib, coef)
     scale = np.abs(q_ref).max(axis=0)
     errs = []

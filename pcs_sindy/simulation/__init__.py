@@ -21,7 +21,9 @@ _LAZY = {
     "render_video": "pcs_sindy.simulation.rendering",
     "render_frames": "pcs_sindy.simulation.rendering",
     "RenderedVideo": "pcs_sindy.simulation.rendering",
-    "SimulationError": "pcs_sindy.simulation.dynamics",
+    "SimulationError": "pcs_sindy.integration",
+    "TendonActuation": "pcs_sindy.simulation.actuation",
+    "PressureActuation": "pcs_sindy.simulation.actuation",
 }
 
 __all__ = list(_LAZY)

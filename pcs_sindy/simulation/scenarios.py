@@ -172,8 +172,12 @@ class Scenario:
         robot = self._actuation_robot()
         return robot.elastic_forces(q_target) + robot.gravity_forces(q_target)
 
-    def _simulate(self, q0, qd0, t, tau) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        return self.robot.simulate(q0, qd0, t, tau)
+    def _simulate(self, q0, qd0, t, u) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """States (T, n) or, for a batch, (T, B, n)."""
+        runs = self.robot.simulate(q0, qd0, t, u)
+        if isinstance(runs, list):
+            return np.stack([r.q for r in runs], axis=1), np.stack([r.qd for r in runs], axis=1)
+        return runs.q, runs.qd
 
     def _training_recordings(self, rng: np.random.Generator) -> list[tuple]:
         n = self.robot.n_q
