@@ -143,7 +143,7 @@ def main() -> None:
     gen_rows = []
     from pcs_sindy.simulation import get_scenario
 
-    for name in ("two_segment", "five_segment"):
+    for name in ("two_segment", "five_segment", "two_segment_tendon", "one_segment_pneumatic"):
         _, w, c = timed(lambda: get_scenario(name).generate(seed=0, cache=False))
         gen_rows.append(f"| {name} | {w:.1f} | {c:.1f} |")
         print(gen_rows[-1], flush=True)

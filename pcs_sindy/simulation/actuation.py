@@ -59,8 +59,8 @@ def _within_robot(value: NDArray, name: str, total: float, *, allow_zero: bool) 
     if np.any(bad):
         k = int(np.argmax(bad))
         lower = "0 <=" if allow_zero else "0 <"
-        raise ValueError(f"{name}[{k}] = {value[k]!r} lies outside the robot: need {lower} {name} <= {total:g} m "
-                         f"(the total rest length)")
+        raise ValueError(f"{name}[{k}] = {float(value[k])!r} lies outside the robot: need {lower} {name} <= "
+                         f"{total:g} m (the total rest length)")
 
 
 def _cover(start: NDArray, end: NDArray, segment_lengths: NDArray) -> NDArray[np.float64]:
@@ -121,8 +121,9 @@ class TendonActuation:
         idx = np.argwhere(u < 0)[0]
         where = f"{name}[{', '.join(str(int(i)) for i in idx)}]"
         time = t if np.ndim(t) == 0 else t[idx[0]]
-        raise ValueError(f"{where} = {u[tuple(idx)]!r} at t = {float(time):g} s: tendon {int(idx[-1])} (ending at "
-                         f"{float(np.atleast_1d(self.end)[idx[-1]]):g} m) would push; tendon tensions must be >= 0")
+        k = int(idx[-1])
+        raise ValueError(f"{where} = {float(u[tuple(idx)])!r} at t = {float(time):g} s: tendon {k} (ending at "
+                         f"{float(np.atleast_1d(self.end)[k]):g} m) would push; tendon tensions must be >= 0")
 
     def __repr__(self) -> str:
         return f"TendonActuation(end={self.end!r}, offset={self.offset!r})"
@@ -179,7 +180,7 @@ class PressureActuation:
             raise ValueError(f"axial_gain must be >= 0; got {ga.tolist()}")
         if np.any(start >= end):
             k = int(np.argmax(start >= end))
-            raise ValueError(f"start[{k}] = {start[k]!r} must be < end[{k}] = {end[k]!r}")
+            raise ValueError(f"start[{k}] = {float(start[k])!r} must be < end[{k}] = {float(end[k])!r}")
         return start, end, side, gb, ga
 
     def layout(self) -> dict[str, Any]:

@@ -37,6 +37,7 @@ from pcs_sindy.trajectory import StrainTrajectory
 
 from . import _kernels
 from ._backbone import backbone_moments, segment_terms
+from .actuation import PressureActuation, TendonActuation
 from .integrate import UNSET, simulate
 
 __all__ = ["PCSRobot", "SimulationError", "backbone_moments"]
@@ -161,7 +162,7 @@ class PCSRobot:
         if actuation is None:
             self._act = (_kernels.ACT_IDENTITY, np.zeros(0), np.zeros((0, m)), np.zeros((self.n_q, 0)))
             self.n_inputs = self.n_q
-        elif callable(getattr(actuation, "encode", None)):
+        elif isinstance(actuation, (TendonActuation, PressureActuation)):
             self._act = actuation.encode(self.segment_lengths)
             self.n_inputs = int(actuation.n_inputs)
         else:

@@ -141,7 +141,7 @@ def check_inputs(robot: Any, u: Any, t: NDArray, batch: tuple[int, ...]) -> tupl
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"u contains NaN or inf (first at sample {int(np.argwhere(~np.isfinite(arr))[0][0])})")
     if check is not None:
-        check(arr[:-1] if t.size > 1 else arr, t)  # the last row is never applied
+        check(arr, t)
     return arr.reshape(t.size, B, p), None
 
 

@@ -1,4 +1,4 @@
-"""The seed's scenarios (DESIGN.md §4) and their seeded data generation.
+"""The seed's scenarios (docs/method.md, "Scenarios and data") and their seeded data generation.
 
 ``get_scenario(name)`` returns a :class:`Scenario` holding the ground-truth
 robot; ``scenario.generate(seed=0)`` simulates the seed's data set: 8 training
@@ -14,6 +14,13 @@ configuration ``q*`` is drawn inside the strain ranges of the seed's data
 and the actuation that holds the robot there, ``τ = K q* + G(q*)``, is applied.
 The robot therefore moves across the intended strain range whatever its
 stiffness and weight.
+
+Actuated scenarios (``two_segment_tendon``, ``one_segment_pneumatic``) drive
+their robot through tendons or pressure chambers instead: random actuator
+inputs in ``[0, input_max]`` held for 10 ms in training, slow non-negative
+sinusoids of different frequencies per actuator in validation.  Their
+recordings carry the inputs ``u`` (T, p) and, for checks, the generalised
+forces ``τ = A(q) u`` they produced at the samples.
 """
 
 from __future__ import annotations
@@ -29,6 +36,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from .actuation import PressureActuation, TendonActuation
 from .pac import PACRobot
 
 __all__ = ["Recording", "ScenarioData", "Scenario", "get_scenario", "list_scenarios", "add_pose_noise"]
@@ -49,11 +57,17 @@ class Recording:
     q, qd : ndarray (T, n) or None
         True strains and strain rates (PAC: ``q`` holds ``[c0, c1, σ_sh, σ_ax]``; ``qd`` is None).
     tau : ndarray (T, n) or None
-        Actuation, held constant on ``[t_k, t_{k+1})``.
+        Generalised forces: the actuation held constant on ``[t_k, t_{k+1})``
+        of a directly driven robot; ``A(q_k) u_k`` at the samples of an
+        actuated one (for checks: it is not held between samples).
     poses : ndarray (T, N + 1, 3)
         Tracked poses (base + N cross-sections), noisy if noise was requested.
     poses_true : ndarray (T, N + 1, 3)
         Noise-free poses.
+    u : ndarray (T, p) or None
+        The inputs given to ``robot.simulate``, held on ``[t_k, t_{k+1})``:
+        tendon tensions [N] or chamber pressures [Pa] of an actuated robot,
+        the same array as ``tau`` for a directly driven one.
     """
 
     t: NDArray[np.float64]
@@ -62,6 +76,7 @@ class Recording:
     tau: NDArray[np.float64] | None
     poses: NDArray[np.float64]
     poses_true: NDArray[np.float64]
+    u: NDArray[np.float64] | None = None
 
     @property
     def dt(self) -> float:
@@ -117,11 +132,13 @@ class Scenario:
     robot : PCSRobot or PACRobot
         Ground-truth model (``.kinematics`` gives the segmentation of a PCS robot).
     parameters : dict
-        The physical parameters the robot was built from (DESIGN.md §4).
+        The physical parameters the robot was built from (docs/method.md).
     seed_noise : (float, float)
         The seed's measurement noise ``(σ_p [m], σ_θ [rad])`` for this scenario.
     n_markers : int
         Tracked cross-sections (equally spaced, the last at the tip).
+    input_max : tuple of float or None
+        Actuated scenarios: the largest training input of each actuator.
     """
 
     name: str
@@ -138,6 +155,20 @@ class Scenario:
     strain_amplitude: float = 0.2
     description: str = ""
     actuation_reference: str | None = None
+    input_max: tuple[float, ...] | None = None
+
+    @property
+    def actuation(self) -> dict[str, Any] | None:
+        """The actuation layout as a user knows it from the design (JSON-able), or None.
+
+        Tendons: ``{"type": "tendon", "end": [...], "side": [...]}`` (termination
+        arc lengths [m] and sides ±1 of the backbone); pressure chambers:
+        ``{"type": "pressure", "start": [...], "end": [...], "side": [...]}``.
+        Not the offsets or gains, which stay on ``robot.actuation`` for checks.
+        None for a robot driven directly by generalised forces (``u`` is τ).
+        """
+        act = None if self.is_kinematic else self.robot.actuation
+        return None if act is None else act.layout()
 
     @property
     def is_kinematic(self) -> bool:
@@ -180,6 +211,8 @@ class Scenario:
         return runs.q, runs.qd
 
     def _training_recordings(self, rng: np.random.Generator) -> list[tuple]:
+        if self.input_max is not None:
+            return self._actuated_training_recordings(rng)
         n = self.robot.n_q
         amp = self._amplitudes()
         n_samples = int(round(self.train_duration / self.dt))
@@ -194,9 +227,47 @@ class Scenario:
         qd0 = np.zeros((self.n_train, n))
         # all training recordings share the time grid: one batched integration
         q, qd = self._simulate(q0, qd0, t, tau)
-        return [(t, q[:, b], qd[:, b], tau[:, b]) for b in range(self.n_train)]
+        # u is τ itself (one array object: stored once, recognised as such)
+        return [(t, q[:, b], qd[:, b], tau_b, tau_b) for b, tau_b in enumerate(np.moveaxis(tau, 1, 0))]
+
+    def _actuated_training_recordings(self, rng: np.random.Generator) -> list[tuple]:
+        n, p = self.robot.n_q, self.robot.n_inputs
+        n_samples = int(round(self.train_duration / self.dt))
+        t = np.arange(n_samples) * self.dt
+        per_hold = max(1, int(round(self.hold / self.dt)))
+        n_holds = -(-n_samples // per_hold)
+        # every actuator independently off or uniform in [0, input_max] (probability 1/2 each): single pulls
+        # bend the robot further than co-contraction, which mostly compresses it
+        level = rng.uniform(0.0, 1.0, (n_holds, self.n_train, p)) * (rng.uniform(size=(n_holds, self.n_train, p)) < 0.5)
+        u = np.repeat(level * np.asarray(self.input_max), per_hold, axis=0)[:n_samples]  # (T, B, p)
+        q0 = rng.uniform(-0.5, 0.5, (self.n_train, n)) * self._amplitudes()
+        q, qd = self._simulate(q0, np.zeros((self.n_train, n)), t, u)
+        tau = self.robot.actuation_forces(q, u)
+        return [(t, q[:, b], qd[:, b], tau[:, b], u[:, b]) for b in range(self.n_train)]
+
+    def _actuated_validation_recording(self, rng: np.random.Generator) -> tuple:
+        n, p = self.robot.n_q, self.robot.n_inputs
+        t = np.arange(int(round(self.validation_duration / self.dt))) * self.dt
+        # slow sinusoids around half the training range, one frequency per actuator, all different
+        # (stratified over 0.5-3 Hz), never negative: u = mid (1 + a sin(w t + phase)) with a <= 1
+        mid = 0.5 * np.asarray(self.input_max)
+        amp = rng.uniform(0.6, 1.0, p)
+        omega = 2 * np.pi * (0.5 + 2.5 * (rng.permutation(p) + rng.uniform(0.0, 1.0, p)) / p)
+        phase = rng.uniform(0.0, 2 * np.pi, p)
+        shape = 1.0 + amp * np.sin(omega * t[:, None] + phase)
+        limits = np.tile(_STRAIN_LIMITS, self.robot.kinematics.n_segments)
+        for _ in range(4):
+            u = mid * shape
+            q, qd = self._simulate(np.zeros(n), np.zeros(n), t, u)
+            excess = np.max(np.abs(q) / limits)
+            if excess <= 1.0:
+                break
+            mid = mid * (0.9 / excess)
+        return t, q, qd, self.robot.actuation_forces(q, u), u
 
     def _validation_recording(self, rng: np.random.Generator) -> tuple:
+        if self.input_max is not None:
+            return self._actuated_validation_recording(rng)
         n = self.robot.n_q
         n_samples = int(round(self.validation_duration / self.dt))
         t = np.arange(n_samples) * self.dt
@@ -218,7 +289,7 @@ class Scenario:
             if excess <= 1.0:
                 break
             f = f * (0.9 / excess)
-        return t, q, qd, tau
+        return t, q, qd, tau, tau
 
     def _pac_recording(self, rng: np.random.Generator, n_configurations: int = 500) -> tuple:
         c0 = rng.uniform(-20.0, 20.0, n_configurations)
@@ -226,7 +297,7 @@ class Scenario:
         shear = rng.uniform(-1.0, 1.0, (n_configurations, 2)) * self.strain_amplitude
         config = np.column_stack([c0, c1, shear])
         t = np.arange(n_configurations) * self.dt
-        return t, config, None, None
+        return t, config, None, None, None
 
     # ------------------------------------------------------------------
     def generate(
@@ -283,10 +354,10 @@ class Scenario:
         raw = spec._load_or_simulate(int(seed), validation and not self.is_kinematic, cache, progress)
         noise_rng = np.random.default_rng([int(seed), 7919])
         recordings = []
-        for t, q, qd, tau in raw:
+        for t, q, qd, tau, u in raw:
             truth = spec.marker_poses(q)
             noisy = add_pose_noise(truth, *noise, noise_rng) if max(noise) > 0 else truth.copy()
-            recordings.append(Recording(t=t, q=q, qd=qd, tau=tau, poses=noisy, poses_true=truth))
+            recordings.append(Recording(t=t, q=q, qd=qd, tau=tau, poses=noisy, poses_true=truth, u=u))
         n_val = 1 if (validation and not self.is_kinematic) else 0
         train = recordings[: len(recordings) - n_val]
         val = recordings[-1] if n_val else None
@@ -307,6 +378,8 @@ class Scenario:
             "amplitudes": [self.bend_amplitude, self.strain_amplitude],
             "actuation_reference": self.actuation_reference,
         }
+        if self.input_max is not None:  # keeps the keys (and cached data) of the other scenarios as they were
+            spec["input_max"] = list(self.input_max)
         return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
     def _load_or_simulate(self, seed: int, validation: bool, cache: bool, progress: bool) -> list[tuple]:
@@ -318,7 +391,8 @@ class Scenario:
                     out = []
                     for k in range(count):
                         get = lambda key: data[f"{key}{k}"] if f"{key}{k}" in data.files else None  # noqa: E731
-                        out.append((get("t"), get("q"), get("qd"), get("tau")))
+                        tau, u = get("tau"), get("u")
+                        out.append((get("t"), get("q"), get("qd"), tau, tau if u is None else u))
                     return out
             except (OSError, ValueError, KeyError):
                 pass  # a damaged cache entry is simply recomputed
@@ -335,8 +409,9 @@ class Scenario:
         if cache:
             arrays: dict[str, NDArray] = {"count": np.array(len(out))}
             for k, rec in enumerate(out):
-                for key, value in zip(("t", "q", "qd", "tau"), rec):
-                    if value is not None:
+                for key, value in zip(("t", "q", "qd", "tau", "u"), rec):
+                    # u is stored only where it differs from tau (actuated robots)
+                    if value is not None and not (key == "u" and value is rec[3]):
                         arrays[f"{key}{k}"] = value
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -349,7 +424,7 @@ class Scenario:
 
 
 # ----------------------------------------------------------------------
-# The table (DESIGN.md §4 / seed Table I)
+# The table (docs/method.md / seed Table I)
 # ----------------------------------------------------------------------
 _PCS_TABLE: dict[str, dict[str, Any]] = {
     "one_segment": dict(
@@ -399,7 +474,32 @@ _DESCRIPTIONS = {
     "pac_one_segment": "one piecewise-affine-curvature segment, kinematics only (seed Case 5)",
     "two_segment_stiff_axial_shear": "two segments, segment 1 axial and segment 2 shear stiffness x1000",
     "five_segment": "five constant-strain segments, 0.27 m (beyond the seed)",
+    "two_segment_tendon": "two_segment driven by four tendons at +-15 mm, two ending at 70 mm, two at the tip",
+    "one_segment_pneumatic": "one_segment driven by two pressure chambers on opposite sides",
 }
+
+# actuated robots (beyond the seed, issue 11): a robot of the table driven through actuators instead of by τ.
+# Training inputs are off or uniform in [0, input_max]; the maxima keep the strains inside the seed's ranges
+# (bending within +-60 1/m, shear and axial within +-0.3: all four tendons at 12 N compress segment 1 by
+# about 0.25).  Chamber gains: area 2 cm^2, centroid 15 mm off the backbone.
+_ACTUATED: dict[str, dict[str, Any]] = {
+    "two_segment_tendon": dict(
+        base="two_segment",
+        actuation=dict(type="tendon", end=[0.07, 0.07, 0.17, 0.17], offset=[0.015, -0.015, 0.015, -0.015]),
+        input_max=(16.0, 16.0, 16.0, 16.0),
+    ),
+    "one_segment_pneumatic": dict(
+        base="one_segment",
+        actuation=dict(type="pressure", start=[0.0, 0.0], end=[0.1, 0.1], side=[1, -1], bending_gain=[3e-6, 3e-6],
+                       axial_gain=[2e-4, 2e-4]),
+        input_max=(9e4, 9e4),
+    ),
+}
+
+
+def _actuation_from_spec(spec: dict[str, Any]) -> Any:
+    kw = {k: v for k, v in spec.items() if k != "type"}
+    return TendonActuation(**kw) if spec["type"] == "tendon" else PressureActuation(**kw)
 
 
 # stiffened variants take their actuation magnitudes from the nominal robot
@@ -412,7 +512,7 @@ def list_scenarios() -> list[str]:
 
 
 def get_scenario(name: str, **overrides: Any) -> Scenario:
-    """Build a named scenario of DESIGN.md §4.
+    """Build a named scenario (docs/method.md, "Scenarios and data").
 
     Parameters
     ----------
@@ -437,13 +537,18 @@ def get_scenario(name: str, **overrides: Any) -> Scenario:
         )
     from .dynamics import PCSRobot  # the dynamics are only needed for PCS scenarios
 
-    spec = dict(_PCS_TABLE[name])
+    actuated = _ACTUATED.get(name)
+    spec = dict(_PCS_TABLE[actuated["base"] if actuated else name])
     seed_noise = spec.pop("seed_noise")
     factors = spec.pop("stiffness_factors", None)
-    robot = PCSRobot(radius=robot_options.pop("radius", 0.02), **spec, **robot_options)
+    actuation = _actuation_from_spec(actuated["actuation"]) if actuated else None
+    robot = PCSRobot(radius=robot_options.pop("radius", 0.02), **spec, **robot_options, actuation=actuation)
     if factors is not None:
         robot = _scale_stiffness(robot, np.asarray(factors, dtype=float))
     parameters = {**spec, "radius": robot_options.get("radius", 0.02), "stiffness_factors": factors}
+    if actuated:
+        parameters["actuation"] = actuated["actuation"]
+        overrides.setdefault("input_max", actuated["input_max"])
     overrides.setdefault("actuation_reference", _ACTUATION_REFERENCE.get(name))
     return Scenario(
         name=name, robot=robot, parameters=parameters, seed_noise=seed_noise,
