@@ -1,13 +1,15 @@
 """Speed of the ground-truth PCS simulator (pcs_sindy.simulation: PCSRobot.simulate).
 
-Times, for robots of 1-5 segments (DESIGN.md §4 parameters; 4 and 5 segments
+Times, for robots of 1-5 segments (docs/method.md parameters; 4 and 5 segments
 repeat the three_segment ones): inverse dynamics of a batch of 1000 samples
 and a 1 s simulation under random actuation held for 10 ms (1 kHz samples);
 then the 7 s sinusoidal validation-style run of two_segment (actuation sampled
-every 1 ms and held), and the accuracy of the fast settings on a short window
-against a tight DOP853 reference; the one-time numba compilation (cold cache)
-and the generation of the two_segment and five_segment data sets.  Wall-clock
-and CPU (process) times are both reported because the machine may be shared.
+every 1 ms and held), and the accuracy of the fast settings (and of scipy's
+dopri5 and bdf) on a short window against a tight dop853 reference; the cost
+of one 1 ms closed-loop period (``simulate`` on a 2-sample grid against
+``advance``); the one-time numba compilation (cold cache) and the generation
+of the two_segment, five_segment and actuated data sets.  Wall-clock and CPU
+(process) times are both reported because the machine may be shared.
 
 Run: .venv/bin/python benchmarks/simulation_speed.py
 """
@@ -89,6 +91,36 @@ def compile_times() -> tuple[str, str]:
     return rows[0], rows[1]
 
 
+def closed_loop_costs(name: str, repeats: int = 5, calls: int = 500) -> tuple[str, str]:
+    """Median per-call wall (CPU) time [µs] of one 1 ms control period: simulate on a 2-sample grid, advance."""
+    from pcs_sindy.simulation import get_scenario
+
+    robot = get_scenario(name).robot
+    n, p = robot.n_q, robot.n_inputs
+    bent = np.tile([20.0, 0.1, 0.1], n // 3)
+    held = np.full(p, 4.0) if robot.actuation is not None else robot.elastic_forces(bent) + robot.gravity_forces(bent)
+    t2, rows = np.array([0.0, 1e-3]), np.stack([held, held])
+
+    def by_simulate():
+        q, qd = np.zeros(n), np.zeros(n)
+        for _ in range(calls):
+            sim = robot.simulate(q, qd, t2, rows)
+            q, qd = sim.q[-1], sim.qd[-1]
+
+    def by_advance():
+        q, qd = np.zeros(n), np.zeros(n)
+        for _ in range(calls):
+            q, qd = robot.advance(q, qd, held, 1e-3)
+
+    out = []
+    for fn in (by_simulate, by_advance):
+        fn()  # warm
+        runs = [timed(fn)[1:] for _ in range(repeats)]
+        w, c = np.median([r[0] for r in runs]), np.median([r[1] for r in runs])
+        out.append(f"{w / calls * 1e6:.0f} ({c / calls * 1e6:.0f})")
+    return out[0], out[1]
+
+
 def main() -> None:
     rng = np.random.default_rng(0)
     cold, warm = compile_times()
@@ -140,6 +172,12 @@ def main() -> None:
         acc_rows.append(f"| {label} | {err:.1e} | {w:.2f} ({c:.2f}) |")
         print(acc_rows[-1], flush=True)
 
+    loop_rows = []
+    for name in ("two_segment", "two_segment_tendon"):
+        sim_cost, adv_cost = closed_loop_costs(name)
+        loop_rows.append(f"| {name} | {sim_cost} | {adv_cost} |")
+        print(loop_rows[-1], flush=True)
+
     gen_rows = []
     from pcs_sindy.simulation import get_scenario
 
@@ -153,7 +191,7 @@ def main() -> None:
             "Times in seconds (CPU time of the process in parentheses; the machine was shared).  The same",
             "benchmark before the simulator's split (own DOP853/RK45 loops then): section",
             "simulation_speed_before_split above.",
-            "Robots: DESIGN.md §4 one_segment, two_segment, three_segment; 4 and 5 segments repeat",
+            "Robots: docs/method.md one_segment, two_segment, three_segment; 4 and 5 segments repeat",
             "three_segment's parameters.  1 s simulations: random actuation held 10 ms, 1 kHz samples,",
             "from rest.  Default settings: Radau IIA compiled with numba (pcs_sindy/simulation/_radau.py), fixed",
             "0.5 ms steps landing on every sample; steps / Newton iterations / Jacobians of that run;",
@@ -178,6 +216,14 @@ def main() -> None:
             "| settings | relative error | time [s] |",
             "|---|---|---|",
             *acc_rows,
+            "",
+            "One 1 ms control period of a closed loop (held command, default fixed 0.5 ms Radau steps), per call,",
+            "median of 5 x 500 consecutive periods, wall (CPU) [µs]: `simulate` on a 2-sample grid (validation,",
+            "trajectory object, fresh Jacobian every call) and `advance` (integrator state kept between calls):",
+            "",
+            "| robot | simulate, 2 samples [µs] | advance [µs] |",
+            "|---|---|---|",
+            *loop_rows,
             "",
             "Scenario data sets, `get_scenario(name).generate(seed=0, cache=False)` (8 x 0.5 s batched training",
             "recordings + 7 s validation, marker poses included):",

@@ -114,15 +114,19 @@ class TendonActuation:
         span = _cover(np.zeros_like(end), end, lengths)
         return ACT_TENDON, offset, span, np.zeros((3 * lengths.size, 0))
 
-    def check_inputs(self, u: NDArray, t: NDArray | float, name: str = "u") -> None:
-        """Raise a ValueError naming the first negative tension, its input index and time."""
+    def check_inputs(self, u: NDArray, t: NDArray | float | None, name: str = "u") -> None:
+        """Raise a ValueError naming the first negative tension, its input index and time.
+
+        ``t`` holds the time stamps of the rows of ``u`` (first axis), the time
+        of a single input, or None when there is no time to name.
+        """
         if np.all(u >= 0):
             return
         idx = np.argwhere(u < 0)[0]
         where = f"{name}[{', '.join(str(int(i)) for i in idx)}]"
-        time = t if np.ndim(t) == 0 else t[idx[0]]
+        when = "" if t is None else f" at t = {float(t if np.ndim(t) == 0 else t[idx[0]]):g} s"
         k = int(idx[-1])
-        raise ValueError(f"{where} = {float(u[tuple(idx)])!r} at t = {float(time):g} s: tendon {k} (ending at "
+        raise ValueError(f"{where} = {float(u[tuple(idx)])!r}{when}: tendon {k} (ending at "
                          f"{float(np.atleast_1d(self.end)[k]):g} m) would push; tendon tensions must be >= 0")
 
     def __repr__(self) -> str:
@@ -202,7 +206,7 @@ class PressureActuation:
         matrix[2::3] = ga[None, :] * cover.T
         return ACT_CONSTANT, np.zeros(0), np.zeros((0, m)), matrix
 
-    def check_inputs(self, u: NDArray, t: NDArray | float, name: str = "u") -> None:
+    def check_inputs(self, u: NDArray, t: NDArray | float | None, name: str = "u") -> None:
         """Pressures may take either sign (gauge pressure): nothing to check beyond finiteness."""
 
     def __repr__(self) -> str:

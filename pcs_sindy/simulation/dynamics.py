@@ -38,7 +38,7 @@ from pcs_sindy.trajectory import StrainTrajectory
 from . import _kernels
 from ._backbone import backbone_moments, segment_terms
 from .actuation import PressureActuation, TendonActuation
-from .integrate import UNSET, simulate
+from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
 __all__ = ["PCSRobot", "SimulationError", "backbone_moments"]
 
@@ -443,7 +443,9 @@ class PCSRobot:
         max_step : float, optional
             Largest internal step (default unbounded).
         progress : bool, default False
-            Show a tqdm progress bar over the samples.
+            Show a tqdm progress bar over the samples.  (A closed loop that
+            advances the plant one control period at a time is cheaper with
+            :meth:`advance`.)
         tau : deprecated
             Former name of ``u`` (FutureWarning).
         fixed_step : deprecated
@@ -469,6 +471,45 @@ class PCSRobot:
         """
         return simulate(self, q0, qd0, t, u, method=method, rtol=rtol, atol=atol, step=step, max_step=max_step,
                         progress=progress, tau=tau, fixed_step=fixed_step)
+
+    def advance(self, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *, step: float | None = DEFAULT_STEP,
+                rtol: float | None = None, atol: float | None = None
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Advance the state by ``dt`` under inputs ``u`` held constant: one control period of a closed loop.
+
+        The compiled Radau IIA of :meth:`simulate` (``method="radau"``), with
+        its integrator state (step size, Jacobian and its factorisations) kept
+        between calls: consecutive calls cost the steps of one period (no
+        fresh Jacobian, no trajectory object) and reproduce :meth:`simulate`
+        over the same held inputs to round-off.  For closed loops that advance
+        the true plant one control period at a time (per-call costs of both in
+        docs/results.md, section simulation_speed).
+
+        Parameters
+        ----------
+        q, qd : array_like, shape (n,) or (B, n)
+            Current state.  The integrator state is reused while the batch
+            shape stays the same; it restarts (fresh Jacobian) when the state
+            passed is not the one the last call returned.
+        u : array_like, shape (p,) or (B, p)
+            Inputs held over the period (tensions >= 0 for tendons).
+        dt : float
+            Period [s], > 0.
+        step : float or None, default 0.5 ms
+            Fixed Radau step, or None for error control with ``rtol``/``atol``.
+        rtol, atol : float, optional
+            Tolerances (defaults 1e-6 and 1e-8).
+
+        Returns
+        -------
+        q, qd : ndarray, shape of the inputs q, qd
+
+        Raises
+        ------
+        SimulationError, ValueError
+            As :meth:`simulate`.
+        """
+        return advance(self, q, qd, u, dt, step=step, rtol=rtol, atol=atol)
 
     def __repr__(self) -> str:
         act = "" if self.actuation is None else f", actuation={self.actuation!r}"

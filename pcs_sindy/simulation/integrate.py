@@ -29,7 +29,8 @@ from ..integration import SCIPY_METHODS, SimulationError, canonical_method
 from ..trajectory import StrainTrajectory
 from . import _kernels, _radau
 
-__all__ = ["METHODS_SUPPORTED", "DEFAULT_STEP", "UNSET", "simulate", "check_inputs", "integrate", "RadauStepper"]
+__all__ = ["METHODS_SUPPORTED", "DEFAULT_STEP", "UNSET", "simulate", "advance", "check_inputs", "integrate",
+           "RadauStepper"]
 
 #: methods of :data:`pcs_sindy.integration.METHODS` the simulator implements ("radau" first: the default)
 METHODS_SUPPORTED = ("radau", "dopri5", "dop853", "bdf", "lsoda", "rk23")
@@ -111,6 +112,46 @@ def simulate(robot: Any, q0: ArrayLike, qd0: ArrayLike, t: ArrayLike, u: Any, *,
         for b in range(out.shape[1])
     ]
     return runs if batch else runs[0]
+
+
+
+def advance(robot: Any, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *, step: float | None,
+            rtol: float | None, atol: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:meth:`PCSRobot.advance` (documented there)."""
+    q = robot._check("q", q)
+    qd = robot._check("qd", qd, q)
+    if q.ndim > 2:
+        raise ValueError(f"q must have shape (n,) or (B, n); got shape {q.shape}")
+    if not (np.isfinite(dt) and dt > 0):
+        raise ValueError(f"dt must be finite and > 0; got {dt!r}")
+    if step is not None and not (np.isfinite(step) and step > 0):
+        raise ValueError(f"step must be finite and > 0 or None; got {step!r}")
+    rtol, atol, _ = _tolerances(rtol, atol, None)
+    u = np.asarray(u, dtype=float)
+    if u.shape != q.shape[:-1] + (robot.n_inputs,):
+        raise ValueError(f"u must have shape q.shape[:-1] + (p,) = {q.shape[:-1] + (robot.n_inputs,)} "
+                         f"(p = {robot.n_inputs} inputs); got shape {u.shape}")
+    if not np.all(np.isfinite(u)):
+        raise ValueError("u contains NaN or inf")
+    if robot.actuation is not None:
+        robot.actuation.check_inputs(u, None)
+    u_rows = np.ascontiguousarray(np.broadcast_to(u.reshape(1, -1, robot.n_inputs), (2, u.size // robot.n_inputs,
+                                                                                   robot.n_inputs)))
+    y = np.concatenate([q.reshape(-1, robot.n_q), qd.reshape(-1, robot.n_q)], axis=1)
+    B = y.shape[0]
+    # the integrator state of the last call carries over when this call continues from where it ended
+    key = (B, step, rtol, atol, float(dt))
+    cached = getattr(robot, "_advance_cache", None)
+    if cached is None or cached[0] != key or not np.array_equal(cached[2], y):
+        stepper = RadauStepper(B, robot.n_q, robot.n_inputs, min(dt, step) if step is not None else dt)
+    else:
+        stepper = cached[1]
+    out = np.empty((2, B, 2 * robot.n_q))
+    out[0] = y
+    stepper.run(0, 1, np.array([0.0, float(dt)]), u_rows, out, robot._jit_geometry(), rtol, atol,
+                np.inf if step is None else step, step is not None)
+    robot._advance_cache = (key, stepper, out[1].copy())
+    return out[1, :, : robot.n_q].reshape(q.shape), out[1, :, robot.n_q :].reshape(q.shape)
 
 
 
