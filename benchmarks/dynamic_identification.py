@@ -92,10 +92,11 @@ def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=
 
         def simulate(q0, qd0, t, tau):
             if np.ndim(q0) == 1:
-                return robot.simulate(q0, qd0, t, tau, method=simulator_method)
-            # scipy's stiff methods take one robot at a time
+                sim = robot.simulate(q0, qd0, t, tau, method=simulator_method)
+                return sim.q, sim.qd
+            # one robot at a time: each with its own steps
             runs = [robot.simulate(q0[b], qd0[b], t, tau[:, b], method=simulator_method) for b in range(len(q0))]
-            return np.stack([r[0] for r in runs], axis=1), np.stack([r[1] for r in runs], axis=1)
+            return np.stack([r.q for r in runs], axis=1), np.stack([r.qd for r in runs], axis=1)
 
         scenario._simulate = simulate
     noise = scenario.seed_noise if noise_kind == "seed" else (0.0, 0.0)
@@ -206,7 +207,7 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="*", default=[c for c, _ in CASES])
     parser.add_argument("--noise", nargs="*", default=["none", "seed"], choices=["none", "seed"])
     parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS))
-    parser.add_argument("--simulator-method", default=None, help="integrator of the ground-truth data (e.g. LSODA for stiff robots)")
+    parser.add_argument("--simulator-method", default=None, help="integrator of the ground-truth data (e.g. lsoda for stiff robots)")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     rows = json.loads(CACHE.read_text()) if CACHE.exists() else []

@@ -111,8 +111,8 @@ def _ramped_training(scenario, seed=0):
     knots = scenario._holding_force(targets)
     tau = interp1d(np.arange(n_knots) * scenario.hold, knots, axis=0)(t)  # (T, B, n), held per sample by the simulator
     q0 = rng.uniform(-0.5, 0.5, (scenario.n_train, n)) * amp
-    q, qd = scenario.robot.simulate(q0, np.zeros_like(q0), t, tau)
-    return [SimpleNamespace(t=t, q=q[:, b], qd=qd[:, b], tau=tau[:, b]) for b in range(scenario.n_train)]
+    runs = scenario.robot.simulate(q0, np.zeros_like(q0), t, tau)
+    return [SimpleNamespace(t=t, q=r.q, qd=r.qd, tau=tau[:, b]) for b, r in enumerate(runs)]
 
 
 def _relative_rms(est, true):

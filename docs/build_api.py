@@ -26,7 +26,8 @@ SECTIONS: list[tuple[str, str, list[str]]] = [
     ("Kinematics", "pcs_sindy.kinematics", ["PlanarPCS", "forward_kinematics", "forward_kinematics_jacobian"]),
     ("Trajectories", "pcs_sindy.trajectory", ["PoseTrajectory", "StrainTrajectory"]),
     ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors"]),
-    ("Simulation (ground truth)", "pcs_sindy.simulation", ["get_scenario", "list_scenarios", "PCSRobot", "render_video"]),
+    ("Simulation (ground truth)", "pcs_sindy.simulation",
+     ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"]),
     ("Plotting", "pcs_sindy.plotting", [
         "plot_strain_distance_profile", "plot_error_vs_segments", "plot_rollout", "plot_end_effector",
         "plot_stills", "animate_rollout",

@@ -1,6 +1,6 @@
 """Dense LU with partial pivoting for compiled (numba) kernels.
 
-Shared by the ground-truth simulator (:mod:`pcs_sindy.simulation._jit`, Newton
+Shared by the ground-truth simulator (:mod:`pcs_sindy.simulation._radau`, Newton
 systems of its Radau IIA step) and the rollouts of identified models
 (:mod:`pcs_sindy._jit_rollout`): generic linear algebra, no physics, so the
 simulator stays an independent check of the identification side.  Ground

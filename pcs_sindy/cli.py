@@ -28,7 +28,8 @@ __all__ = ["main", "build_parser", "CLIError"]
 
 FILE_FORMATS = """\
 file formats (all .npz, read without pickle; extra keys are ignored):
-  recording    t (T,), q, qd, tau (T, n), poses, poses_true (T, N+1, 3)  (written by 'simulate')
+  recording    t (T,), q, qd, tau (T, n), poses, poses_true (T, N+1, 3)  (written by 'simulate');
+               actuated scenarios add u (T, p), the actuator inputs (tau is then A(q) u at the samples)
   pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
   tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
   strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
@@ -260,6 +261,8 @@ def _say(args: argparse.Namespace, text: str) -> None:
 # --------------------------------------------------------------------------
 def _save_recording(path: Path, rec) -> None:
     arrays = {k: getattr(rec, k) for k in ("t", "q", "qd", "tau", "poses", "poses_true") if getattr(rec, k) is not None}
+    if rec.u is not None and rec.u is not rec.tau:  # actuated robots: the actuator inputs
+        arrays["u"] = rec.u
     np.savez(path, **arrays)
 
 
@@ -296,6 +299,7 @@ def _simulate(args: argparse.Namespace) -> list[Path]:
         "n_markers": scenario.n_markers,
         "marker_arc_lengths": scenario.marker_arc_lengths.tolist(),
         "segment_lengths": None if scenario.is_kinematic else list(scenario.robot.kinematics.segment_lengths),
+        "actuation": scenario.actuation,  # the layout of an actuated robot (None: driven by tau directly)
         "files": [p.name for p in paths],
         "seconds": round(time.perf_counter() - start, 2),
     }

@@ -26,7 +26,8 @@ def test_table_parameters_reach_the_robot():
     stiff = get_scenario("two_segment_stiff_axial_shear").robot.stiffness
     np.testing.assert_allclose(stiff / r.stiffness, [1, 1, 1000, 1, 1000, 1])
     assert set(list_scenarios()) >= {"one_segment", "two_segment", "three_segment", "one_segment_stiff_shear",
-                                     "pac_one_segment", "two_segment_stiff_axial_shear"}
+                                     "pac_one_segment", "two_segment_stiff_axial_shear", "five_segment",
+                                     "two_segment_tendon", "one_segment_pneumatic"}
 
 
 def test_unknown_scenario_is_named():

@@ -2,15 +2,10 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 
 
 def simulate_truth(robot, q0, qd0, t, u, **kwargs) -> tuple[np.ndarray, np.ndarray]:
     """``(q, qd)`` of ``robot.simulate(q0, qd0, t, u, rtol=1e-10, atol=1e-12, ...)``."""
-    kw = {"rtol": 1e-10, "atol": 1e-12} | kwargs
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore", FutureWarning)
-        out = robot.simulate(q0, qd0, t, u, **kw)
-    return (out.q, out.qd) if hasattr(out, "q") else out
+    sim = robot.simulate(q0, qd0, t, u, **({"rtol": 1e-10, "atol": 1e-12} | kwargs))
+    return sim.q, sim.qd

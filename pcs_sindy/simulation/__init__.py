@@ -16,12 +16,14 @@ _LAZY = {
     "Scenario": "pcs_sindy.simulation.scenarios",
     "ScenarioData": "pcs_sindy.simulation.scenarios",
     "Recording": "pcs_sindy.simulation.scenarios",
-    "get_scenario": "pcs_sindy.simulation.scenarios",
-    "list_scenarios": "pcs_sindy.simulation.scenarios",
+    "get_scenario": "pcs_sindy.simulation.catalog",
+    "list_scenarios": "pcs_sindy.simulation.catalog",
     "render_video": "pcs_sindy.simulation.rendering",
     "render_frames": "pcs_sindy.simulation.rendering",
     "RenderedVideo": "pcs_sindy.simulation.rendering",
-    "SimulationError": "pcs_sindy.simulation.dynamics",
+    "SimulationError": "pcs_sindy.integration",
+    "TendonActuation": "pcs_sindy.simulation.actuation",
+    "PressureActuation": "pcs_sindy.simulation.actuation",
 }
 
 __all__ = list(_LAZY)

@@ -1,8 +1,9 @@
-"""The seed's scenarios (DESIGN.md §4) and their seeded data generation.
+"""The seed's scenarios (docs/method.md, "Scenarios and data") and their seeded data generation.
 
-``get_scenario(name)`` returns a :class:`Scenario` holding the ground-truth
-robot; ``scenario.generate(seed=0)`` simulates the seed's data set: 8 training
-recordings of 0.5 s at 1 kHz with random initial conditions and random
+``get_scenario(name)`` (:mod:`pcs_sindy.simulation.catalog`) returns a
+:class:`Scenario` holding the ground-truth robot; ``scenario.generate(seed=0)``
+simulates the seed's data set: 8 training recordings of 0.5 s at 1 kHz with
+random initial conditions and random
 actuation held for 10 ms, and one 7 s validation recording under sinusoidal
 actuation ``τ = f (a1 sin(ω1 t) + a2 cos(ω2 t))``.  Every recording carries
 time stamps, strains, strain rates, actuation and the poses of the base and
@@ -14,6 +15,13 @@ configuration ``q*`` is drawn inside the strain ranges of the seed's data
 and the actuation that holds the robot there, ``τ = K q* + G(q*)``, is applied.
 The robot therefore moves across the intended strain range whatever its
 stiffness and weight.
+
+Actuated scenarios (``two_segment_tendon``, ``one_segment_pneumatic``) drive
+their robot through tendons or pressure chambers instead: random actuator
+inputs (each off or uniform in ``[0, input_max]``) held for 10 ms in training, slow non-negative
+sinusoids of different frequencies per actuator in validation.  Their
+recordings carry the inputs ``u`` (T, p) and, for checks, the generalised
+forces ``τ = A(q) u`` they produced at the samples.
 """
 
 from __future__ import annotations
@@ -31,7 +39,7 @@ from tqdm.auto import tqdm
 
 from .pac import PACRobot
 
-__all__ = ["Recording", "ScenarioData", "Scenario", "get_scenario", "list_scenarios", "add_pose_noise"]
+__all__ = ["Recording", "ScenarioData", "Scenario", "add_pose_noise"]  # get_scenario, list_scenarios: .catalog
 
 _DATA_VERSION = 2
 # the seed's data ranges (bending 1/m, shear, axial): validation actuation is scaled to stay inside
@@ -49,11 +57,17 @@ class Recording:
     q, qd : ndarray (T, n) or None
         True strains and strain rates (PAC: ``q`` holds ``[c0, c1, σ_sh, σ_ax]``; ``qd`` is None).
     tau : ndarray (T, n) or None
-        Actuation, held constant on ``[t_k, t_{k+1})``.
+        Generalised forces: the actuation held constant on ``[t_k, t_{k+1})``
+        of a directly driven robot; ``A(q_k) u_k`` at the samples of an
+        actuated one (for checks: it is not held between samples).
     poses : ndarray (T, N + 1, 3)
         Tracked poses (base + N cross-sections), noisy if noise was requested.
     poses_true : ndarray (T, N + 1, 3)
         Noise-free poses.
+    u : ndarray (T, p) or None
+        The inputs given to ``robot.simulate``, held on ``[t_k, t_{k+1})``:
+        tendon tensions [N] or chamber pressures [Pa] of an actuated robot,
+        the same array as ``tau`` for a directly driven one.
     """
 
     t: NDArray[np.float64]
@@ -62,6 +76,7 @@ class Recording:
     tau: NDArray[np.float64] | None
     poses: NDArray[np.float64]
     poses_true: NDArray[np.float64]
+    u: NDArray[np.float64] | None = None
 
     @property
     def dt(self) -> float:
@@ -117,11 +132,13 @@ class Scenario:
     robot : PCSRobot or PACRobot
         Ground-truth model (``.kinematics`` gives the segmentation of a PCS robot).
     parameters : dict
-        The physical parameters the robot was built from (DESIGN.md §4).
+        The physical parameters the robot was built from (docs/method.md).
     seed_noise : (float, float)
         The seed's measurement noise ``(σ_p [m], σ_θ [rad])`` for this scenario.
     n_markers : int
         Tracked cross-sections (equally spaced, the last at the tip).
+    input_max : tuple of float or None
+        Actuated scenarios: the largest training input of each actuator.
     """
 
     name: str
@@ -138,6 +155,20 @@ class Scenario:
     strain_amplitude: float = 0.2
     description: str = ""
     actuation_reference: str | None = None
+    input_max: tuple[float, ...] | None = None
+
+    @property
+    def actuation(self) -> dict[str, Any] | None:
+        """The actuation layout as a user knows it from the design (JSON-able), or None.
+
+        Tendons: ``{"type": "tendon", "end": [...], "side": [...]}`` (termination
+        arc lengths [m] and sides ±1 of the backbone); pressure chambers:
+        ``{"type": "pressure", "start": [...], "end": [...], "side": [...]}``.
+        Not the offsets or gains, which stay on ``robot.actuation`` for checks.
+        None for a robot driven directly by generalised forces (``u`` is τ).
+        """
+        act = None if self.is_kinematic else self.robot.actuation
+        return None if act is None else act.layout()
 
     @property
     def is_kinematic(self) -> bool:
@@ -166,16 +197,24 @@ class Scenario:
         # strain very little, which is what sparsification has to detect (seed Case 4).
         if self.actuation_reference is None:
             return self.robot
+        from .catalog import get_scenario
+
         return get_scenario(self.actuation_reference).robot
 
     def _holding_force(self, q_target: NDArray[np.float64]) -> NDArray[np.float64]:
         robot = self._actuation_robot()
         return robot.elastic_forces(q_target) + robot.gravity_forces(q_target)
 
-    def _simulate(self, q0, qd0, t, tau) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        return self.robot.simulate(q0, qd0, t, tau)
+    def _simulate(self, q0, qd0, t, u) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """States (T, n) or, for a batch, (T, B, n)."""
+        runs = self.robot.simulate(q0, qd0, t, u)
+        if isinstance(runs, list):
+            return np.stack([r.q for r in runs], axis=1), np.stack([r.qd for r in runs], axis=1)
+        return runs.q, runs.qd
 
     def _training_recordings(self, rng: np.random.Generator) -> list[tuple]:
+        if self.input_max is not None:
+            return self._actuated_training_recordings(rng)
         n = self.robot.n_q
         amp = self._amplitudes()
         n_samples = int(round(self.train_duration / self.dt))
@@ -190,9 +229,47 @@ class Scenario:
         qd0 = np.zeros((self.n_train, n))
         # all training recordings share the time grid: one batched integration
         q, qd = self._simulate(q0, qd0, t, tau)
-        return [(t, q[:, b], qd[:, b], tau[:, b]) for b in range(self.n_train)]
+        # u is τ itself (one array object: stored once, recognised as such)
+        return [(t, q[:, b], qd[:, b], tau_b, tau_b) for b, tau_b in enumerate(np.moveaxis(tau, 1, 0))]
+
+    def _actuated_training_recordings(self, rng: np.random.Generator) -> list[tuple]:
+        n, p = self.robot.n_q, self.robot.n_inputs
+        n_samples = int(round(self.train_duration / self.dt))
+        t = np.arange(n_samples) * self.dt
+        per_hold = max(1, int(round(self.hold / self.dt)))
+        n_holds = -(-n_samples // per_hold)
+        # every actuator independently off or uniform in [0, input_max] (probability 1/2 each): single pulls
+        # bend the robot further than co-contraction, which mostly compresses it
+        level = rng.uniform(0.0, 1.0, (n_holds, self.n_train, p)) * (rng.uniform(size=(n_holds, self.n_train, p)) < 0.5)
+        u = np.repeat(level * np.asarray(self.input_max), per_hold, axis=0)[:n_samples]  # (T, B, p)
+        q0 = rng.uniform(-0.5, 0.5, (self.n_train, n)) * self._amplitudes()
+        q, qd = self._simulate(q0, np.zeros((self.n_train, n)), t, u)
+        tau = self.robot.actuation_forces(q, u)
+        return [(t, q[:, b], qd[:, b], tau[:, b], u[:, b]) for b in range(self.n_train)]
+
+    def _actuated_validation_recording(self, rng: np.random.Generator) -> tuple:
+        n, p = self.robot.n_q, self.robot.n_inputs
+        t = np.arange(int(round(self.validation_duration / self.dt))) * self.dt
+        # slow sinusoids around half the training range, one frequency per actuator, all different
+        # (stratified over 0.5-3 Hz), never negative: u = mid (1 + a sin(w t + phase)) with a <= 1
+        mid = 0.5 * np.asarray(self.input_max)
+        amp = rng.uniform(0.6, 1.0, p)
+        omega = 2 * np.pi * (0.5 + 2.5 * (rng.permutation(p) + rng.uniform(0.0, 1.0, p)) / p)
+        phase = rng.uniform(0.0, 2 * np.pi, p)
+        shape = 1.0 + amp * np.sin(omega * t[:, None] + phase)
+        limits = np.tile(_STRAIN_LIMITS, self.robot.kinematics.n_segments)
+        for _ in range(4):
+            u = mid * shape
+            q, qd = self._simulate(np.zeros(n), np.zeros(n), t, u)
+            excess = np.max(np.abs(q) / limits)
+            if excess <= 1.0:
+                break
+            mid = mid * (0.9 / excess)
+        return t, q, qd, self.robot.actuation_forces(q, u), u
 
     def _validation_recording(self, rng: np.random.Generator) -> tuple:
+        if self.input_max is not None:
+            return self._actuated_validation_recording(rng)
         n = self.robot.n_q
         n_samples = int(round(self.validation_duration / self.dt))
         t = np.arange(n_samples) * self.dt
@@ -214,7 +291,7 @@ class Scenario:
             if excess <= 1.0:
                 break
             f = f * (0.9 / excess)
-        return t, q, qd, tau
+        return t, q, qd, tau, tau
 
     def _pac_recording(self, rng: np.random.Generator, n_configurations: int = 500) -> tuple:
         c0 = rng.uniform(-20.0, 20.0, n_configurations)
@@ -222,7 +299,7 @@ class Scenario:
         shear = rng.uniform(-1.0, 1.0, (n_configurations, 2)) * self.strain_amplitude
         config = np.column_stack([c0, c1, shear])
         t = np.arange(n_configurations) * self.dt
-        return t, config, None, None
+        return t, config, None, None, None
 
     # ------------------------------------------------------------------
     def generate(
@@ -279,10 +356,10 @@ class Scenario:
         raw = spec._load_or_simulate(int(seed), validation and not self.is_kinematic, cache, progress)
         noise_rng = np.random.default_rng([int(seed), 7919])
         recordings = []
-        for t, q, qd, tau in raw:
+        for t, q, qd, tau, u in raw:
             truth = spec.marker_poses(q)
             noisy = add_pose_noise(truth, *noise, noise_rng) if max(noise) > 0 else truth.copy()
-            recordings.append(Recording(t=t, q=q, qd=qd, tau=tau, poses=noisy, poses_true=truth))
+            recordings.append(Recording(t=t, q=q, qd=qd, tau=tau, poses=noisy, poses_true=truth, u=u))
         n_val = 1 if (validation and not self.is_kinematic) else 0
         train = recordings[: len(recordings) - n_val]
         val = recordings[-1] if n_val else None
@@ -303,6 +380,8 @@ class Scenario:
             "amplitudes": [self.bend_amplitude, self.strain_amplitude],
             "actuation_reference": self.actuation_reference,
         }
+        if self.input_max is not None:  # keeps the keys (and cached data) of the other scenarios as they were
+            spec["input_max"] = list(self.input_max)
         return hashlib.sha256(json.dumps(spec, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
     def _load_or_simulate(self, seed: int, validation: bool, cache: bool, progress: bool) -> list[tuple]:
@@ -314,7 +393,8 @@ class Scenario:
                     out = []
                     for k in range(count):
                         get = lambda key: data[f"{key}{k}"] if f"{key}{k}" in data.files else None  # noqa: E731
-                        out.append((get("t"), get("q"), get("qd"), get("tau")))
+                        tau, u = get("tau"), get("u")
+                        out.append((get("t"), get("q"), get("qd"), tau, tau if u is None else u))
                     return out
             except (OSError, ValueError, KeyError):
                 pass  # a damaged cache entry is simply recomputed
@@ -331,8 +411,9 @@ class Scenario:
         if cache:
             arrays: dict[str, NDArray] = {"count": np.array(len(out))}
             for k, rec in enumerate(out):
-                for key, value in zip(("t", "q", "qd", "tau"), rec):
-                    if value is not None:
+                for key, value in zip(("t", "q", "qd", "tau", "u"), rec):
+                    # u is stored only where it differs from tau (actuated robots)
+                    if value is not None and not (key == "u" and value is rec[3]):
                         arrays[f"{key}{k}"] = value
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
@@ -344,110 +425,10 @@ class Scenario:
         return out
 
 
-# ----------------------------------------------------------------------
-# The table (DESIGN.md §4 / seed Table I)
-# ----------------------------------------------------------------------
-_PCS_TABLE: dict[str, dict[str, Any]] = {
-    "one_segment": dict(
-        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e3],
-        damping=[1e-5, 1.5e-1, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
-    ),
-    "two_segment": dict(
-        segment_lengths=[0.07, 0.1], density=[1070.0, 1049.0], youngs_modulus=[1e4, 9e3],
-        shear_modulus=[1e3, 3e3], damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
-        seed_noise=(1e-4, np.deg2rad(0.5)),
-    ),
-    "three_segment": dict(
-        segment_lengths=[0.05, 0.1, 0.06], density=[1240.0, 1049.0, 1070.0], youngs_modulus=[1e4, 6e4, 8e4],
-        shear_modulus=[1e3, 3e3, 5e3], damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
-        seed_noise=(1e-4, np.deg2rad(0.5)),
-    ),
-    "one_segment_stiff_shear": dict(
-        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e6],
-        damping=[1e-5, 5e0, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
-    ),
-    # beyond the seed (issue 6): five segments of alternating soft and stiffer silicone-like
-    # materials, 0.27 m in all, with the damping pattern of three_segment
-    "five_segment": dict(
-        segment_lengths=[0.04, 0.06, 0.05, 0.07, 0.05], density=[1070.0, 1049.0, 1240.0, 1070.0, 1049.0],
-        youngs_modulus=[1e4, 4e4, 2e4, 6e4, 1.5e4], shear_modulus=[1e3, 3e3, 2e3, 5e3, 1.5e3],
-        damping=[5e-5, 4e-2, 5e-2] * 5, seed_noise=(1e-4, np.deg2rad(0.5)),
-    ),
-}
+def __getattr__(name: str) -> Any:
+    # the named scenarios live in .catalog, which imports this module
+    if name in ("get_scenario", "list_scenarios"):
+        from . import catalog
 
-
-def _stiff_axial_shear() -> dict[str, Any]:
-    # the published paper's extra case: segment 1 axial and segment 2 shear stiffness x1000.
-    # Stiffness is diag(E I, c_sh G A, E A), so scale the moduli that enter only those entries
-    # through the per-strain factors below.
-    base = dict(_PCS_TABLE["two_segment"])
-    base["stiffness_factors"] = [1.0, 1.0, 1000.0, 1.0, 1000.0, 1.0]
-    return base
-
-
-_PCS_TABLE["two_segment_stiff_axial_shear"] = _stiff_axial_shear()
-
-_DESCRIPTIONS = {
-    "one_segment": "one constant-strain segment (seed Case 1)",
-    "two_segment": "two constant-strain segments (seed Case 2)",
-    "three_segment": "three constant-strain segments (seed Case 3, kinematics in the seed)",
-    "one_segment_stiff_shear": "one segment with a very stiff shear strain (seed Case 4)",
-    "pac_one_segment": "one piecewise-affine-curvature segment, kinematics only (seed Case 5)",
-    "two_segment_stiff_axial_shear": "two segments, segment 1 axial and segment 2 shear stiffness x1000",
-    "five_segment": "five constant-strain segments, 0.27 m (beyond the seed)",
-}
-
-
-# stiffened variants take their actuation magnitudes from the nominal robot
-_ACTUATION_REFERENCE = {"one_segment_stiff_shear": "one_segment", "two_segment_stiff_axial_shear": "two_segment"}
-
-
-def list_scenarios() -> list[str]:
-    """Names accepted by :func:`get_scenario`."""
-    return list(_DESCRIPTIONS)
-
-
-def get_scenario(name: str, **overrides: Any) -> Scenario:
-    """Build a named scenario of DESIGN.md §4.
-
-    Parameters
-    ----------
-    name : str
-        One of :func:`list_scenarios`.
-    **overrides
-        Fields of :class:`Scenario` to change (e.g. ``n_markers=10``) or
-        robot options (``stiffness_scaling="length"``).
-
-    Raises
-    ------
-    ValueError
-        For an unknown name.
-    """
-    if name not in _DESCRIPTIONS:
-        raise ValueError(f"unknown scenario name {name!r}; choose one of {list_scenarios()}")
-    robot_options = {k: overrides.pop(k) for k in ("stiffness_scaling", "gravity", "radius") if k in overrides}
-    if name == "pac_one_segment":
-        return Scenario(
-            name=name, robot=PACRobot(0.15), parameters={"length": 0.15}, description=_DESCRIPTIONS[name],
-            seed_noise=(5e-4, np.deg2rad(1.0)), **overrides,
-        )
-    from .dynamics import PCSRobot  # the dynamics are only needed for PCS scenarios
-
-    spec = dict(_PCS_TABLE[name])
-    seed_noise = spec.pop("seed_noise")
-    factors = spec.pop("stiffness_factors", None)
-    robot = PCSRobot(radius=robot_options.pop("radius", 0.02), **spec, **robot_options)
-    if factors is not None:
-        robot = _scale_stiffness(robot, np.asarray(factors, dtype=float))
-    parameters = {**spec, "radius": robot_options.get("radius", 0.02), "stiffness_factors": factors}
-    overrides.setdefault("actuation_reference", _ACTUATION_REFERENCE.get(name))
-    return Scenario(
-        name=name, robot=robot, parameters=parameters, seed_noise=seed_noise,
-        description=_DESCRIPTIONS[name], **overrides,
-    )
-
-
-def _scale_stiffness(robot: Any, factors: NDArray[np.float64]) -> Any:
-    """Scale individual diagonal stiffness entries of a PCSRobot."""
-    robot.stiffness = robot.stiffness * factors
-    return robot
+        return getattr(catalog, name)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

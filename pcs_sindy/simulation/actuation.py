@@ -1,0 +1,214 @@
+"""Actuators of the ground-truth robot: tendons and pressure chambers, ``τ = A(q) u``.
+
+A robot driven by actuators obeys ``M q̈ + C q̇ + G + K q + D q̇ = A(q) u``
+with ``u`` (p,) the actuator inputs (docs/method.md, "Actuation").  Both
+layouts are given by arc length along the robot, independent of how the robot
+is segmented, and are evaluated by :class:`~pcs_sindy.simulation.dynamics.PCSRobot`
+(``PCSRobot(..., actuation=...)``).
+
+**Tendons.**  Tendon k runs at the signed offset ``d_k`` from the backbone
+along the cross-section axis ``R(θ) e_x``, from the base to its termination at
+arc length ``s_k``.  Its path is the offset curve ``p(s) + d_k R(θ(s)) e_x``
+whose tangent inside a constant-strain stretch is
+``R(θ) [σ_sh, 1 + σ_ax + d κ]``: a constant length
+``ν = √(σ_sh² + (1 + σ_ax + d κ)²)``.  The tendon's length is therefore
+``ℓ_k(q) = Σ_i c_ki ν_ki`` with ``c_ki`` the rest length of segment i it
+covers (a termination may lie inside a segment), exact at ``κ = 0``.  A
+tension ``f_k ≥ 0`` does the virtual work ``−f_k δℓ_k``, so its column of
+``A(q)`` is ``−∂ℓ_k/∂q``.  Tensions can only pull: negative inputs are
+rejected.
+
+**Pressure chambers.**  Chamber j spans the arc lengths ``[a_j, b_j]`` on
+the side ``σ_j = ±1`` of the backbone.  Its pressure ``p_j`` exerts a bending
+moment ``σ_j g^b_j p_j`` and an axial force ``g^a_j p_j`` along the span
+(``g^b = area × centroid offset``, ``g^a = area`` for a chamber of that
+cross-section).  Their virtual work ``∫_a^b (σ g^b p δκ + g^a p δσ_ax) ds``
+with piecewise constant strains gives the constant columns
+``A[κ_i, j] = σ_j g^b_j c_ji`` and ``A[σ_ax,i, j] = g^a_j c_ji`` with
+``c_ji`` the overlap of the span with segment i.  Pressures are gauge
+pressures and may be negative (vacuum).
+
+This module belongs to the simulator (the independent truth); the
+identification side has its own actuation terms.
+"""
+
+from __future__ import annotations
+
+from typing import Any, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ._kernels import ACT_CONSTANT, ACT_TENDON
+
+__all__ = ["TendonActuation", "PressureActuation"]
+
+
+def _vector(value: ArrayLike, name: str, size: int | None = None) -> NDArray[np.float64]:
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    if arr.ndim != 1 or arr.size == 0 or (size is not None and arr.size != size):
+        want = f"({size},)" if size is not None else "(p,) with p >= 1"
+        raise ValueError(f"{name} must have shape {want}; got shape {arr.shape}")
+    if not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be finite; got {arr.tolist()}")
+    return arr
+
+
+def _within_robot(value: NDArray, name: str, total: float, *, allow_zero: bool) -> None:
+    bad = (value < 0) | (value > total * (1 + 1e-12)) | ((value == 0) & (not allow_zero))
+    if np.any(bad):
+        k = int(np.argmax(bad))
+        lower = "0 <=" if allow_zero else "0 <"
+        raise ValueError(f"{name}[{k}] = {float(value[k])!r} lies outside the robot: need {lower} {name} <= "
+                         f"{total:g} m (the total rest length)")
+
+
+def _cover(start: NDArray, end: NDArray, segment_lengths: NDArray) -> NDArray[np.float64]:
+    """Rest length (p, m) of segment i inside the arc-length interval ``[start_k, end_k]``."""
+    bounds = np.concatenate([[0.0], np.cumsum(segment_lengths)])
+    lo = np.maximum(start[:, None], bounds[None, :-1])
+    hi = np.minimum(end[:, None], bounds[None, 1:])
+    return np.maximum(hi - lo, 0.0)
+
+
+class TendonActuation:
+    """Tendons from the base to termination arc lengths at signed offsets from the backbone.
+
+    Parameters
+    ----------
+    end : array_like, shape (p,)
+        Arc length [m] where each tendon terminates, in ``(0, total length]``.
+    offset : array_like, shape (p,)
+        Signed distance [m] of each tendon from the backbone along the
+        cross-section axis ``R(θ) e_x``; a tendon at positive offset bends the
+        robot towards negative curvature.
+
+    Notes
+    -----
+    Inputs are tensions [N], ``>= 0``.  See the module docstring for the
+    closed form of the lengths.
+    """
+
+    kind = "tendon"
+
+    def __init__(self, end: ArrayLike, offset: ArrayLike) -> None:
+        self.end = end
+        self.offset = offset
+
+    @property
+    def n_inputs(self) -> int:
+        return int(np.atleast_1d(np.asarray(self.end)).size)
+
+    def layout(self) -> dict[str, Any]:
+        """What a user knows from the design: terminations and sides (signs of the offsets), JSON-able."""
+        end = _vector(self.end, "end")
+        offset = _vector(self.offset, "offset", end.size)
+        return {"type": "tendon", "end": end.tolist(), "side": np.sign(offset).astype(int).tolist()}
+
+    def encode(self, segment_lengths: Sequence[float]) -> tuple[int, NDArray, NDArray, NDArray]:
+        """Validated arrays for the compiled kernels: ``(kind, offset (p,), span (p, m), matrix (n, 0))``."""
+        lengths = np.asarray(segment_lengths, dtype=float)
+        end = _vector(self.end, "end")
+        offset = _vector(self.offset, "offset", end.size)
+        _within_robot(end, "end", float(lengths.sum()), allow_zero=False)
+        span = _cover(np.zeros_like(end), end, lengths)
+        return ACT_TENDON, offset, span, np.zeros((3 * lengths.size, 0))
+
+    def check_inputs(self, u: NDArray, t: NDArray | float | None, name: str = "u") -> None:
+        """Raise a ValueError naming the first negative tension, its input index and time.
+
+        ``t`` holds the time stamps of the rows of ``u`` (first axis), the time
+        of a single input, or None when there is no time to name.
+        """
+        if np.all(u >= 0):
+            return
+        idx = np.argwhere(u < 0)[0]
+        where = f"{name}[{', '.join(str(int(i)) for i in idx)}]"
+        when = "" if t is None else f" at t = {float(t if np.ndim(t) == 0 else t[idx[0]]):g} s"
+        k = int(idx[-1])
+        raise ValueError(f"{where} = {float(u[tuple(idx)])!r}{when}: tendon {k} (ending at "
+                         f"{float(np.atleast_1d(self.end)[k]):g} m) would push; tendon tensions must be >= 0")
+
+    def __repr__(self) -> str:
+        return f"TendonActuation(end={self.end!r}, offset={self.offset!r})"
+
+
+class PressureActuation:
+    """Pressure chambers spanning arc-length intervals on either side of the backbone.
+
+    Parameters
+    ----------
+    start, end : array_like, shape (p,)
+        Arc lengths [m] of each chamber's ends, ``0 <= start < end <= total length``.
+    side : array_like of {-1, 1}, shape (p,)
+        Side of the backbone (sign along ``R(θ) e_x``); a chamber on side +1
+        bends the robot towards positive curvature.
+    bending_gain : array_like, shape (p,)
+        ``g^b > 0`` [m³]: bending moment per unit pressure (chamber area times
+        the offset of its centroid).
+    axial_gain : array_like, shape (p,)
+        ``g^a >= 0`` [m²]: axial force per unit pressure (chamber area).
+
+    Notes
+    -----
+    Inputs are gauge pressures [Pa].  See the module docstring for the
+    generalised forces.
+    """
+
+    kind = "pressure"
+
+    def __init__(self, start: ArrayLike, end: ArrayLike, side: ArrayLike, bending_gain: ArrayLike,
+                 axial_gain: ArrayLike) -> None:
+        self.start = start
+        self.end = end
+        self.side = side
+        self.bending_gain = bending_gain
+        self.axial_gain = axial_gain
+
+    @property
+    def n_inputs(self) -> int:
+        return int(np.atleast_1d(np.asarray(self.end)).size)
+
+    def _validated(self) -> tuple[NDArray, NDArray, NDArray, NDArray, NDArray]:
+        end = _vector(self.end, "end")
+        p = end.size
+        start = _vector(self.start, "start", p)
+        side = _vector(self.side, "side", p)
+        if np.any(np.abs(side) != 1):
+            raise ValueError(f"side must hold -1 or 1 per chamber; got {side.tolist()}")
+        gb = _vector(self.bending_gain, "bending_gain", p)
+        ga = _vector(self.axial_gain, "axial_gain", p)
+        if np.any(gb <= 0):
+            raise ValueError(f"bending_gain must be > 0; got {gb.tolist()}")
+        if np.any(ga < 0):
+            raise ValueError(f"axial_gain must be >= 0; got {ga.tolist()}")
+        if np.any(start >= end):
+            k = int(np.argmax(start >= end))
+            raise ValueError(f"start[{k}] = {float(start[k])!r} must be < end[{k}] = {float(end[k])!r}")
+        return start, end, side, gb, ga
+
+    def layout(self) -> dict[str, Any]:
+        """What a user knows from the design: spans and sides, JSON-able (not the gains)."""
+        start, end, side, _, _ = self._validated()
+        return {"type": "pressure", "start": start.tolist(), "end": end.tolist(), "side": side.astype(int).tolist()}
+
+    def encode(self, segment_lengths: Sequence[float]) -> tuple[int, NDArray, NDArray, NDArray]:
+        """Validated arrays for the compiled kernels: ``(kind, offset (0,), span (0, m), matrix (n, p))``."""
+        lengths = np.asarray(segment_lengths, dtype=float)
+        start, end, side, gb, ga = self._validated()
+        total = float(lengths.sum())
+        _within_robot(start, "start", total, allow_zero=True)
+        _within_robot(end, "end", total, allow_zero=False)
+        cover = _cover(start, end, lengths)  # (p, m)
+        m, p = lengths.size, end.size
+        matrix = np.zeros((3 * m, p))
+        matrix[0::3] = (side * gb)[None, :] * cover.T
+        matrix[2::3] = ga[None, :] * cover.T
+        return ACT_CONSTANT, np.zeros(0), np.zeros((0, m)), matrix
+
+    def check_inputs(self, u: NDArray, t: NDArray | float | None, name: str = "u") -> None:
+        """Pressures may take either sign (gauge pressure): nothing to check beyond finiteness."""
+
+    def __repr__(self) -> str:
+        return (f"PressureActuation(start={self.start!r}, end={self.end!r}, side={self.side!r}, "
+                f"bending_gain={self.bending_gain!r}, axial_gain={self.axial_gain!r})")
