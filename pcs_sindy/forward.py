@@ -76,6 +76,30 @@ class ForwardModel(ABC):
         """``M(q)`` (B, n, n) and ``bias(q, qd)`` (B, n) at states of the modelled strains (B, n)."""
 
     @abstractmethod
+    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``M(q)`` (n, n) and ``bias(q, qd)`` (n,) at ONE state of the modelled strains (n,).
+
+        The hot path of controllers and integrators: no input checks; ``q`` and
+        ``qd`` must be float arrays of the n modelled strains.  The returned
+        arrays are new (the caller may keep them).
+        """
+
+    @property
+    def n_inputs(self) -> int:
+        """Columns of the input ``u``: one generalised force per strain of the segmentation (3m)."""
+        return int(self.kinematics.n_q)
+
+    def input_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
+        """``A(q)`` mapping the input ``u`` (p,) to generalised forces on the modelled strains, shape (..., n, p).
+
+        For a model driven by generalised forces, the selection of the modelled
+        strains' columns (constant).
+        """
+        q = self._reduce(q, "q")
+        sel = np.eye(self.kinematics.n_q)[self.kinematics.active_mask]
+        return np.broadcast_to(sel, q.shape[:-1] + sel.shape).copy()
+
+    @abstractmethod
     def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
         """``[qd, M^-1 (tau - bias)]`` at one state (hot path, no checks); LinAlgError if M is singular."""
 
@@ -241,6 +265,10 @@ class CallableModel(ForwardModel):
         pairs = [self._dynamics(a, b) for a, b in zip(q, qd)]
         return np.stack([p[0] for p in pairs]), np.stack([p[1] for p in pairs])
 
+    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        M, bias = self._dynamics(q, qd)
+        return np.array(M, dtype=float), np.array(bias, dtype=float)
+
     def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
         n = self.n
         M, bias = self._dynamics(y[:n], y[n:])
@@ -335,6 +363,11 @@ class LumpedPCSModel(ForwardModel):
         if q.shape != qd.shape:
             raise ValueError(f"q and qd must have the same shape; got {q.shape} and {qd.shape}")
         return self._jit.mass_bias_batch(q, qd, self._params, self._work)
+
+    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        W = self._work
+        self._jit.dynamics(q, qd, self._params, W)
+        return W[0].copy(), W[1].copy()
 
     def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.empty(y.size)
