@@ -14,9 +14,13 @@ quadrature: segment j contributes ``e^{i phi_j} w_j l E_0(kappa_j l)`` with
 these integrals on the identification side), exact through ``kappa = 0``.
 
 The parameters travel as one tuple ``P = (act, L, ell, wts, rhoA, rhoAg, M_rot,
-stiff, damp, f0)`` and the work arrays as ``W = (M, bias, J, v, acc)``
-(:func:`workspace`), so the rollout loops in :mod:`pcs_sindy._jit_rollout`
-stay independent of what is inside.
+stiff, damp, f0, akind, aoff, acover, amat)`` and the work arrays as
+``W = (M, bias, J, v, acc, tau)`` (:func:`workspace`), so the rollout loops in
+:mod:`pcs_sindy._jit_rollout` stay independent of what is inside.  The last
+four entries of ``P`` map the inputs ``u`` to generalised forces
+(:func:`input_forces`): ``akind`` 0 (``u`` are the forces on the modelled
+strains), 1 (tendons at signed offsets ``aoff`` covering ``acover[k, i]`` of
+segment i: ``A = -dl/dq``) or 2 (a constant matrix ``amat`` (n, p)).
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ import numpy as np
 
 from ._numba_linalg import solve
 
-__all__ = ["moments", "moments_array", "dynamics", "rhs", "mass_bias_batch", "workspace"]
+__all__ = ["moments", "moments_array", "dynamics", "input_forces", "rhs", "mass_bias_batch", "workspace"]
 
 _SERIES_RADIUS = 1.0
 _N_SERIES = 20  # 1 / 20! < 1e-18
@@ -84,7 +88,7 @@ def dynamics(q, qd, P, W):
     ``W[2] = J`` (2, 3m, m K) (real, imaginary parts of the Jacobian columns) and
     ``W[3] = v`` (2, m K) (the node forces) are work arrays.
     """
-    act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, f0 = P
+    act, L, ell, wts, rhoA, rhoAg, M_rot, stiff, damp, f0 = P[0], P[1], P[2], P[3], P[4], P[5], P[6], P[7], P[8], P[9]
     M, bias, J, v = W[0], W[1], W[2], W[3]
     m = L.size
     K = wts.shape[1]
@@ -198,16 +202,61 @@ def moments_array(u):
 
 
 def workspace(P):
-    """Work arrays ``(M, bias, J, v, acc)`` for the parameters ``P``."""
+    """Work arrays ``(M, bias, J, v, acc, tau)`` for the parameters ``P``."""
     act, L, wts = P[0], P[1], P[3]
     n, m, K = act.size, L.size, wts.shape[1]
-    return (np.empty((n, n)), np.empty(n), np.zeros((2, 3 * m, m * K)), np.zeros((2, m * K)), np.empty(n))
+    return (np.empty((n, n)), np.empty(n), np.zeros((2, 3 * m, m * K)), np.zeros((2, m * K)), np.empty(n),
+            np.empty(n))
 
 
 @numba.njit(cache=True)
-def rhs(y, tau, P, W, out):
-    """``out = [qd, M^-1 (tau - bias)]`` at the state ``y = [q, qd]``; False if ``M`` is singular."""
-    n = tau.size
+def input_forces(q, u, P, tau):
+    """``tau = A(q) u`` on the modelled strains ``q`` (n,) for the input map of ``P``."""
+    act, L = P[0], P[1]
+    kind = P[10][0]
+    n = act.size
+    if kind == 0:
+        for a in range(n):
+            tau[a] = u[a]
+        return
+    if kind == 2:
+        amat = P[13]
+        for a in range(n):
+            s = 0.0
+            for k in range(u.size):
+                s += amat[a, k] * u[k]
+            tau[a] = s
+        return
+    # tendons: l_k = sum_i c_ki sqrt(sh_i^2 + (1 + ax_i + d_k be_i)^2), a tension does -dl/dq
+    aoff, acover = P[11], P[12]
+    m = L.size
+    qf = np.zeros(3 * m)
+    for a in range(n):
+        qf[act[a]] = q[a]
+    full = np.zeros(3 * m)
+    for k in range(u.size):
+        d = aoff[k]
+        for i in range(m):
+            c = acover[k, i]
+            if c == 0.0:
+                continue
+            kap = qf[3 * i]
+            sh = qf[3 * i + 1]
+            w = 1.0 + qf[3 * i + 2] + d * kap
+            scale = c * u[k] / math.sqrt(sh * sh + w * w)
+            full[3 * i] -= scale * d * w
+            full[3 * i + 1] -= scale * sh
+            full[3 * i + 2] -= scale * w
+    for a in range(n):
+        tau[a] = full[act[a]]
+
+
+@numba.njit(cache=True)
+def rhs(y, u, P, W, out):
+    """``out = [qd, M^-1 (A(q) u - bias)]`` at the state ``y = [q, qd]``; False if ``M`` is singular."""
+    n = P[0].size
+    tau = W[5]
+    input_forces(y[:n], u, P, tau)
     dynamics(y[:n], y[n:], P, W)
     M, bias, acc = W[0], W[1], W[4]
     for a in range(n):

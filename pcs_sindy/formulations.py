@@ -39,6 +39,8 @@ __all__ = [
     "integrate_forces",
     "weak_rows",
     "weak_form_rows",
+    "library_rows",
+    "input_rows",
     "regression",
 ]
 
@@ -381,8 +383,9 @@ class Recording:
         Active strains and rates.
     qdd : ndarray, shape (T, n), or None
         Accelerations (strong form only).
-    tau : ndarray, shape (T, n)
-        Generalised forces on the active strains, held on ``[t_k, t_{k+1})``.
+    u : ndarray, shape (T, p)
+        Inputs held on ``[t_k, t_{k+1})``: generalised forces or actuator inputs
+        (mapped by an :class:`~pcs_sindy.actuation.Actuation`).
     rows : ndarray of bool, shape (T,), optional
         Strong form: samples used (default all).
     windows : ndarray of int, shape (n_windows, 2), optional
@@ -393,7 +396,7 @@ class Recording:
     q: NDArray[np.float64]
     qd: NDArray[np.float64]
     qdd: NDArray[np.float64] | None
-    tau: NDArray[np.float64]
+    u: NDArray[np.float64]
     rows: NDArray[np.bool_] | None = None
     windows: NDArray[np.intp] | None = None
 
@@ -401,15 +404,87 @@ class Recording:
 Design = Callable[[Any, NDArray[np.bool_]], NDArray[np.float64]]
 
 
+def _check(recordings: Sequence[Recording], formulation: str) -> list[Recording]:
+    if formulation not in FORMULATIONS:
+        raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
+    recs = list(recordings)
+    for k, r in enumerate(recs):
+        if formulation == "strong" and r.qdd is None:
+            raise ValueError(f"recording {k} has no qdd: the strong form needs accelerations")
+        if formulation == "weak" and r.windows is None:
+            raise ValueError(f"recording {k} has no windows: the weak form needs them")
+    return recs
+
+
+def library_rows(library: Any, recordings: Sequence[Recording], formulation: str,
+                 kept: NDArray[np.bool_] | None = None, *, test_function: str | None = "bump") -> NDArray[np.float64]:
+    """Rows of the Lagrangian library (n_rows, n_kept, n_coefficients_) on the strains ``kept`` (default all)."""
+    recs = _check(recordings, formulation)
+    kept = np.ones(recs[0].q.shape[1], dtype=bool) if kept is None else kept
+    parts = []
+    for r in recs:
+        if formulation == "strong":
+            sel = slice(None) if r.rows is None else r.rows
+            parts.append(np.asarray(library.euler_lagrange_matrix(r.q[sel][:, kept], r.qd[sel][:, kept],
+                                                                  r.qdd[sel][:, kept]), dtype=float))
+        else:
+            parts.append(weak_rows(library, r.t, r.q[:, kept], r.qd[:, kept], r.windows, test_function=test_function))
+    return np.concatenate(parts)
+
+
+def input_rows(
+    actuation: Any,
+    recordings: Sequence[Recording],
+    formulation: str,
+    *,
+    offsets: NDArray[np.float64] | None = None,
+    test_function: str | None = "bump",
+    hold: str = "zoh",
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The inputs' generalised forces ``A(q) u = known + linear @ gains`` in the rows of a formulation.
+
+    Weak form with held inputs (``hold="zoh"``): on each sample interval the
+    input is constant and ``A(q(t))`` is taken at the interval's midpoint (the
+    mean of its ends; exact for a constant ``A``), then integrated exactly
+    against the test function.
+
+    Returns
+    -------
+    known : ndarray, shape (n_rows, n)
+    linear : ndarray, shape (n_rows, n, n_gains)
+    """
+    recs = _check(recordings, formulation)
+    known_parts, linear_parts = [], []
+    for r in recs:
+        if formulation == "strong":
+            sel = slice(None) if r.rows is None else r.rows
+            known, linear = actuation.parts(r.q[sel], r.u[sel], offsets)
+        else:
+            known, linear = actuation.parts(r.q, r.u, offsets)
+            if hold == "zoh" and getattr(actuation, "depends_on_q", False):
+                q_next = np.concatenate([r.q[1:], r.q[-1:]])
+                k2, l2 = actuation.parts(q_next, r.u, offsets)
+                known, linear = 0.5 * (known + k2), 0.5 * (linear + l2)
+            T, n = known.shape
+            flat = np.concatenate([known, linear.reshape(T, -1)], axis=1)
+            integ = integrate_forces(r.t, flat, r.windows, hold=hold, test_function=test_function)
+            known, linear = integ[:, :n], integ[:, n:].reshape(integ.shape[0], n, linear.shape[-1])
+        known_parts.append(known)
+        linear_parts.append(linear)
+    return np.concatenate(known_parts), np.concatenate(linear_parts)
+
+
 def regression(
     library: Any,
     recordings: Sequence[Recording],
     formulation: str,
+    actuation: Any,
     *,
+    offsets: NDArray[np.float64] | None = None,
     test_function: str | None = "bump",
     hold: str = "zoh",
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], Design]:
-    """Regression rows of several recordings in one formulation.
+    """Regression rows of several recordings in one formulation: ``x @ [coef, gains] = y``.
 
     Parameters
     ----------
@@ -417,48 +492,33 @@ def regression(
         Fitted on the recordings' segmentation.
     recordings : sequence of Recording
     formulation : {"strong", "weak"}
+    actuation : Actuation
+        Fitted input map (:class:`~pcs_sindy.actuation.IdentityActuation` when
+        the inputs are the generalised forces).
+    offsets : ndarray, optional
+        The actuation's nonlinear parameters (default: its own).
     test_function : {"bump", None}
         Weak form: the test function (see :func:`weak_rows`).
     hold : {"zoh", "trapezoid", "simpson"}
-        Weak form: how ``tau`` is integrated (see :func:`integrate_forces`).
+        Weak form: how the inputs are integrated (see :func:`integrate_forces`).
 
     Returns
     -------
-    x : ndarray, shape (n_rows, n, n_coefficients_)
+    x : ndarray, shape (n_rows, n, n_coefficients_ + n_gains)
+        The library's rows, then minus the input forces per unit gain.
     y : ndarray, shape (n_rows, n)
+        The input forces of the known part of ``A``.
     design : callable
         ``design(restricted_library, kept)`` returns the rows of a library of
         the strains ``kept`` (bool over this library's active strains), stacked
         like ``x``; the optimizer calls it after removing strains.
     """
-    if formulation not in FORMULATIONS:
-        raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
-    recs = list(recordings)
-    if formulation == "strong":
-        for k, r in enumerate(recs):
-            if r.qdd is None:
-                raise ValueError(f"recording {k} has no qdd: the strong form needs accelerations")
+    recs = _check(recordings, formulation)
+    y, linear = input_rows(actuation, recs, formulation, offsets=offsets, test_function=test_function, hold=hold)
 
-        def design(lib: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
-            parts = []
-            for r in recs:
-                sel = slice(None) if r.rows is None else r.rows
-                parts.append(np.asarray(lib.euler_lagrange_matrix(r.q[sel][:, kept], r.qd[sel][:, kept],
-                                                                  r.qdd[sel][:, kept]), dtype=float))
-            return np.concatenate(parts)
+    def design(lib: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
+        rows = library_rows(lib, recs, formulation, kept, test_function=test_function)
+        return np.concatenate([rows, -linear[:, kept, :]], axis=2)
 
-        y = np.concatenate([r.tau if r.rows is None else r.tau[r.rows] for r in recs])
-    else:
-        for k, r in enumerate(recs):
-            if r.windows is None:
-                raise ValueError(f"recording {k} has no windows: the weak form needs them")
-
-        def design(lib: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
-            return np.concatenate(
-                [weak_rows(lib, r.t, r.q[:, kept], r.qd[:, kept], r.windows, test_function=test_function) for r in recs]
-            )
-
-        y = np.concatenate([integrate_forces(r.t, r.tau, r.windows, hold=hold, test_function=test_function) for r in recs])
-    n = recs[0].q.shape[1]
-    x = design(library, np.ones(n, dtype=bool))
+    x = design(library, np.ones(recs[0].q.shape[1], dtype=bool))
     return x, y, design

@@ -66,9 +66,15 @@ class ForwardModel(ABC):
     methods: tuple[str, ...] = tuple(SCIPY_METHODS)
     default_method: str = "radau"
 
-    def __init__(self, kinematics: PlanarPCS) -> None:
+    def __init__(self, kinematics: PlanarPCS, actuation: Any = None) -> None:
         self.kinematics = kinematics
         self.n = int(kinematics.n_active)
+        if actuation is not None and getattr(actuation, "_kind", None) == "identity":
+            actuation = None
+        if actuation is not None and not hasattr(actuation, "kinematics_"):
+            raise ValueError("actuation must be fitted to the model's segmentation (actuation.fit(kinematics))")
+        #: the fitted :class:`~pcs_sindy.actuation.Actuation` of the inputs, or None (inputs are generalised forces)
+        self.actuation = actuation
 
     # ------------------------------------------------------------------ evaluation
     @abstractmethod
@@ -86,8 +92,8 @@ class ForwardModel(ABC):
 
     @property
     def n_inputs(self) -> int:
-        """Columns of the input ``u``: one generalised force per strain of the segmentation (3m)."""
-        return int(self.kinematics.n_q)
+        """Columns of the input ``u``: the actuators', or one generalised force per strain (3m)."""
+        return int(self.kinematics.n_q) if self.actuation is None else int(self.actuation.n_inputs_)
 
     def input_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """``A(q)`` mapping the input ``u`` (p,) to generalised forces on the modelled strains, shape (..., n, p).
@@ -96,8 +102,17 @@ class ForwardModel(ABC):
         strains' columns (constant).
         """
         q = self._reduce(q, "q")
+        if self.actuation is not None:
+            flat = q.reshape(-1, self.n)
+            return self.actuation.matrix(flat).reshape(q.shape[:-1] + (self.n, self.n_inputs))
         sel = np.eye(self.kinematics.n_q)[self.kinematics.active_mask]
         return np.broadcast_to(sel, q.shape[:-1] + sel.shape).copy()
+
+    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``A(q) u`` on the modelled strains at one state (hot path: ``u`` as the rollout takes it)."""
+        if self.actuation is None:
+            return u
+        return self.actuation.forces(q[None], u[None])[0]
 
     @abstractmethod
     def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -115,6 +130,16 @@ class ForwardModel(ABC):
 
     def _inputs(self, u: Any, t: NDArray[np.float64]) -> NDArray[np.float64] | Callable[[float], NDArray]:
         mask = self.kinematics.active_mask
+        act = self.actuation
+        if act is not None:
+            if callable(u):
+                fn = u
+
+                def checked(time: float) -> NDArray[np.float64]:
+                    return act.check_inputs(np.asarray(fn(time), dtype=float).reshape(1, -1), "u(t)", np.array([time]))[0]
+
+                return checked
+            return np.ascontiguousarray(act.check_inputs(u, "u", t))
         if callable(u):
             fn = u
 
@@ -157,8 +182,10 @@ class ForwardModel(ABC):
             Initial strains and rates (all strains, unmodelled ones ignored, or the modelled ones).
         t : array_like, shape (T,)
             Output times (strictly increasing, at least 2).
-        u : array_like, shape (T, 3m) or (T, n), or callable
-            Generalised forces held constant on ``[t[k], t[k+1])``, or ``u(time)``.
+        u : array_like, shape (T, p), or callable
+            Inputs held constant on ``[t[k], t[k+1])``, or ``u(time)``: the
+            generalised forces (p = 3m, or the n modelled ones) or, for a model
+            with an :attr:`actuation`, the actuator inputs.
         method : str, optional
             One of :attr:`methods`; default :attr:`default_method`.
         rtol, atol : float
@@ -249,8 +276,9 @@ class CallableModel(ForwardModel):
     methods = tuple(SCIPY_METHODS)
     default_method = "radau"
 
-    def __init__(self, kinematics: PlanarPCS, dynamics: Callable, batch: Callable | None = None) -> None:
-        super().__init__(kinematics)
+    def __init__(self, kinematics: PlanarPCS, dynamics: Callable, batch: Callable | None = None,
+                 actuation: Any = None) -> None:
+        super().__init__(kinematics, actuation)
         self._dynamics = dynamics
         self._batch = batch
 
@@ -269,10 +297,10 @@ class CallableModel(ForwardModel):
         M, bias = self._dynamics(q, qd)
         return np.array(M, dtype=float), np.array(bias, dtype=float)
 
-    def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
+    def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         n = self.n
         M, bias = self._dynamics(y[:n], y[n:])
-        return np.concatenate([y[n:], np.linalg.solve(M, tau - bias)])
+        return np.concatenate([y[n:], np.linalg.solve(M, self.input_forces(y[:n], u) - bias)])
 
 
 class LumpedPCSModel(ForwardModel):
@@ -297,6 +325,9 @@ class LumpedPCSModel(ForwardModel):
         stays within ``fast_max_bend`` (measured exact there to ~2e-11); a
         rollout that bends further is repeated with the reference rule.
     fast_max_bend : float
+    actuation : Actuation, optional
+        Fitted input map ``A(q) u`` (:mod:`pcs_sindy.actuation`); default: the
+        inputs are the generalised forces.
     """
 
     methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
@@ -315,8 +346,9 @@ class LumpedPCSModel(ForwardModel):
         n_quadrature: int = 16,
         fast_quadrature: int | None = 8,
         fast_max_bend: float = 6.0,
+        actuation: Any = None,
     ) -> None:
-        super().__init__(kinematics)
+        super().__init__(kinematics, actuation)
         from . import _jit_dynamics  # numba kernels load only when a model is built
         from .library._pcs_numeric import make_quadrature, rotary_mass
 
@@ -346,10 +378,17 @@ class LumpedPCSModel(ForwardModel):
         g = np.ascontiguousarray(self.rhoAg[:, 0] + 1j * self.rhoAg[:, 1])
         self._jit = _jit_dynamics
 
+        if self.actuation is None:
+            inputs = (np.zeros(1, dtype=np.int64), np.zeros(0), np.zeros((0, m)), np.zeros((n, 0)))
+        else:
+            kind, aoff, acover, amat = self.actuation.compiled()
+            inputs = (np.array([kind], dtype=np.int64), np.ascontiguousarray(aoff, dtype=float),
+                      np.ascontiguousarray(acover, dtype=float), np.ascontiguousarray(amat, dtype=float))
+
         def params(nodes: int) -> tuple:
             quad = make_quadrature(L, nodes)
             return (act, L, np.ascontiguousarray(quad.ell), np.ascontiguousarray(quad.weights), self.rhoA, g,
-                    np.ascontiguousarray(M_rot), self.stiffness, self.damping, self.rest_force)
+                    np.ascontiguousarray(M_rot), self.stiffness, self.damping, self.rest_force, *inputs)
 
         self._params = params(self.n_quadrature)
         self._fast = None
@@ -369,9 +408,15 @@ class LumpedPCSModel(ForwardModel):
         self._jit.dynamics(q, qd, self._params, W)
         return W[0].copy(), W[1].copy()
 
-    def _state_derivative(self, y: NDArray[np.float64], tau: NDArray[np.float64]) -> NDArray[np.float64]:
+    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        tau = np.empty(self.n)
+        self._jit.input_forces(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float),
+                               self._params, tau)
+        return tau
+
+    def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.empty(y.size)
-        if not self._jit.rhs(np.ascontiguousarray(y), np.ascontiguousarray(tau, dtype=float), self._params,
+        if not self._jit.rhs(np.ascontiguousarray(y), np.ascontiguousarray(u, dtype=float), self._params,
                              self._work, out):
             raise np.linalg.LinAlgError("singular mass matrix")
         return out

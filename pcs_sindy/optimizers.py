@@ -103,6 +103,7 @@ def scaled_lstsq(
     rcond: float = 1e-10,
     feature_names: Sequence[str] | None = None,
     lower_bounds: NDArray[np.float64] | None = None,
+    equality: tuple[NDArray[np.float64], float] | None = None,
 ) -> tuple[NDArray[np.float64], dict[str, Any]]:
     """Least squares on unit-norm columns via the SVD; raise when rank deficient.
 
@@ -120,6 +121,10 @@ def scaled_lstsq(
         unconstrained solution violates them, the bounded problem is solved
         with :func:`scipy.optimize.lsq_linear` on the scaled columns
         (one target only).
+    equality : tuple (a, b), optional
+        A linear equality ``a @ coef = b`` (one target only), enforced as a row
+        weighted 1e6 times the scaled columns (e.g. a known total mass fixing
+        the scale of a homogeneous regression).
 
     Returns
     -------
@@ -135,6 +140,17 @@ def scaled_lstsq(
         message names the columns involved.
     """
     names = list(feature_names) if feature_names is not None else [f"x{j}" for j in range(x.shape[1])]
+    if equality is not None:
+        a, b = np.asarray(equality[0], dtype=float).reshape(-1), float(equality[1])
+        if a.shape != (x.shape[1],) or y.ndim != 1 or not np.all(np.isfinite(a)) or not np.isfinite(b):
+            raise ValueError(f"equality must be (a, b) with a finite a of shape ({x.shape[1]},) and one target")
+        col = np.linalg.norm(x, axis=0)
+        scaled = np.linalg.norm(a / np.where(col > 0, col, 1.0))
+        if not scaled > 0:
+            raise ValueError("equality row a is zero on every column")
+        w = 1e6 / scaled
+        x = np.vstack([x, w * a[None, :]])
+        y = np.append(y, w * b)
     if x.shape[0] < x.shape[1]:
         raise ValueError(f"regression has fewer rows ({x.shape[0]}) than unknowns ({x.shape[1]}); record more samples")
     norms = np.linalg.norm(x, axis=0)
@@ -372,6 +388,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         states: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
         feature_names: Sequence[str] | None = None,
         design: Callable[[Any, NDArray[np.bool_]], ArrayLike] | None = None,
+        equality: tuple[ArrayLike, float] | None = None,
     ) -> "StiffnessThresholdOptimizer":
         """Fit, removing over-stiff strains when the library and states are given.
 
@@ -399,6 +416,10 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             of ``euler_lagrange_matrix`` on ``states`` after a removal; e.g.
             weak-form (window-integrated) rows.  ``x`` and ``y`` then hold
             ``n_rows * n`` rows ordered row-major like ``(n_rows, n)``.
+        equality : tuple (a, b), optional
+            With ``library``: a linear equality ``a @ coef = b`` over the
+            library's columns, kept in every round (restricted to the kept
+            columns), e.g. a known mass fixing the scale when gains are identified.
 
         Returns
         -------
@@ -451,8 +472,8 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.n_features_in_ = int(x.shape[1])
 
         if library is None:
-            if states is not None or design is not None:
-                raise ValueError("states or design were given without library; pass them with library")
+            if states is not None or design is not None or equality is not None:
+                raise ValueError("states, design or equality were given without library; pass them with library")
             if sample_weight is not None:
                 w = np.asarray(sample_weight, dtype=float)
                 if w.shape != (x.shape[0],) or np.any(~np.isfinite(w)) or np.any(w < 0):
@@ -518,7 +539,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         for rnd in range(int(self.max_iter)):
             sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
             lb = getattr(lib_r, "lower_bounds_", None) if self.bounded else None
-            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb)
+            eq = None if equality is None else (np.asarray(equality[0], dtype=float)[col_map], float(equality[1]))
+            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb,
+                                        equality=eq)
             stiff = np.full(3 * m, np.inf)
             # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
             stiff[mask] = float(lib_r.stiffness_factor_) * coef_r[np.asarray(lib_r.stiffness_index_)]

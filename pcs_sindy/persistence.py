@@ -130,6 +130,11 @@ REGISTRY: dict[str, ClassSpec] = {
     ),
     "PCSLagrangianLibrary": ClassSpec("pcs_sindy.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library),
     "PhysicalPCSLibrary": ClassSpec("pcs_sindy.library.physical", "PhysicalPCSLibrary", validate=_validate_library),
+    # actuation terms: parameters (the layout) and the identified offsets and gains
+    "IdentityActuation": ClassSpec("pcs_sindy.actuation", "IdentityActuation"),
+    "TendonActuation": ClassSpec("pcs_sindy.actuation", "TendonActuation"),
+    "PressureActuation": ClassSpec("pcs_sindy.actuation", "PressureActuation"),
+    "LinearActuation": ClassSpec("pcs_sindy.actuation", "LinearActuation"),
     "MarkerPoseExtractor": ClassSpec(
         "pcs_sindy.vision", "MarkerPoseExtractor", params_only=True, validate=lambda o: o._validate()
     ),

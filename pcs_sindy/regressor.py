@@ -32,9 +32,11 @@ from sklearn.utils.validation import check_is_fitted
 from . import formulations as _form
 from . import identifiability as _ident
 from ._saving import PersistenceMixin
+from .actuation import Actuation, IdentityActuation, actuation_from_layout
 from .integration import DivergenceError
 from .kinematics import PlanarPCS
 from .forward import reduce_strains
+from .library._with_gains import WithGains
 from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
 from .trajectory import StrainTrajectory, as_strain_trajectories
@@ -110,6 +112,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Default tolerances of :meth:`simulate`.
     progress : bool, default False
         Progress bars in :meth:`simulate` (solve_ivp paths).
+    actuation : Actuation or dict, optional
+        How the inputs ``y`` of :meth:`fit` (and ``u`` of :meth:`simulate`) act:
+        default the generalised forces themselves (T, 3m); a
+        :class:`~pcs_sindy.actuation.TendonActuation`,
+        :class:`~pcs_sindy.actuation.PressureActuation` or
+        :class:`~pcs_sindy.actuation.LinearActuation` (or its JSON layout, e.g.
+        a scenario's ``actuation``) maps actuator inputs (T, p) through
+        ``A(q)``, whose unknown offsets and gains are identified with the model
+        (see :mod:`pcs_sindy.actuation`, also for when the scale needs the mass).
 
     Attributes
     ----------
@@ -139,6 +150,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Fraction of training samples where ``M(q)`` is not positive definite.
     n_regression_samples_ : int
         Rows of the regression per strain (samples, or windows in the weak form).
+    actuation_ : Actuation
+        The fitted input map with its identified ``offsets_`` and ``gains_``.
     fit_time_ : float
         Wall time of ``fit`` (s).
     """
@@ -161,6 +174,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         rtol: float = 3e-5,
         atol: float = 3e-8,
         progress: bool = False,
+        actuation: Any = None,
     ) -> None:
         self.library = library
         self.formulation = formulation
@@ -176,6 +190,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.rtol = rtol
         self.atol = atol
         self.progress = progress
+        self.actuation = actuation
 
     @classmethod
     def seed_method(cls, **overrides: Any) -> "EulerLagrangeRegressor":
@@ -216,6 +231,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 f"library must be a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary) or one of "
                 f"{_LIBRARIES}; got {lib!r}"
             )
+        act = self.actuation
+        if not (act is None or isinstance(act, (dict, Actuation))):
+            raise ValueError(f"actuation must be None, an Actuation or a layout dict; got {type(act).__name__}")
         opt = self.optimizer
         if opt is not None and not isinstance(opt, BaseOptimizer):
             raise ValueError(
@@ -237,6 +255,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
             return PCSLagrangianLibrary()
         return clone(self.library)
+
+    def _new_actuation(self, kin: PlanarPCS) -> Actuation:
+        act = self.actuation
+        if act is None or isinstance(act, dict):
+            act = actuation_from_layout(act)
+        else:
+            act = clone(act)
+        return act.fit(kin)
 
     def _derivatives(
         self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None, *, fixed: bool = False
@@ -281,8 +307,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         *,
         kin: PlanarPCS | None,
         formulation: str,
+        actuation: Actuation | None = None,
     ) -> tuple[PlanarPCS, list[StrainTrajectory], list[_form.Recording]]:
-        """Validated recordings of the strains ``kin`` models (default: the data's), ready for a formulation."""
+        """Validated recordings of the strains ``kin`` models (default: the data's), ready for a formulation.
+
+        ``actuation`` (fitted) validates non-force inputs; default: ``y`` are generalised forces (T, 3m).
+        """
         X = as_strain_trajectories(X)
         data_kin = segmentation_of(X)
         if kin is not None and not np.allclose(data_kin.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0):
@@ -300,8 +330,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if (qds is None) != (qdds is None) and formulation == "strong":
             raise ValueError("give both qd and qdd (known derivatives) or neither")
         taus = []
+        forces = actuation is None or isinstance(actuation, IdentityActuation)
         for k, rec in enumerate(X):
             tau = np.asarray(ys[k], dtype=float)
+            if not forces:
+                tau = actuation.check_inputs(tau, f"y[{k}]", rec.t if tau.shape[:1] == rec.t.shape else None)
+                if tau.shape[0] != rec.n_frames:
+                    raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
+                taus.append(tau)
+                continue
             if tau.ndim != 2 or tau.shape[1] != kin.n_q:
                 raise ValueError(f"y[{k}] must have shape (T, {kin.n_q}) (one force per strain); got {tau.shape}")
             if tau.shape[0] != rec.n_frames:
@@ -312,7 +349,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         recs = []
         for k, (rec, tau) in enumerate(zip(X, taus)):
             rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k])
-            r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau[:, mask])
+            r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau)
             if formulation == "weak":
                 width, stride = int(self.weak_window), int(self.weak_stride)
                 if rec.n_frames <= width:
@@ -359,24 +396,46 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         """
         start = time.perf_counter()
         self._check_params()
-        kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation)
+        X = as_strain_trajectories(X)
+        act = self._new_actuation(segmentation_of(X))
+        kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
         lib = self._new_library().fit(X)
-        x, target, design = _form.regression(lib, recs, self.formulation, hold=self.weak_hold)
+        offsets, offset_info = (None, None)
+        if act.n_offsets:
+            offsets, offset_info = self._fit_offsets(lib, act, recs)
+        x, target, design = _form.regression(lib, recs, self.formulation, act, offsets=offsets, hold=self.weak_hold)
         self.n_regression_samples_ = int(x.shape[0])
+        columns: Any = WithGains(lib, act.gain_names_, act.gain_lower_bound) if act.n_gains else lib
+        equality = columns.scale_constraint() if act.n_gains else None
+        if act.n_gains and equality is None and not np.any(target):
+            raise ValueError(
+                f"{type(act).__name__} with identified gains makes the regression homogeneous: densities, stiffness, "
+                "damping and gains are determined only up to one common factor (the motion is the same when all are "
+                "scaled alike, known gravity included). Give one absolute quantity: the robot's mass, "
+                "library=PhysicalPCSLibrary(mass=...), or the gains themselves"
+            )
         opt = StiffnessThresholdOptimizer() if self.optimizer is None else clone(self.optimizer)
+        p_lib = lib.n_coefficients_
         if isinstance(opt, StiffnessThresholdOptimizer):
-            opt.fit(x, target, library=lib, design=design)
-            library_, column_map = opt.library_, np.asarray(opt.column_map_)
-            coef = np.asarray(opt.coef_[0], dtype=float)
+            opt.fit(x, target, library=columns, design=design, equality=equality)
+            lib_r = opt.library_.library if act.n_gains else opt.library_
+            coef_all = np.asarray(opt.coef_[0], dtype=float)
+            column_map = np.asarray([c for c in opt.column_map_ if c < p_lib], dtype=int)
             active, removed = opt.active_strains_, list(opt.removed_strains_)
         else:
+            if equality is not None:
+                raise ValueError(f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
+                                 "use StiffnessThresholdOptimizer")
             opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
-            coef = np.asarray(opt.coef_, dtype=float).reshape(-1)
-            if coef.shape != (lib.n_coefficients_,) or not np.all(np.isfinite(coef)):
-                raise ValueError(f"{type(opt).__name__} returned coefficients of shape {coef.shape} or with NaN; "
-                                 f"expected ({lib.n_coefficients_},) finite values")
-            library_, column_map = lib, np.arange(lib.n_coefficients_)
+            coef_all = np.asarray(opt.coef_, dtype=float).reshape(-1)
+            if coef_all.shape != (x.shape[-1],) or not np.all(np.isfinite(coef_all)):
+                raise ValueError(f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
+                                 f"expected ({x.shape[-1]},) finite values")
+            lib_r, column_map = lib, np.arange(p_lib)
             active, removed = kin.active_strains.copy(), []
+        coef, library_ = coef_all[:p_lib], lib_r
+        self.actuation_ = act.set_identified(coef_all[p_lib:] if act.n_gains else act.gains_,
+                                             act.offsets_ if offsets is None else act._signed(offsets))
         self.optimizer_ = opt
         self.full_library_ = lib
         self.library_ = library_
@@ -390,7 +449,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.n_features_in_ = kin.n_q
         kept = self.active_strains_.reshape(-1)[kin.active_mask]
         x_final = x if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
-        self.identifiability_ = self._identifiability(x_final, np.asarray(target)[:, kept])
+        final_cols = np.r_[column_map, p_lib + np.arange(act.n_gains)]
+        eq = None if equality is None else (equality[0][final_cols], equality[1])
+        self.identifiability_ = self._identifiability(x_final, np.asarray(target)[:, kept], coef_all[final_cols],
+                                                      eq, offset_info)
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix:
             self._check_mass_matrix(np.concatenate([r.q[:, kept] for r in recs]))
@@ -412,8 +474,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             rest[final] = np.where(f0 == 0.0, 0.0, f0 / stiff[final])
         self.stiffness_, self.damping_, self.rest_strain_ = stiff, damping, rest
 
-    def _identifiability(self, x: NDArray[np.float64], target: NDArray[np.float64]) -> dict | None:
+    def _identifiability(self, x: NDArray[np.float64], target: NDArray[np.float64], coef: NDArray[np.float64],
+                         equality: tuple | None, offset_info: dict | None) -> dict | None:
         x2 = x.reshape(-1, x.shape[-1])
+        y2 = target.reshape(-1)
+        if equality is not None:  # the scale row, as weighted in the fit
+            a = np.asarray(equality[0], dtype=float)
+            w = 1e6 / np.linalg.norm(a / np.where(np.linalg.norm(x2, axis=0) > 0, np.linalg.norm(x2, axis=0), 1.0))
+            x2, y2 = np.vstack([x2, w * a]), np.append(y2, w * equality[1])
         if x2.shape[0] <= x2.shape[1]:
             warnings.warn(
                 f"the final regression has {x2.shape[0]} rows for {x2.shape[1]} coefficients: too few to estimate "
@@ -423,14 +491,62 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
             return None
         lib = self.library_
-        info = _ident.identifiability(x2, target.reshape(-1), self.model_coef_, lib.coefficient_names(),
-                                      tol=self.identifiability_tol)
+        names = lib.coefficient_names() + list(self.actuation_.gain_names_)
+        info = _ident.identifiability(x2, y2, coef, names, tol=self.identifiability_tol)
         info["poorly_excited_strains"] = _ident.strain_excitation(
             info, self.kinematics_.strain_names(active_only=True), lib.stiffness_index_, lib.damping_index_,
             self.identifiability_tol)
-        info["coef"] = self.model_coef_.copy()
+        info["coef"] = np.asarray(coef, dtype=float).copy()
         info["formulation"] = self.formulation
+        if offset_info is not None:
+            info.update(offset_info)
+            info["poorly_determined"] += [nm for nm, r in zip(offset_info["offset_names"],
+                                                              offset_info["offset_relative_standard_errors"])
+                                          if not r <= self.identifiability_tol]
         return info
+
+    def _fit_offsets(self, lib: LagrangianLibrary, act: Actuation,
+                     recs: list[_form.Recording]) -> tuple[NDArray[np.float64], dict]:
+        """Nonlinear actuation parameters (tendon offsets) by variable projection.
+
+        For given offsets the model is linear: the Lagrangian coefficients (and
+        gains) are the least-squares solution, so the residual is a function of
+        the offsets alone, minimised by :func:`scipy.optimize.least_squares`
+        within the actuation's bounds.  Standard errors from its Jacobian.
+        """
+        from scipy.optimize import least_squares
+
+        rows = _form.library_rows(lib, recs, self.formulation)
+        x = rows.reshape(-1, rows.shape[-1])
+        norms = np.linalg.norm(x, axis=0)
+        norms = np.where(norms > 0, norms, 1.0)
+        u_, sv, vt = np.linalg.svd(x / norms, full_matrices=False)
+        keep = sv > 1e-10 * sv[0]
+        u_, sv, vt = u_[:, keep], sv[keep], vt[keep]
+
+        def residual(d: NDArray[np.float64]) -> NDArray[np.float64]:
+            y, linear = _form.input_rows(act, recs, self.formulation, offsets=d, hold=self.weak_hold)
+            y = y.reshape(-1)
+            if linear.shape[-1]:  # gains with offsets: a joint linear solve (rare)
+                xa = np.concatenate([rows, -linear], axis=2).reshape(-1, rows.shape[-1] + linear.shape[-1])
+                return xa @ np.linalg.lstsq(xa, y, rcond=None)[0] - y
+            return u_ @ (u_.T @ y) - y
+
+        lo, hi = act.offset_bounds()
+        d0 = np.clip(act.initial_offsets(), lo, hi)
+        sol = least_squares(residual, d0, bounds=(lo, hi), x_scale=np.maximum(np.abs(d0), 1e-3), xtol=1e-12,
+                            ftol=1e-12, gtol=1e-12, max_nfev=200)
+        r, jac = sol.fun, sol.jac
+        dof = max(r.size - jac.shape[1] - rows.shape[-1], 1)
+        s2 = float(r @ r) / dof
+        try:
+            se = np.sqrt(np.maximum(np.diag(s2 * np.linalg.pinv(jac.T @ jac)), 0.0))
+        except np.linalg.LinAlgError:
+            se = np.full(sol.x.size, np.inf)
+        names = list(act.offset_names_)
+        info = {"offset_names": names, "offsets": sol.x.copy(), "offset_standard_errors": se,
+                "offset_relative_standard_errors": se / np.abs(sol.x), "offset_fit_success": bool(sol.success)}
+        return sol.x, info
 
     def _check_mass_matrix(self, q: NDArray[np.float64]) -> None:
         eig = np.linalg.eigvalsh(self.library_.mass_matrix(q, self.model_coef_))
@@ -469,7 +585,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         fm = self.__dict__.get("_forward")
         if fm is None:
-            fm = self.library_.forward_model(self.model_coef_)
+            act = getattr(self, "actuation_", None)
+            fm = self.library_.forward_model(self.model_coef_, actuation=None if isinstance(act, IdentityActuation)
+                                             else act)
             self.__dict__["_forward"] = fm
         return fm
 
@@ -568,7 +686,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         out = []
         for k, rec in enumerate(X):
             tau = np.asarray(ys[k], dtype=float)
-            if tau.shape != rec.q.shape or not np.all(np.isfinite(tau)):
+            act = getattr(self, "actuation_", None)
+            if act is not None and not isinstance(act, IdentityActuation):
+                tau = act.check_inputs(tau, f"y[{k}]")
+                if tau.shape[0] != rec.n_frames:
+                    raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
+            elif tau.shape != rec.q.shape or not np.all(np.isfinite(tau)):
                 raise ValueError(f"y[{k}] must be finite with the shape of X[{k}].q {rec.q.shape}; got {tau.shape}")
             # start where the fixed Savitzky-Golay estimate of the rate is centred, not at the edge
             k0 = 0 if rec.qd is not None else min(SCORE_DERIVATIVES[0] // 2, rec.n_frames - 2)
@@ -683,7 +806,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         list of str
         """
         check_is_fitted(self, "coef_")
-        return self.library_.equations(self.model_coef_, precision=precision, threshold=threshold)
+        lines = self.library_.equations(self.model_coef_, precision=precision, threshold=threshold)
+        act = getattr(self, "actuation_", None)
+        if act is None or isinstance(act, IdentityActuation):
+            return lines
+        return lines[:-1] + act.describe(precision) + lines[-1:]
 
     def print(self, precision: int = 3, threshold: float = 0.0) -> None:
         """Print :meth:`equations`."""
@@ -728,6 +855,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         reg.removed_strains_ = []
         reg.kinematics_ = PlanarPCS(kin.segment_lengths, kin.active_strains, kin.base_pose)
         reg._set_physical_attributes(kin)
+        reg.actuation_ = IdentityActuation().fit(PlanarPCS(kin.segment_lengths, kin.active_strains))
         reg.n_features_in_ = kin.n_q
         reg.identifiability_ = None
         reg.mass_matrix_not_pd_fraction_ = 0.0

@@ -101,13 +101,14 @@ class ToyLibrary(LagrangianLibrary):
         q = np.asarray(q, float)
         return self.euler_lagrange_matrix(q, qd, np.zeros_like(q)) @ coef
 
-    def forward_model(self, coef):
+    def forward_model(self, coef, actuation=None):
         coef = self._check_coef(coef)
 
         def single(q, qd):
             return self.mass_matrix(q[None], coef)[0], self.bias_forces(q[None], qd[None], coef)[0]
 
-        return CallableModel(self.kinematics, single, lambda q, qd: (self.mass_matrix(q, coef), self.bias_forces(q, qd, coef)))
+        return CallableModel(self.kinematics, single, lambda q, qd: (self.mass_matrix(q, coef), self.bias_forces(q, qd, coef)),
+                             actuation=actuation)
 
     def restrict(self, active_strains):
         mask = np.asarray(active_strains, dtype=bool).reshape(-1)

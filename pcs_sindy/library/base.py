@@ -201,6 +201,15 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         """Lower bounds of the coefficients (None: unbounded)."""
         return None
 
+    def scale_constraint(self) -> tuple[NDArray[np.float64], float] | None:
+        """``(a, b)`` with ``a @ coef = b`` fixing the absolute scale of the coefficients, or None.
+
+        Needed when every actuator gain is identified (the regression is then
+        homogeneous); a library knowing an absolute quantity of the robot
+        (e.g. :class:`~pcs_sindy.library.PhysicalPCSLibrary` given its mass) provides it.
+        """
+        return None
+
     @property
     def n_lagrangian_terms(self) -> int:
         """Number of Lagrangian basis terms (the columns that are not damping)."""
@@ -272,8 +281,12 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         return self.bias_forces(q, np.zeros_like(q), coef)
 
     @abstractmethod
-    def forward_model(self, coef: ArrayLike) -> Any:
-        """The :class:`~pcs_sindy.forward.ForwardModel` of the coefficients (rollouts, controllers)."""
+    def forward_model(self, coef: ArrayLike, actuation: Any = None) -> Any:
+        """The :class:`~pcs_sindy.forward.ForwardModel` of the coefficients (rollouts, controllers).
+
+        ``actuation``: a fitted :class:`~pcs_sindy.actuation.Actuation` mapping
+        actuator inputs to generalised forces (default: the inputs are the forces).
+        """
 
     def stiffness_from_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
         """Stiffness of every active strain in physical units, shape (n,)."""

@@ -602,7 +602,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         }
 
     # ------------------------------------------------------------------ the model of given coefficients
-    def forward_model(self, coef) -> Any:
+    def forward_model(self, coef, actuation: Any = None) -> Any:
         """The :class:`~pcs_sindy.forward.ForwardModel` of ``coef``.
 
         ``basis="physical"``: the compiled :class:`~pcs_sindy.forward.LumpedPCSModel`
@@ -618,11 +618,11 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         if self.basis == "physical":
             lp = self.lumped_from_coef(c)
             return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"],
-                                  lp["damping"], n_quadrature=lp["n_quadrature"])
+                                  lp["damping"], n_quadrature=lp["n_quadrature"], actuation=actuation)
         tables = self._tables()
         pi_g, damping = self._pi_products(c), c[self._n_f :]
         return CallableModel(self.kinematics, tables.make(pi_g, damping),
-                             lambda q, qd: tables.evaluate(pi_g, damping, q, qd))
+                             lambda q, qd: tables.evaluate(pi_g, damping, q, qd), actuation=actuation)
 
     def equations(self, coef, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """``L = c_1 f_1 + c_2 f_2 + ...`` over the basis functions, then ``D = diag(...)``.

@@ -192,6 +192,11 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         strain ``q*``), placed after the stiffnesses and before the damping.
         It models pre-curved robots and absorbs a rest length estimated from
         the videos rather than measured.
+    mass : float, optional
+        The robot's total mass [kg] when weighed.  Only used to fix the
+        absolute scale of the parameters when actuator gains are identified
+        (:meth:`scale_constraint`: ``sum_i rhoA_i L_i = mass``); with inputs in
+        known units (generalised forces, tendon tensions) the data fix it.
 
     Attributes
     ----------
@@ -225,6 +230,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         n_quadrature: int = 16,
         rotary_inertia: str = "free",
         rest_strain: bool = True,
+        mass: float | None = None,
     ) -> None:
         self.segment_lengths = segment_lengths
         self.active_strains = active_strains
@@ -234,6 +240,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         self.n_quadrature = n_quadrature
         self.rotary_inertia = rotary_inertia
         self.rest_strain = rest_strain
+        self.mass = mass
 
     # -- structure -------------------------------------------------------------
     def _check_params(self) -> None:
@@ -253,6 +260,21 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         nq = self.n_quadrature
         if isinstance(nq, bool) or not isinstance(nq, (int, np.integer)) or nq < 1:
             raise ValueError(f"n_quadrature must be a positive integer; got {nq!r}")
+        if self.mass is not None and (isinstance(self.mass, bool) or not np.isfinite(self.mass) or not self.mass > 0):
+            raise ValueError(f"mass must be None or a finite mass > 0 [kg]; got {self.mass!r}")
+
+    def scale_constraint(self) -> tuple[NDArray[np.float64], float] | None:
+        """``sum_i rhoA_i L_i = mass`` when ``mass`` is given, else None."""
+        if self.mass is None:
+            return None
+        spec = self._spec
+        a = np.zeros(spec.n_coef)
+        for j, i in spec.cols_rhoA:
+            a[j] = spec.kin.segment_lengths[i]
+        if len(spec.cols_rhoA) != spec.kin.n_segments:
+            raise ValueError("mass fixes the scale only when every segment's density is identified; a segment whose "
+                             "strains are all removed has none")
+        return a, float(self.mass)
 
     @property
     def _spec(self) -> _Spec:
@@ -266,6 +288,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             self.n_quadrature,
             self.rotary_inertia,
             self.rest_strain,
+            self.mass,
         )
         cached = self.__dict__.get("_spec_cache")
         if cached is None or cached[0] != key:
@@ -608,6 +631,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             n_quadrature=self.n_quadrature,
             rotary_inertia=self.rotary_inertia,
             rest_strain=self.rest_strain,
+            mass=self.mass,
         )
         child.column_map_ = np.array([spec.col[name] for name in child._spec.names], dtype=int)
         if hasattr(self, "n_features_in_"):  # keep a fitted library fitted
@@ -615,13 +639,13 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         return child
 
     # -- the model of given coefficients ---------------------------------------------------
-    def forward_model(self, coef: ArrayLike) -> Any:
+    def forward_model(self, coef: ArrayLike, actuation: Any = None) -> Any:
         """The compiled :class:`~pcs_sindy.forward.LumpedPCSModel` of ``coef`` (rollouts, controllers)."""
         from pcs_sindy.forward import LumpedPCSModel
 
         lp = self.lumped_from_coef(coef)
         return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
-                              lp["rest_force"], n_quadrature=lp["n_quadrature"])
+                              lp["rest_force"], n_quadrature=lp["n_quadrature"], actuation=actuation)
 
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """The Lagrangian's structure, ``M(q)``, the parameter values and ``D``.
