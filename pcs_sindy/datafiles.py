@@ -93,19 +93,19 @@ def read_arrays(
     if not src.is_file():
         raise FileNotFoundError(f"{what} {str(path)!r} does not exist")
     try:
-        with np.load(src, allow_pickle=False) as data:
-            if not hasattr(data, "files"):
-                raise DataFileError(f"{what} {str(path)!r} is a single .npy array, not an .npz file with named arrays")
-            missing = [k for k in required if k not in data.files]
-            if missing:
-                raise DataFileError(f"{what} {str(path)!r} lacks {missing} (found {sorted(data.files)})")
+        data = np.load(src, allow_pickle=False)
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile) as err:
+        raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise DataFileError(f"{what} {str(path)!r} is a single .npy array, not an .npz file with named arrays")
+    with data:
+        missing = [k for k in required if k not in data.files]
+        if missing:
+            raise DataFileError(f"{what} {str(path)!r} lacks {missing} (found {sorted(data.files)})")
+        try:
             return {k: np.asarray(data[k]) for k in (*required, *optional) if k in data.files}
-    except (OSError, EOFError, zipfile.BadZipFile) as err:
-        raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
-    except ValueError as err:
-        if isinstance(err, DataFileError):
-            raise
-        raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
+        except (OSError, ValueError, zipfile.BadZipFile) as err:  # e.g. an object array (pickle refused)
+            raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
 
 
 def read_poses(path: str | Path, key: str = "poses") -> tuple[NDArray[np.float64] | None, NDArray[np.float64]]:
