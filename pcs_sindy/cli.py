@@ -7,8 +7,9 @@ simulate (scenario -> recordings), render (poses -> videos), extract
 them on the two_segment scenario and writes a report.
 
 This module only parses: every sub-command calls the function of the same
-name in :mod:`pcs_sindy.commands` with the parsed options as keyword
-arguments (an option left out is None there: the estimator's default).
+name in :mod:`pcs_sindy.commands` (``demo``: :mod:`pcs_sindy.demo`) with the
+parsed options as keyword arguments (an option left out is None there: the
+estimator's default).
 A new sub-command is a function there plus ``add(name, help, function)`` and
 its options in :func:`build_parser`.
 
@@ -26,9 +27,10 @@ from typing import Any, Callable, Sequence
 
 import numpy as np
 
-from .commands import (CLIError, RolloutResult, build_regressor, demo, extract, fit, fuse, pipeline_step, render,
-                       rollout, scenarios, simulate)
+from .commands import (CLIError, RolloutResult, build_regressor, extract, fit, fuse, pipeline_step, render, rollout,
+                       scenarios, simulate)
 from .datafiles import FILE_FORMATS
+from .demo import demo
 
 __all__ = ["main", "build_parser", "command_kwargs", "CLIError", "RolloutResult", "scenarios", "simulate", "render",
            "extract", "fuse", "fit", "rollout", "demo", "build_regressor", "pipeline_step"]

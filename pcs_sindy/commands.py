@@ -2,8 +2,8 @@
 
 simulate (scenario -> recordings), render (poses -> videos), extract
 (videos -> poses), fuse (poses -> segmentation + strains), fit (strains + tau
--> model), rollout (model + tau -> predicted poses, metrics) and demo (all of
-them on two_segment, with a report).  Each takes typed keyword arguments, so
+-> model) and rollout (model + tau -> predicted poses, metrics); the demo
+that chains them is :func:`pcs_sindy.demo.demo`.  Each takes typed keyword arguments, so
 ``fit(strains, taus, "model.json", window_length=15)`` does from Python what
 ``pcs-sindy fit ... --window-length 15`` does; :mod:`pcs_sindy.cli` only
 parses the command line and calls these.
@@ -18,8 +18,6 @@ report: :mod:`pcs_sindy.report`.
 from __future__ import annotations
 
 import json
-import os
-import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -30,7 +28,7 @@ import numpy as np
 from . import datafiles as files
 
 __all__ = ["CLIError", "RolloutResult", "pipeline_step", "build_regressor", "scenarios", "simulate", "render",
-           "extract", "fuse", "fit", "rollout", "demo"]
+           "extract", "fuse", "fit", "rollout"]
 
 
 class CLIError(Exception):
@@ -62,7 +60,12 @@ def pipeline_step(name: str, **params: Any) -> Any:
 
 
 def scenarios() -> list[str]:
-    """Print and return the names of the built-in scenarios."""
+    """Print and return the names of the built-in scenarios.
+
+    Returns
+    -------
+    list of str
+    """
     from .simulation import list_scenarios
 
     names = list(list_scenarios())
@@ -77,8 +80,23 @@ def simulate(
 ) -> list[Path]:
     """Simulate a scenario: ``train_00.npz`` ..., ``validation.npz`` and ``scenario.json`` in ``out``.
 
-    Parameters are those of :meth:`pcs_sindy.simulation.Scenario.generate`
-    (None: its default); ``noise`` is None, ``"seed"`` or ``(sigma_p, sigma_theta)`` in m and rad.
+    Parameters
+    ----------
+    scenario : str
+        A name of :func:`pcs_sindy.simulation.list_scenarios`.
+    out : path
+        Output folder (created).
+    seed, n_train, train_duration, validation, validation_duration
+        As :meth:`pcs_sindy.simulation.Scenario.generate`; None: its default.
+    noise : None, "seed" or (sigma_p, sigma_theta)
+        Pose noise in m and rad (None: noise-free poses).
+    quiet : bool
+        No progress bar or message.
+
+    Returns
+    -------
+    list of Path
+        The recordings, validation last.
     """
     from .simulation import get_scenario
 
@@ -145,10 +163,31 @@ def render(
     size: tuple[int, int] | None = None, marker_size: tuple[float, float] | None = None, n_jobs: int = 1,
     quiet: bool = False,
 ) -> list[Path]:
-    """Render pose files to marker videos (``.avi`` MJPG or ``.mp4``), each with ``<video>.camera.json``.
+    """Render pose files to marker videos, each with its camera as ``<video>.camera.json``.
 
-    ``size`` (image width, height) and ``marker_size`` (m) default to
-    :meth:`Camera.fit_poses` and :func:`~pcs_sindy.simulation.render_frames`'s.
+    Parameters
+    ----------
+    inputs : sequence of path
+        Pose files (recordings qualify); one video each, same stem.
+    out : path
+        Output folder (created).
+    fps : float, optional
+        Frame rate; default from the time stamps.
+    video_format : {".avi", ".mp4"}
+        MJPG (sharp marker edges) or mp4v (lossy).
+    size : (int, int), optional
+        Image width and height; default :meth:`~pcs_sindy.camera.Camera.fit_poses`'s.
+    marker_size : (float, float), optional
+        Marker width and thickness (m); default :func:`~pcs_sindy.simulation.render_frames`'s.
+    n_jobs : int
+        Files rendered in parallel (joblib; -1: all cores).
+    quiet : bool
+        No progress bars or messages.
+
+    Returns
+    -------
+    list of Path
+        The videos.
     """
     folder = files.output_dir(out)
     for name in inputs:  # fail before any work on a bad input
@@ -174,9 +213,26 @@ def extract(
 ) -> list[Path]:
     """Extract marker poses from videos: one pose file per video in ``out``.
 
-    The extractor is :func:`make_pcs_pipeline`'s ``poses`` step
-    (:class:`~pcs_sindy.vision.MarkerPoseExtractor`) with the given parameters;
-    ``camera`` is a camera JSON for every video (default: each video's own).
+    Parameters
+    ----------
+    videos : sequence of path
+        Videos or folders of image frames.
+    out : path
+        Output folder (created); one pose file per video, same stem.
+    camera : path, optional
+        Camera JSON for every video; default: each video's ``<video>.camera.json``, else calibration.
+    n_markers, robot_length, fps, on_missing : optional
+        Parameters of :func:`make_pcs_pipeline`'s ``poses`` step
+        (:class:`~pcs_sindy.vision.MarkerPoseExtractor`); None: its default.
+    n_jobs : int
+        Videos extracted in parallel (joblib; -1: all cores).
+    quiet : bool
+        No progress bars or messages.
+
+    Returns
+    -------
+    list of Path
+        The pose files.
     """
     from sklearn.base import clone
 
@@ -209,8 +265,17 @@ def fuse(
 ) -> tuple[Any, list[Any], list[Any]]:
     """Kinematic fusion of pose files: ``segmentation.json`` and one strain file per pose file in ``out``.
 
-    The fusion is :func:`make_pcs_pipeline`'s ``segments`` step
-    (:class:`~pcs_sindy.segmentation.KinematicFusion`) with the given parameters.
+    Parameters
+    ----------
+    poses : sequence of path
+        Pose files (recordings qualify).
+    out : path
+        Output folder (created).
+    threshold, total_length, shape_fit, n_jobs : optional
+        Parameters of :func:`make_pcs_pipeline`'s ``segments`` step
+        (:class:`~pcs_sindy.segmentation.KinematicFusion`); None: its default.
+    quiet : bool
+        No progress bars or messages.
 
     Returns
     -------
@@ -238,11 +303,9 @@ def fuse(
     lengths = ", ".join(f"{v:.4f}" for v in fusion.segment_lengths_)
     _say(quiet, f"{fusion.n_segments_} segment(s), lengths [{lengths}] m (total {fusion.total_length_:.4f} m), "
                 f"threshold h = {fusion.threshold:g}")
-    if total_length is None:
-        _say(quiet, "note: the rest length was estimated as the median deformed length; a robot stretched on average "
-                    "(e.g. hanging) reads long by that stretch, which biases every length and strain ('fit' absorbs "
-                    "it in identified rest strains unless --no-rest-strain): pass --total-length with the measured "
-                    "rest length")
+    if total_length is None:  # a hanging robot reads long by its gravity stretch
+        _say(quiet, "note: the rest length was estimated as the median deformed length, which biases every length "
+                    "and strain of a stretched robot ('fit' absorbs it in rest strains): pass --total-length")
     _say(quiet, f"segmentation -> {seg}; {len(strains)} strain file(s) -> {folder}")
     return fusion, strains, trajs
 
@@ -255,9 +318,26 @@ def build_regressor(
 ) -> Any:
     """The ``dynamics`` step of :func:`make_pcs_pipeline` with the given settings (None: its default).
 
-    ``library`` is ``"physical"`` or ``"monomial"``; ``rest_strain`` and
-    ``rotary_inertia`` are parameters of the library; ``stiffness_threshold``
-    is the optimizer's ``threshold`` (a factor on the material bound; inf: no removal).
+    Parameters
+    ----------
+    library : {"physical", "monomial"}, optional
+        The regressor's ``library``.
+    formulation, window_length, polyorder, exclude_force_jumps, weak_window, weak_stride : optional
+        Parameters of :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`.
+    rest_strain, rotary_inertia : optional
+        Parameters of the library (:class:`~pcs_sindy.library.PhysicalPCSLibrary`).
+    stiffness_threshold : float, optional
+        The optimizer's ``threshold``: a factor on the material bound (inf: no strain removed).
+
+    Returns
+    -------
+    EulerLagrangeRegressor
+        Not fitted.
+
+    Raises
+    ------
+    CLIError
+        If a library option is given for a library that does not have it.
     """
     reg = pipeline_step("dynamics", library=library, formulation=formulation, window_length=window_length,
                         polyorder=polyorder, exclude_force_jumps=exclude_force_jumps, weak_window=weak_window,
@@ -284,9 +364,19 @@ def fit(
 ) -> Any:
     """Identify the dynamics from strain files and tau files; write the model file ``out`` (JSON + .npz).
 
-    Tau files are matched to the strain files by name (stem), else by order.
-    The settings are those of :func:`build_regressor` (None: the default of
-    :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`).
+    Parameters
+    ----------
+    strains : sequence of path
+        Strain files (written by :func:`fuse`).
+    tau : sequence of path
+        Tau files (recordings qualify), matched to the strain files by name (stem), else by order.
+    out : path
+        Model file (``model.json`` + ``model.npz``).
+    library, formulation, window_length, polyorder, exclude_force_jumps : optional
+    weak_window, weak_stride, rest_strain, rotary_inertia, stiffness_threshold : optional
+        As :func:`build_regressor`; None: the default of :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`.
+    quiet : bool
+        Print nothing (else the equations, stiffness and damping).
 
     Returns
     -------
@@ -334,8 +424,11 @@ def rollout(
     Parameters
     ----------
     model : path or EulerLagrangeRegressor
+        Model file (written by :func:`fit`) or a fitted model.
     tau : path
+        Tau file (recordings qualify).
     out : path
+        Output folder (created).
     segmentation : path or KinematicFusion, optional
         Gives the marker arc lengths; else those of ``truth``, else ``n_markers`` equally spaced markers.
     truth : path, optional
@@ -348,6 +441,12 @@ def rollout(
         Default: the model's.
     plot : bool
         Draw ``rollout.png``.
+    quiet : bool
+        No progress bar or messages.
+
+    Returns
+    -------
+    RolloutResult
     """
     from .metrics import distributed_errors, end_effector_errors
     from .regressor import EulerLagrangeRegressor
@@ -412,91 +511,3 @@ def rollout(
         metrics["plot"] = str(rollout_figure(folder / "rollout.png", t, sim.q, poses, true_poses,
                                              sim.kinematics.strain_names(active_only=False)))
     return RolloutResult(sim, poses, s, metrics)
-
-
-# Compiles (or loads from numba's cache) the rollout kernels of a two-segment model in a separate
-# process during the single-threaded simulation, so that a cold start compiles them on the idle core.
-_ROLLOUT_WARMUP = """
-import numpy as np
-from pcs_sindy.forward import LumpedPCSModel
-from pcs_sindy.kinematics import PlanarPCS
-model = LumpedPCSModel(PlanarPCS((0.07, 0.1)), [1.0, 1.0], [1e-4, 1e-4], [[0.0, 10.0], [0.0, 10.0]],
-                       np.ones(6), 0.1 * np.ones(6))
-model.simulate(np.zeros(6), np.zeros(6), np.arange(3) * 1e-3, np.zeros((3, 6)))
-"""
-
-
-def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None = None, quick: bool = False,
-         n_jobs: int = 2, quiet: bool = False) -> Path:
-    """The whole pipeline on two_segment from rendered videos, with a report in ``out/report``; returns report.md.
-
-    Every estimator has its default settings (:func:`make_pcs_pipeline`), except
-    the fusion's measured rest length and ``threshold``; ``quick``: 2 short
-    recordings and a 1 s validation (a smoke test).
-    """
-    import subprocess
-
-    from .report import DEMO_MARKER_SIZE, DEMO_SIZE, demo_report, write_report_md
-
-    try:
-        warmup = subprocess.Popen([sys.executable, "-c", _ROLLOUT_WARMUP], stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
-    except OSError:  # an optimisation only
-        warmup = None
-    out = files.output_dir(out)
-    clock: dict[str, float] = {}
-    load_start = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    marks = [time.perf_counter()]
-
-    def tick(name: str) -> None:
-        marks.append(time.perf_counter())
-        clock[name] = round(marks[-1] - marks[-2], 1)
-        _say(quiet, f"[demo] {name}: {clock[name]} s")
-
-    try:
-        paths = simulate("two_segment", out / "data", seed=seed, n_train=2 if quick else None,
-                         train_duration=0.2 if quick else None, validation_duration=1.0 if quick else None, quiet=quiet)
-        train, val = paths[:-1], paths[-1]
-        tick("simulate")
-        videos = render(train, out / "videos", size=DEMO_SIZE, marker_size=DEMO_MARKER_SIZE, n_jobs=n_jobs,
-                        quiet=quiet)
-        tick("render")
-        pose_files = extract(videos, out / "poses", n_jobs=n_jobs, quiet=quiet)
-        tick("extract")
-        # The rest length is what a user measures with a ruler; estimated from the videos of a robot hanging
-        # under its weight it reads ~1 % long (gravity stretch), which biases the fused lengths and the model.
-        rest_length = float(sum(json.loads((out / "data" / "scenario.json").read_text())["segment_lengths"]))
-        fusion, _, pose_trajs = fuse(pose_files, out / "strains", threshold=threshold, total_length=rest_length,
-                                     quiet=quiet)
-        tick("fuse")
-        model = fit([out / "strains" / (p.stem + ".npz") for p in pose_files], train, out / "model" / "model.json",
-                    quiet=quiet)
-        tick("fit")
-        if warmup is not None:
-            try:  # never write numba's cache from two processes at once
-                warmup.wait(timeout=120)
-            except subprocess.TimeoutExpired:
-                warmup.kill()
-        roll = rollout(model, val, out / "rollout", truth=val, plot=False, quiet=quiet)
-        tick("rollout")
-        start = marks[-1]
-        report = demo_report(out / "report", fusion=fusion, model=model, sim=roll.sim, poses=roll.poses,
-                             train_files=train, validation_file=val, pose_trajectories=pose_trajs,
-                             progress=not quiet, tick=tick)
-        clock["report"] = round(time.perf_counter() - start, 1)
-    finally:
-        if warmup is not None and warmup.poll() is None:
-            warmup.kill()
-            warmup.wait()
-    clock["total"] = round(time.perf_counter() - marks[0], 1)
-    load_end = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    p = model.get_params()
-    identification = (f"identification with EulerLagrangeRegressor()'s defaults ({type(model.library_).__name__}, "
-                      f"{p['formulation']} form, Savitzky-Golay {p['window_length']}/{p['polyorder']})")
-    integration = f"{roll.metrics['method']}, rtol {p['rtol']:g}, atol {p['atol']:g}"
-    machine = (f"{os.cpu_count()} cores; 1-minute load average {load_start:.1f} at the start, {load_end:.1f} at the "
-               "end (other jobs slow every stage)")
-    path = write_report_md(report, clock, seed=seed, quick=quick, identification=identification,
-                           integration=integration, machine=machine)
-    print(f"demo report: {path} (total {clock['total']} s)")
-    return path
