@@ -9,7 +9,7 @@ The only example that starts from images, as a user with a camera would:
    with the camera calibration written next to each video as JSON;
 3. ``make_pcs_pipeline`` chains ``MarkerPoseExtractor`` (OpenCV: threshold,
    contours, sub-pixel marker poses, read in metres through the camera JSON),
-   ``KinematicFusion`` and ``EulerLagrangeRegressor(basis="physical")``;
+   ``KinematicFusion`` and ``EulerLagrangeRegressor()``;
    ``pipe.fit(videos, taus)`` runs all three;
 4. ``pipe.simulate_poses`` rolls the model out under the validation forces
    and returns marker poses, compared with the simulator's truth.
@@ -48,7 +48,8 @@ with tempfile.TemporaryDirectory() as folder:
         extractor=MarkerPoseExtractor(progress=False),
         # sub-pixel extraction: a few hundredths of a millimetre, a few tenths of a degree
         fusion=KinematicFusion(threshold=0.2, total_length=total_length, pose_std=(2.5e-5, 6e-3)),
-        regressor=EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=15),
+        # the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window
+        regressor=EulerLagrangeRegressor(window_length=15),
     )
     pipe.fit(videos, [rec.tau for rec in data.train])
 
@@ -58,7 +59,7 @@ print("stiffness, identified / true:", np.round(pipe.model_.stiffness_ / scenari
 
 val = data.validation
 n = pipe.model_.kinematics_.n_q
-poses = pipe.simulate_poses(np.zeros(n), np.zeros(n), val.tau, val.t).poses
+poses = pipe.simulate_poses(np.zeros(n), np.zeros(n), val.t, val.tau).poses
 e_p, e_theta = end_effector_errors(poses[:, -1:], val.poses_true[:, -1:])
 d_p, d_theta = distributed_errors(poses[:, 1:], val.poses_true[:, 1:])
 print(f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad; "

@@ -7,9 +7,9 @@ Shows the whole identification chain on the simplest robot:
    seed's measurement noise on the 20 tracked cross-sections (0.5 mm, 1°);
 2. ``KinematicFusion`` finds the segmentation (one segment of 0.1 m) and the
    strains from the noisy poses;
-3. ``EulerLagrangeRegressor(basis="physical")`` identifies density, rotary
-   inertia, stiffness and damping (weak form: no second derivative of noisy
-   strains is needed);
+3. ``EulerLagrangeRegressor()`` (physical library, weak form) identifies
+   density, rotary inertia, stiffness, damping and a constant force per
+   strain (weak form: no second derivative of noisy strains is needed);
 4. the model is rolled out from rest under the validation forces and its tip
    compared with the simulator's noise-free truth (seed eq. 25-26).
 
@@ -35,14 +35,15 @@ strains = fusion.transform(poses)
 print(f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.segment_lengths_, 4)} m "
       f"(true {list(scenario.robot.kinematics.segment_lengths)})")
 
-model = EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=15)
+# the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window for the rates
+model = EulerLagrangeRegressor(window_length=15)
 model.fit(strains, [rec.tau for rec in data.train])
 model.print(precision=3)
 print("stiffness, identified / true:", np.round(model.stiffness_ / scenario.robot.stiffness, 3))
 
 val = data.validation
 n = model.kinematics_.n_q
-sim = model.simulate(np.zeros(n), np.zeros(n), val.tau, val.t)
+sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau)
 tip = sim.poses(np.array([fusion.segment_lengths_.sum()]))
 e_p, e_theta = end_effector_errors(tip, val.poses_true[:, -1:, :])
 print(f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad "

@@ -27,7 +27,8 @@ def main() -> None:
     data = scenario.generate(seed=0, validation=False)
     recs = data.train
     qdd = [robot.forward_dynamics(r.q, r.qd, r.tau) for r in recs]
-    lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
+    # the simulated robot is straight at rest: no constant forces (rest strains) to identify
+    lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity, rest_strain=False)
 
     names = lib.kinematics.strain_names(active_only=True)
     states = names + [f"d{n}" for n in names] + [f"dd{n}" for n in names]  # x = [q, qd, qdd]
@@ -38,9 +39,10 @@ def main() -> None:
     print("pysindy.SINDy (stacked Euler-Lagrange form, tau = Psi(q, qd, qdd) pi):")
     model.print(lhs=["tau"], precision=6)
 
-    # the package's own estimator on the same data and library
+    # the package's own estimator on the same data and library, in the same (strong) form: tau = Psi pi per sample
     strains = [StrainTrajectory(r.q, r.t, segment_lengths=robot.segment_lengths) for r in recs]
-    reg = EulerLagrangeRegressor(library=lib).fit(strains, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
+    reg = EulerLagrangeRegressor(library=lib, formulation="strong")
+    reg.fit(strains, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
     print("\nEulerLagrangeRegressor:")
     reg.print(precision=6)
 

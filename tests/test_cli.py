@@ -17,7 +17,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcs_sindy.cli import CLIError, main
+from pcs_sindy.cli import CLIError, build_parser, command_kwargs, main
+from pcs_sindy.commands import build_regressor, extract, fit, fuse, pipeline_step, rollout
 from pcs_sindy.kinematics import PlanarPCS, wrap_angle
 
 COMMANDS = ["scenarios", "simulate", "render", "extract", "fuse", "fit", "rollout", "demo"]
@@ -171,7 +172,7 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
     from pcs_sindy.persistence import load
 
     plain, default = load(rs_model), load(model)
-    assert plain.library.rest_strain is False and default.library.rest_strain is True
+    assert plain.library_.rest_strain is False and default.library_.rest_strain is True
     assert default.rest_strain_.shape == (3,) and np.all(plain.rest_strain_ == 0)
     assert plain.stiffness_[0] == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
 
@@ -181,6 +182,121 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
         assert roll["poses"].shape == (100, 6, 3)
         np.testing.assert_allclose(roll["q"][0], 0.0)  # from rest by default
     assert not (bare / "metrics.json").exists() and (bare / "rollout.png").is_file()
+
+
+def _fitted(work) -> tuple[list[str], list[str], Path]:
+    """Training recordings, their strain files and the model file of the module's data (made once)."""
+    recs = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
+    strains = [str(work / "strains" / f"train_0{k}.npz") for k in range(2)]
+    if not Path(strains[0]).exists():
+        assert main(["fuse", *recs, "--out", str(work / "strains"), "--total-length", "0.1", "--quiet"]) == 0
+    model = work / "model" / "model.json"
+    if not model.exists():
+        assert main(["fit", *strains, "--tau", *recs, "--out", str(model), "--quiet"]) == 0
+    return recs, strains, model
+
+
+def test_commands_are_python_functions(work, tmp_path):
+    recs, strains, _ = _fitted(work)
+    from pcs_sindy.persistence import load
+
+    model = fit(strains, recs, tmp_path / "m.json", window_length=15, rest_strain=False, quiet=True)
+    assert model.window_length == 15 and model.library_.rest_strain is False
+    saved = load(tmp_path / "m.json")
+    np.testing.assert_array_equal(saved.coef_, model.coef_)
+    result = rollout(model, recs[0], tmp_path / "roll", truth=recs[0], plot=False, quiet=True)
+    with np.load(recs[0]) as rec:
+        tip_err = np.linalg.norm(result.poses[:, -1, :2] - rec["poses_true"][:, -1, :2], axis=-1).mean()
+    assert result.metrics["e_p_ee"] == pytest.approx(tip_err, rel=1e-12)
+    assert not (tmp_path / "roll" / "rollout.png").exists()
+
+
+# --------------------------------------------------------------------------
+# one source of defaults: the estimators'
+# --------------------------------------------------------------------------
+def test_fit_without_options_builds_the_default_regressor():
+    from pcs_sindy.optimizers import StiffnessThresholdOptimizer
+    from pcs_sindy.regressor import EulerLagrangeRegressor
+
+    args = build_parser().parse_args(["fit", "s.npz", "--tau", "t.npz", "--out", "m.json"])
+    got = build_regressor(**command_kwargs(build_regressor, args)).get_params(deep=False)
+    want = EulerLagrangeRegressor().get_params(deep=False)
+    # the default optimizer (None) is StiffnessThresholdOptimizer(); the pipeline makes it explicit
+    assert want.pop("optimizer") is None
+    assert got.pop("optimizer").get_params() == StiffnessThresholdOptimizer().get_params()
+    assert got == want
+
+
+@pytest.mark.parametrize("argv, step, estimator", [
+    (["fuse", "p.npz", "--out", "o"], "segments", "pcs_sindy.segmentation.KinematicFusion"),
+    (["extract", "v.avi", "--out", "o"], "poses", "pcs_sindy.vision.MarkerPoseExtractor"),
+    (["fit", "s.npz", "--tau", "t.npz", "--out", "m"], "dynamics", "pcs_sindy.regressor.EulerLagrangeRegressor"),
+])
+def test_options_left_out_are_the_estimators_defaults(argv, step, estimator):
+    import importlib
+
+    module, name = estimator.rsplit(".", 1)
+    default = getattr(importlib.import_module(module), name)().get_params(deep=False)
+    args = vars(build_parser().parse_args(argv))
+    # n_jobs of 'extract'/'render' is the command's own parallelism over files
+    shared = {k: args[k] for k in args if k in default and not (k == "n_jobs" and step == "poses")}
+    assert shared, "the command has options of the estimator"
+    assert all(v is None for v in shared.values()), shared  # never a re-typed default
+    built = pipeline_step(step, **shared).get_params(deep=False)
+    assert {k: v for k, v in built.items() if k != "optimizer"} == {k: v for k, v in default.items() if k != "optimizer"}
+
+
+def test_fit_options_reach_the_regressor_library_and_optimizer():
+    from pcs_sindy.library import PhysicalPCSLibrary
+
+    args = build_parser().parse_args([
+        "fit", "s.npz", "--tau", "t.npz", "--out", "m", "--formulation", "strong", "--window-length", "15",
+        "--exclude-force-jumps", "--no-rest-strain", "--rotary-inertia", "tied", "--stiffness-threshold", "inf"])
+    reg = build_regressor(**command_kwargs(build_regressor, args))
+    assert (reg.formulation, reg.window_length, reg.exclude_force_jumps) == ("strong", 15, True)
+    assert reg.library.get_params() == PhysicalPCSLibrary(rest_strain=False, rotary_inertia="tied").get_params()
+    assert reg.optimizer.threshold == np.inf
+    seed = build_parser().parse_args(["fit", "s.npz", "--tau", "t.npz", "--out", "m", "--basis", "monomial"])
+    assert build_regressor(**command_kwargs(build_regressor, seed)).library == "monomial"  # former option name
+    with pytest.raises(CLIError, match="--rest-strain"):
+        build_regressor(library="monomial", rest_strain=True)
+
+
+def test_help_prints_the_estimators_defaults(capsys):
+    from pcs_sindy.segmentation import KinematicFusion
+
+    with pytest.raises(SystemExit):
+        main(["fuse", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"merge threshold h (default {KinematicFusion().threshold:g})" in out
+    assert f"(default {KinematicFusion().shape_fit})" in out
+
+
+def test_rollout_method_and_tolerances_default_to_the_models(work, tmp_path, monkeypatch):
+    from pcs_sindy.persistence import load
+
+    recs, strains, model_file = _fitted(work)
+    out = tmp_path / "default"
+    assert main(["rollout", str(model_file), "--tau", recs[0], "--initial", strains[0], "--out", str(out),
+                 "--no-plot", "--quiet"]) == 0
+    model = load(model_file)
+    with np.load(recs[0]) as rec, np.load(strains[0]) as st, np.load(out / "rollout.npz") as roll:
+        direct = model.simulate(st["q"][0], np.zeros(3), rec["t"], rec["tau"])  # the model's own defaults
+        np.testing.assert_array_equal(roll["q"], direct.q)
+    assert main(["rollout", str(model_file), "--tau", recs[0], "--truth", recs[0], "--out", str(tmp_path / "d5"),
+                 "--method", "dopri5", "--rtol", "1e-6", "--no-plot", "--quiet"]) == 0
+    metrics = json.loads((tmp_path / "d5" / "metrics.json").read_text())
+    assert metrics["method"] == "dopri5"
+    with np.load(tmp_path / "d5" / "rollout.npz") as roll, np.load(recs[0]) as rec:
+        direct = model.simulate(np.zeros(3), np.zeros(3), rec["t"], rec["tau"], method="dopri5", rtol=1e-6)
+        np.testing.assert_array_equal(roll["q"], direct.q)
+
+    class OnlyRadau:
+        methods, default_method = ("radau",), "radau"
+
+    monkeypatch.setattr(model, "forward_model", lambda: OnlyRadau())
+    with pytest.raises(CLIError, match=r"supports \['radau'\]"):
+        rollout(model, recs[0], tmp_path / "x", method="rosenbrock", quiet=True)
 
 
 # --------------------------------------------------------------------------
@@ -196,7 +312,6 @@ def test_failures_are_one_line_without_traceback(work, tmp_path, capsys):
 
     assert "nope.npz" in _fail(capsys, ["fuse", missing, "--out", out])
     assert "'poses'" in _fail(capsys, ["fuse", str(tmp_path / "wrong.npz"), "--out", out])
-    assert "threshold" in _fail(capsys, ["fuse", rec, "--out", out, "--threshold", "-1"])
     assert "cannot read" in _fail(capsys, ["render", str(tmp_path / "text.npz"), "--out", out])
     assert "does not exist" in _fail(capsys, ["extract", str(tmp_path / "nope.avi"), "--out", out])
     assert "unknown" in _fail(capsys, ["simulate", "no_such_robot", "--out", out]).lower()
@@ -209,16 +324,22 @@ def test_failures_are_one_line_without_traceback(work, tmp_path, capsys):
     assert "model file" in _fail(capsys, ["rollout", str(tmp_path / "text.npz"), "--tau", rec, "--out", out])
 
 
-def test_usage_errors_are_one_line(capsys):
+@pytest.mark.parametrize("argv, option", [
+    (["render", "x.npz", "--out", "o", "--n-jobs", "0"], "--n-jobs"),
+    (["fuse", "x.npz", "--out", "o", "--threshold", "-1"], "--threshold"),
+    (["fit", "x.npz", "--tau", "t.npz", "--out", "m", "--window-length", "two"], "--window-length"),
+    (["rollout", "m.json", "--tau", "t.npz", "--out", "o", "--method", "euler"], "--method"),
+])
+def test_usage_errors_are_one_line(argv, option, capsys):
     with pytest.raises(SystemExit) as exc:
-        main(["render", "x.npz", "--out", "o", "--n-jobs", "0"])
+        main(argv)
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert len(err) == 1 and "--n-jobs" in err[0]
+    assert len(err) == 1 and option in err[0]
 
 
 def test_debug_reraises(tmp_path):
-    with pytest.raises(CLIError, match="does not exist"):
+    with pytest.raises(FileNotFoundError, match="does not exist"):
         main(["--debug", "fuse", str(tmp_path / "nope.npz"), "--out", str(tmp_path)])
 
 
