@@ -11,6 +11,7 @@ known in closed form.
 from __future__ import annotations
 
 import numpy as np
+import pysindy as ps
 import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
@@ -174,7 +175,6 @@ def test_set_params_returns_self_and_clone_round_trip():
 
 
 def test_plain_mode_inside_pysindy():
-    ps = pytest.importorskip("pysindy")
     t = np.linspace(0, 10, 2001)
     x = np.c_[np.cos(t), -np.sin(t)]  # x0' = x1, x1' = -x0
     model = ps.SINDy(optimizer=StiffnessThresholdOptimizer(), feature_library=ps.PolynomialLibrary(degree=1))

@@ -16,6 +16,7 @@ import pathlib
 import pickle
 
 import numpy as np
+import pysindy as ps
 import pytest
 from sklearn.pipeline import Pipeline
 
@@ -201,7 +202,8 @@ def test_pipeline_round_trip(poses_two, tmp_path):
 
 
 def test_pcs_pipeline_round_trip(poses_two, tmp_path):
-    pipeline = pytest.importorskip("pcs_sindy.pipeline", reason="pcs_sindy.pipeline not written yet")
+    from pcs_sindy import pipeline
+
     d = get_scenario("two_segment").generate(seed=0)
     taus = [r.tau[:150] for r in d.train[:2]]
     pipe = pipeline.make_pcs_pipeline(
@@ -478,7 +480,6 @@ def test_deeply_nested_or_oversized_json_is_refused(saved):
 
 
 def test_differentiation_object_round_trip(one_segment, tmp_path):
-    ps = pytest.importorskip("pysindy")
     X, tau, _, _, _ = one_segment
     model = EulerLagrangeRegressor(basis="physical", differentiation_method=ps.FiniteDifference(order=2))
     model.fit(X, tau)

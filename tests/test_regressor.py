@@ -217,7 +217,6 @@ def _pcs_states(n_samples, n_seg, rng, shear=0.2):
 
 
 def _robot(name):
-    pytest.importorskip("pcs_sindy.library")
     from pcs_sindy.simulation import get_scenario
 
     return get_scenario(name).robot

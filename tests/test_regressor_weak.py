@@ -14,9 +14,8 @@ from pcs_sindy.optimizers import StiffnessThresholdOptimizer
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.trajectory import StrainTrajectory
 
-pytest.importorskip("pcs_sindy.library")
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.simulation import get_scenario  # noqa: E402
+from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
+from pcs_sindy.simulation import get_scenario
 
 WEAK = dict(basis="physical", formulation="weak", weak_window=40, weak_stride=20, window_length=7)
 

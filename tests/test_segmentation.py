@@ -386,7 +386,7 @@ def test_fit_transform_and_strains_without_metadata():
 
 
 def test_extraction_and_fusion_on_a_rendered_two_segment_video():
-    vision = pytest.importorskip("pcs_sindy.vision")
+    from pcs_sindy import vision
     from pcs_sindy.camera import Camera
     from pcs_sindy.simulation.rendering import render_frames
 
