@@ -31,8 +31,6 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.integrators import DivergenceError  # noqa: E402
 from pcs_sindy.metrics import end_effector_errors  # noqa: E402
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
@@ -41,6 +39,8 @@ from pcs_sindy.segmentation import fit_strains_least_squares  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
 
+from _results import write_section  # noqa: E402
+
 # (scenario, removal) -> seed's e_p^EE [mm], e_theta^EE [rad] for (no noise, noise)
 SEED = {
     ("one_segment", True): ((4.89, 0.113), (13.7, 0.307)),
@@ -48,8 +48,15 @@ SEED = {
     ("one_segment_stiff_shear", True): ((4.57, 0.099), None),
     ("one_segment_stiff_shear", False): ((5.14, 0.116), None),
 }
-CASES = [("one_segment", True), ("two_segment", True), ("one_segment_stiff_shear", True), ("one_segment_stiff_shear", False)]
-CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "dynamic_identification_rows.json"
+CASES = [
+    ("one_segment", True),
+    ("two_segment", True),
+    ("one_segment_stiff_shear", True),
+    ("one_segment_stiff_shear", False),
+]
+CACHE = (
+    Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "dynamic_identification_rows.json"
+)
 
 
 def estimate_strains(scenario, rec, noise):
@@ -148,16 +155,18 @@ def _fmt(v, spec):
 def render(rows):
     lines = [
         "Strains from the tracked poses on the known segmentation (closed-form IK of the segment-end markers, "
-        "least-squares refined to all markers where a boundary lies between markers or with noise); "
-        "differentiation `sg25` = Savitzky–Golay 25/3 (the seed), `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose window "
-        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; `-physical` = the physical basis "
-        "(`basis=\"physical\"`: numeric `PhysicalPCSLibrary`, 8 unknowns per segment — line density, rotary inertia, 3 stiffnesses, "
-        "3 dampings — known gravity, bounded least squares) instead of the monomial one; `weak40-physical` = `formulation=\"weak\"`: "
-        "regression on bump-weighted integrals over windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, "
-        "held forces integrated exactly; seed bounds (12.6 N m², 168 N, 126 kN); rollout of the 7 s validation from rest, "
-        "adaptive Dormand–Prince 5(4) (rtol 1e-6), tip pose vs. noise-free truth.",
+        "least-squares refined to all markers where a boundary lies between markers or with noise); differentiation "
+        "`sg25` = Savitzky–Golay 25/3 (the seed), `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose window "
+        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; "
+        '`-physical` = the physical basis (`basis="physical"`: numeric `PhysicalPCSLibrary`, 8 unknowns per segment — '
+        "line density, rotary inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of "
+        'the monomial one; `weak40-physical` = `formulation="weak"`: regression on bump-weighted integrals over '
+        "windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, held forces integrated exactly; "
+        "seed bounds (12.6 N m², 168 N, 126 kN); rollout of the 7 s validation from rest, adaptive Dormand–Prince 5(4) "
+        "(rtol 1e-6), tip pose vs. noise-free truth.",
         "",
-        "| case | noise | removal | differentiation | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | seed e_θ^EE | basis (full → final) | fit [s] | rollout [s] (× real time) | M not PD |",
+        "| case | noise | removal | differentiation | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | "
+        "seed e_θ^EE | basis (full → final) | fit [s] | rollout [s] (× real time) | M not PD |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -168,13 +177,16 @@ def render(rows):
         status = _fmt(e_p, ".3g") if r["diverged"] is None else "diverged"
         rollout = "–" if speed is None else f"{r['rollout_time']:.1f} ({speed:.2f}×)"
         lines.append(
-            f"| {r['case']} | {r['noise']} | {'yes' if r['removal'] else 'no'} | {r['config']} | {', '.join(r['removed']) or '–'} | "
-            f"{status} | {_fmt(r['e_theta'], '.3g')} | {_fmt(None if sv is None else sv[0], '.3g')} | "
-            f"{_fmt(None if sv is None else sv[1], '.3g')} | {r['n_basis_full']} → {r['n_basis_final']} | "
-            f"{r['fit_time']:.2f} | {rollout} | {r['not_pd']:.1%} |"
+            f"| {r['case']} | {r['noise']} | {'yes' if r['removal'] else 'no'} | {r['config']} | "
+            f"{', '.join(r['removed']) or '–'} | {status} | {_fmt(r['e_theta'], '.3g')} | "
+            f"{_fmt(None if sv is None else sv[0], '.3g')} | {_fmt(None if sv is None else sv[1], '.3g')} | "
+            f"{r['n_basis_full']} → {r['n_basis_final']} | {r['fit_time']:.2f} | {rollout} | {r['not_pd']:.1%} |"
         )
     lines += ["", "Identified vs. true stiffness (per strain be, sh, ax of each segment; ∞ = removed as rigid):", ""]
-    lines += ["| case | noise | removal | differentiation | true K | identified K | relative error |", "|---|---|---|---|---|---|---|"]
+    lines += [
+        "| case | noise | removal | differentiation | true K | identified K | relative error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         kt, kh = np.array(r["k_true"]), np.array(r["k_hat"])
         rel = np.where(np.isfinite(kh), kh / kt - 1, np.inf)
@@ -206,7 +218,9 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="*", default=[c for c, _ in CASES])
     parser.add_argument("--noise", nargs="*", default=["none", "seed"], choices=["none", "seed"])
     parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS))
-    parser.add_argument("--simulator-method", default=None, help="integrator of the ground-truth data (e.g. LSODA for stiff robots)")
+    parser.add_argument(
+        "--simulator-method", default=None, help="integrator of the ground-truth data (e.g. LSODA for stiff robots)"
+    )
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     rows = json.loads(CACHE.read_text()) if CACHE.exists() else []

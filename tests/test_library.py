@@ -18,8 +18,7 @@ from scipy.integrate import quad
 from sklearn.base import clone
 
 from pcs_sindy.kinematics import cosc, cosc_prime, sinc, sinc_prime
-from pcs_sindy.library import PCSLagrangianLibrary
-from pcs_sindy.library import codegen
+from pcs_sindy.library import PCSLagrangianLibrary, codegen
 from pcs_sindy.library.special import SERIES_RADIUS, SpecialBank, register_backbone_functions, special
 from pcs_sindy.simulation.dynamics import PCSRobot
 
@@ -211,7 +210,9 @@ def test_basis_sizes_one_segment(cache_dir):
 
 
 # ---------------------------------------------------------------- fast dynamics
-@pytest.mark.parametrize("case,mask", [(ONE, None), (ONE, [[1, 0, 1]]), (TWO, None)], ids=["1seg", "1seg-noshear", "2seg"])
+@pytest.mark.parametrize(
+    "case,mask", [(ONE, None), (ONE, [[1, 0, 1]]), (TWO, None)], ids=["1seg", "1seg-noshear", "2seg"]
+)
 def test_compile_dynamics_matches_batched_and_simulator(case, mask, cache_dir):
     lib = PCSLagrangianLibrary(case["lengths"], active_strains=mask, cache_dir=cache_dir)
     coef = true_coef(lib, case)
@@ -272,7 +273,9 @@ def test_cache_roundtrip_and_tamper_detection(tmp_path):
     assert not third.from_cache and third.source == first.source
     # text with a consistent hash but not of the generated shape is refused too (never executed)
     data = json.loads(path.read_text())
-    data["source"] = data["source"].replace("def psi(q, qd, qdd, L):", f"def psi(q, qd, qdd, L):\n    open({str(tmp_path / 'x')!r}, 'w')")
+    data["source"] = data["source"].replace(
+        "def psi(q, qd, qdd, L):", f"def psi(q, qd, qdd, L):\n    open({str(tmp_path / 'x')!r}, 'w')"
+    )
     data["sha256"] = hashlib.sha256(data["source"].encode()).hexdigest()
     path.write_text(json.dumps(data))
     fourth = codegen.build_basis(1, cache_dir=tmp_path)
@@ -283,7 +286,9 @@ def test_cache_roundtrip_and_tamper_detection(tmp_path):
 # ---------------------------------------------------------------- bad input
 def test_bad_input_raises_value_error_naming_the_argument(cache_dir):
     with pytest.raises(ValueError, match="segment_lengths"):
-        PCSLagrangianLibrary([0.1, -0.2], cache_dir=cache_dir).euler_lagrange_matrix(np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6)))
+        PCSLagrangianLibrary([0.1, -0.2], cache_dir=cache_dir).euler_lagrange_matrix(
+            np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6))
+        )
     with pytest.raises(ValueError, match="basis"):
         PCSLagrangianLibrary([0.1], basis="fourier", cache_dir=cache_dir).n_coefficients_
     with pytest.raises(ValueError, match="active_strains"):

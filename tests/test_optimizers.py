@@ -17,6 +17,7 @@ from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer, scaled_lstsq, stiffness_bounds
+
 from toy_library import ToyLibrary
 
 # truth: masses, stiffnesses k (coef -k/2), coupling, damping
@@ -133,7 +134,9 @@ def test_plain_mode_matches_numpy_lstsq():
     w = rng.uniform(0.5, 2.0, size=200)
     opt_w = StiffnessThresholdOptimizer().fit(x, y[:, 0], sample_weight=w)
     sw = np.sqrt(w)
-    np.testing.assert_allclose(opt_w.coef_[0], np.linalg.lstsq(x * sw[:, None], y[:, 0] * sw, rcond=None)[0], rtol=1e-10)
+    np.testing.assert_allclose(
+        opt_w.coef_[0], np.linalg.lstsq(x * sw[:, None], y[:, 0] * sw, rcond=None)[0], rtol=1e-10
+    )
 
 
 def test_rank_deficient_and_bad_input_raise():

@@ -22,10 +22,10 @@ from sklearn.pipeline import Pipeline
 
 from pcs_sindy.persistence import FORMAT_NAME, FORMAT_VERSION, PersistenceMixin, load, save
 from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.vision import MarkerPoseExtractor
 from pcs_sindy.segmentation import KinematicFusion
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory
+from pcs_sindy.vision import MarkerPoseExtractor
 
 N_SAMPLES = 200
 
@@ -63,7 +63,9 @@ def fusion(poses_two):
 @pytest.fixture(scope="module")
 def regressors(one_segment):
     X, tau, qd, qdd, _ = one_segment
-    return {basis: EulerLagrangeRegressor(basis=basis).fit(X, tau, qd=qd, qdd=qdd) for basis in ("physical", "monomial")}
+    return {
+        basis: EulerLagrangeRegressor(basis=basis).fit(X, tau, qd=qd, qdd=qdd) for basis in ("physical", "monomial")
+    }
 
 
 @pytest.fixture()
@@ -83,7 +85,7 @@ def _same(a, b) -> bool:
     if type(a) is not type(b):
         return False
     if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
     if isinstance(a, dict):
         return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
     if isinstance(a, (float, np.floating)) and math.isnan(a):
@@ -134,10 +136,10 @@ def test_fusion_round_trip_bit_exact(fusion, poses_two, tmp_path):
                 "total_length_", "n_segments_", "n_markers_", "history_"):
         assert _same(getattr(loaded, key), getattr(fusion, key)), key
     a, b = fusion.transform(poses_two), loaded.transform(poses_two)
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert np.array_equal(x.q, y.q) and x.segment_lengths == y.segment_lengths
     ra, rb = fusion.inverse_transform(a), loaded.inverse_transform(b)
-    assert all(np.array_equal(x.poses, y.poses) for x, y in zip(ra, rb))
+    assert all(np.array_equal(x.poses, y.poses) for x, y in zip(ra, rb, strict=True))
 
 
 @pytest.mark.parametrize("basis", ["physical", "monomial"])
@@ -155,7 +157,7 @@ def test_regressor_round_trip_bit_exact(basis, regressors, one_segment, tmp_path
     assert loaded.library_ is loaded.optimizer_.library_
     assert (loaded.full_library_ is loaded.library_) == (model.full_library_ is model.library_)
     pa, pb = model.predict(X, qd=qd, qdd=qdd), loaded.predict(X, qd=qd, qdd=qdd)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     q = recs[0].q[:50]
     assert np.array_equal(model.mass_matrix(q), loaded.mass_matrix(q))
     r = recs[1]
@@ -177,7 +179,7 @@ def test_regressor_with_strain_removal_round_trip(tmp_path):
     assert loaded.full_library_ is not loaded.library_
     assert _same(loaded.optimizer_.history_, model.optimizer_.history_)
     pa, pb = model.predict(X, qd=qd, qdd=qdd), loaded.predict(X, qd=qd, qdd=qdd)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     r = recs[0]
     sa = model.simulate(r.q[0], r.qd[0], r.tau[:30], r.t[:30])
     sb = loaded.simulate(r.q[0], r.qd[0], r.tau[:30], r.t[:30])
@@ -196,9 +198,9 @@ def test_pipeline_round_trip(poses_two, tmp_path):
     assert type(loaded) is Pipeline and [n for n, _ in loaded.steps] == ["segments", "dynamics"]
     assert _same(loaded.get_params(deep=False)["steps"], pipe.get_params(deep=False)["steps"])
     pa, pb = pipe.predict(poses_two), loaded.predict(poses_two)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     ta, tb = pipe[:-1].transform(poses_two), loaded[:-1].transform(poses_two)
-    assert all(np.array_equal(a.q, b.q) for a, b in zip(ta, tb))
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(ta, tb, strict=True))
 
 
 def test_pcs_pipeline_round_trip(poses_two, tmp_path):
@@ -215,7 +217,7 @@ def test_pcs_pipeline_round_trip(poses_two, tmp_path):
     loaded = pipeline.PCSPipeline.load(pipe.save(tmp_path / "pcs_pipe"))
     assert type(loaded) is pipeline.PCSPipeline
     pa, pb = pipe.predict(poses_two), loaded.predict(poses_two)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     assert np.array_equal(loaded.segment_lengths_, pipe.segment_lengths_)
     r = d.train[0]
     q0, qd0 = pipe.initial_state(poses_two)
@@ -420,7 +422,9 @@ def test_wrong_params_are_refused(field, value, match, saved):
         load(saved)
 
 
-@pytest.mark.parametrize("key", ["__class__", "__dict__", "fit", "transform", "_private_", "threshold", "segment lengths_"])
+@pytest.mark.parametrize(
+    "key", ["__class__", "__dict__", "fit", "transform", "_private_", "threshold", "segment lengths_"]
+)
 def test_state_cannot_reach_methods_or_dunders(key, saved):
     doc = _doc(saved)
     doc["object"]["state"][key] = 1
@@ -436,7 +440,9 @@ def test_regressor_params_are_validated(regressors, tmp_path):
         original = doc["object"]["params"][field]
         doc["object"]["params"][field] = value
         _write_doc(path, doc)
-        with pytest.raises(ValueError, match=rf"(invalid parameters|parameter {field} must).*{field}|parameter {field} must"):
+        with pytest.raises(
+            ValueError, match=rf"(invalid parameters|parameter {field} must).*{field}|parameter {field} must"
+        ):
             load(path)
         doc["object"]["params"][field] = original
         _write_doc(path, doc)
@@ -487,7 +493,7 @@ def test_differentiation_object_round_trip(one_segment, tmp_path):
     assert type(loaded.differentiation_method) is ps.FiniteDifference
     assert loaded.differentiation_method.get_params() == model.differentiation_method.get_params()
     pa, pb = model.predict(X), loaded.predict(X)  # derivatives from the restored differentiation object
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
 
 
 def test_round_trip_in_a_fresh_process(regressors, one_segment, tmp_path):

@@ -37,7 +37,14 @@ def test_columns_layout_and_strong_form():
     n = 6
     assert lib.n_coefficients_ == plain.n_coefficients_ + n
     names = lib.euler_lagrange_names()
-    assert [names[j] for j in lib.rest_force_index_] == ["f0_be_1", "f0_sh_1", "f0_ax_1", "f0_be_2", "f0_sh_2", "f0_ax_2"]
+    assert [names[j] for j in lib.rest_force_index_] == [
+        "f0_be_1",
+        "f0_sh_1",
+        "f0_ax_1",
+        "f0_be_2",
+        "f0_sh_2",
+        "f0_ax_2",
+    ]
     # damping stays last, the stiffness columns do not move
     np.testing.assert_array_equal(lib.damping_index_, np.arange(lib.n_coefficients_ - n, lib.n_coefficients_))
     np.testing.assert_array_equal(lib.stiffness_index_, plain.stiffness_index_)
@@ -83,7 +90,9 @@ def test_restrict_forces_compiled_dynamics_and_lagrangian():
     q, qd, _ = _states(6, 3)
     plain = PhysicalPCSLibrary(L)
     c_plain = np.delete(coef, lib.rest_force_index_)
-    np.testing.assert_allclose(lib.potential_forces(q, coef), plain.potential_forces(q, c_plain) - f0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        lib.potential_forces(q, coef), plain.potential_forces(q, c_plain) - f0, rtol=1e-12, atol=1e-12
+    )
     bias = lib.bias_forces(q, qd, coef)
     np.testing.assert_allclose(bias, plain.bias_forces(q, qd, c_plain) - f0, rtol=1e-12, atol=1e-12)
     dyn = lib.compile_dynamics(coef)
@@ -195,7 +204,9 @@ def test_wrong_rest_length_is_absorbed_by_the_axial_offset():
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model.fit(strains, [r.tau for r in data.train])
-        sim = model.simulate(np.zeros(6), np.zeros(6), val.tau[:k], val.t[:k], method="rosenbrock", rtol=3e-5, atol=3e-8)
+        sim = model.simulate(
+            np.zeros(6), np.zeros(6), val.tau[:k], val.t[:k], method="rosenbrock", rtol=3e-5, atol=3e-8
+        )
         tip = sim.poses(np.array([L_true * (1 + e)]))
         errors.append(end_effector_errors(tip, val.poses_true[:k, -1:, :])[0])
         models.append(model)

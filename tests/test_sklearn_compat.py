@@ -69,7 +69,11 @@ _DATA_CHECKS = [
     "check_positive_only_tag_during_fit",
     "check_readonly_memmap_input",
 ]
-_TRANSFORMER_CHECKS = ["check_transformer_data_not_an_array", "check_transformer_general", "check_transformer_preserve_dtypes"]
+_TRANSFORMER_CHECKS = [
+    "check_transformer_data_not_an_array",
+    "check_transformer_general",
+    "check_transformer_preserve_dtypes",
+]
 _REGRESSOR_CHECKS = [
     "check_regressor_data_not_an_array",
     "check_regressors_int",
@@ -119,11 +123,15 @@ def test_check_estimator_where_it_applies(name: str) -> None:
     failed = {r["check_name"] for r in results if r["status"] == "failed"}
     passed = {r["check_name"] for r in results if r["status"] == "passed"} - failed
     listed = NOT_APPLICABLE[name]
-    unexpected = {c: next(str(r["exception"])[:300] for r in results if r["check_name"] == c and r["status"] == "failed")
-                  for c in failed - set(listed)}
+    unexpected = {
+        c: next(str(r["exception"])[:300] for r in results if r["check_name"] == c and r["status"] == "failed")
+        for c in failed - set(listed)
+    }
     assert not unexpected, f"{name} fails checks that should apply: {unexpected}"
     firm = {c for c, why in listed.items() if not why.startswith(PENDING_PREFIX)}
-    assert not firm & passed, f"{name} now passes listed checks {sorted(firm & passed)}: remove them from NOT_APPLICABLE"
+    assert not firm & passed, (
+        f"{name} now passes listed checks {sorted(firm & passed)}: remove them from NOT_APPLICABLE"
+    )
     assert set(listed) <= {r["check_name"] for r in results}, f"check names listed for {name} that sklearn does not run"
     assert len(passed) >= 14  # the structural checks (params, clone, tags, repr, init) always apply
 
@@ -158,7 +166,7 @@ def _same(a, b) -> None:
     assert type(a) is type(b)
     if isinstance(a, list):
         assert len(a) == len(b)
-        for u, v in zip(a, b):
+        for u, v in zip(a, b, strict=True):
             _same(u, v)
     elif isinstance(a, np.ndarray):
         np.testing.assert_array_equal(a, b)
@@ -231,7 +239,9 @@ def test_extractor_invariants_on_frames() -> None:
     q = rng.uniform(-1, 1, (4, 6)) * np.array([15.0, 0.05, 0.05] * 2)
     q[0] = 0.0
     cam = Camera(1500.0, (80.0, 15.0), (160, 180))
-    videos = [render_frames(forward_kinematics(q[i : i + 2], lengths, s), cam, marker_size=(0.012, 0.004)) for i in range(3)]
+    videos = [
+        render_frames(forward_kinematics(q[i : i + 2], lengths, s), cam, marker_size=(0.012, 0.004)) for i in range(3)
+    ]
     ex = MarkerPoseExtractor(camera=cam, fps=100.0, progress=False)
     params = copy.deepcopy(ex.get_params())
     out = ex.fit_transform(videos)
