@@ -309,6 +309,7 @@ def _loaded_by(*modules):
     return ast.literal_eval(out.stdout.strip().splitlines()[-1])
 
 
+@pytest.mark.slow  # two fresh interpreters; the source check above is the fast one
 def test_importing_the_simulator_or_the_core_loads_no_other_side():
     sim = _loaded_by("pcs_sindy.simulation.dynamics", "pcs_sindy.simulation.scenarios")
     assert "pcs_sindy.simulation.dynamics" in sim

@@ -496,6 +496,7 @@ def test_differentiation_object_round_trip(one_segment, tmp_path):
     assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
 
 
+@pytest.mark.slow
 def test_round_trip_in_a_fresh_process(regressors, one_segment, tmp_path):
     """No in-process cache (compiled basis, kernels) may carry state the file lacks."""
     import subprocess

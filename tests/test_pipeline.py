@@ -201,6 +201,7 @@ def test_grid_search_by_recording_picks_two_segments(data) -> None:
     assert best.n_segments_ == 2 and best.active_strains_.all()
 
 
+@pytest.mark.slow
 def test_loky_n_jobs_2_matches_sequential(data) -> None:
     X, y, _ = _poses(data, 3, 60)
     reg = EulerLagrangeRegressor(basis="physical", formulation="weak", window_length=7, weak_window=20, weak_stride=5)
