@@ -39,8 +39,9 @@ def _spans(ax):
     """(start, end) in data x of the shaded bands, left to right."""
     out = []
     for p in ax.patches:
-        x0 = p.get_x()
-        out.append((x0, x0 + p.get_width()))
+        # axvspan draws a Polygon before matplotlib 3.9 and a Rectangle since: read either through its path
+        xs = p.get_patch_transform().transform(p.get_path().vertices)[:, 0]
+        out.append((float(xs.min()), float(xs.max())))
     return sorted(out)
 
 
