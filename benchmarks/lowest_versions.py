@@ -158,7 +158,7 @@ def main(argv: list[str] | None = None) -> int:
             "lowest_versions",
             "Lowest supported dependency versions",
             body,
-            "python benchmarks/lowest_versions.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+            " ".join(["python benchmarks/lowest_versions.py", *(argv if argv is not None else sys.argv[1:])]),
         )
     return 0 if outcome == "passed" else 1
 
