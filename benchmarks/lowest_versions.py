@@ -9,7 +9,8 @@ tree.  A dependency that needs a newer version than its bound says, or an
 install that cannot be resolved, therefore fails the run.
 
 The result (date, machine, installed versions, test summary) is written to the
-``lowest_versions`` section of docs/results.md unless ``--no-write``.
+``lowest_versions_py3.X`` section of docs/results.md (one per Python minor
+version) unless ``--no-write``.
 
 Needs network access to the package index.  ``make lowest-versions`` runs it.
 
@@ -83,6 +84,14 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--pytest-args", default='-m "not slow" -n 2 -q -p no:cacheprovider')
     args = parser.parse_args(argv)
 
+    try:
+        version = _run([args.python, "-c", "import platform; print(platform.python_version())"])
+    except OSError as err:
+        raise SystemExit(f"--python {args.python!r} does not run: {err}") from err
+    if version.returncode != 0:
+        raise SystemExit(f"--python {args.python!r} does not run: {version.stderr.strip()}")
+    python_version = "Python " + version.stdout.strip()
+
     bounds = lower_bounds(ROOT / "pyproject.toml")
     tmp = Path(tempfile.mkdtemp(prefix="pcs_sindy_lowest_"))
     venv, src = tmp / "venv", tmp / "src"
@@ -97,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
     constraints.write_text("".join(f"{name}=={version}.*\n" for name, version in bounds.items()))
     py = venv / "bin" / "python"
     t0 = time.perf_counter()
-    outcome, detail, versions, summary, python_version = "failed", "", {}, "", "?"
+    outcome, detail, versions, summary = "failed", "", {}, ""
     try:
         steps = [
             [args.python, "-m", "venv", str(venv)],
@@ -111,9 +120,6 @@ def main(argv: list[str] | None = None) -> int:
                 outcome = "install failed"
                 break
         else:
-            python_version = (
-                "Python " + _run([str(py), "-c", "import platform; print(platform.python_version())"]).stdout.strip()
-            )
             freeze = _run([str(py), "-m", "pip", "list", "--format=freeze"]).stdout
             versions = dict(line.split("==", 1) for line in freeze.splitlines() if "==" in line)
             versions = {k.lower(): v for k, v in versions.items()}
@@ -154,9 +160,10 @@ def main(argv: list[str] | None = None) -> int:
     )
     print(body)
     if not args.no_write:
+        short = python_version.split()[-1].rsplit(".", 1)[0]  # one section per Python minor version
         write_section(
-            "lowest_versions",
-            "Lowest supported dependency versions",
+            f"lowest_versions_py{short}",
+            f"Lowest supported dependency versions, Python {short}",
             body,
             " ".join(["python benchmarks/lowest_versions.py", *(argv if argv is not None else sys.argv[1:])]),
         )
