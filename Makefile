@@ -4,7 +4,7 @@ VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 
-.PHONY: test demo bench docs install clean
+.PHONY: test test-fast lint demo bench docs install clean lowest-versions
 
 $(PY):
 	$(PYTHON) -m venv $(VENV)
@@ -18,6 +18,17 @@ install: $(STAMP)
 
 test: $(STAMP)
 	$(PY) -m pytest -n 2 -q
+
+# everything but the tests marked slow (pyproject.toml [tool.pytest.ini_options] markers)
+test-fast: $(STAMP)
+	$(PY) -m pytest -n 2 -q -m "not slow"
+
+lint: $(STAMP)
+	$(VENV)/bin/ruff check .
+
+# installs every dependency at its lower bound in a temporary venv and runs the fast tests (needs PyPI)
+lowest-versions:
+	$(PYTHON) benchmarks/lowest_versions.py
 
 demo: $(STAMP)
 	$(VENV)/bin/pcs-sindy demo

@@ -14,7 +14,10 @@ import re
 from pathlib import Path
 
 RESULTS = Path(__file__).resolve().parents[1] / "docs" / "results.md"
-_HEADER = "# Measured results\n\nNumbers written by the scripts in `benchmarks/`; each section says when and where it was measured.\n"
+_HEADER = (
+    "# Measured results\n\n"
+    "Numbers written by the scripts in `benchmarks/`; each section says when and where it was measured.\n"
+)
 
 
 def machine_description() -> str:

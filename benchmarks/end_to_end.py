@@ -46,8 +46,6 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.integrators import DivergenceError  # noqa: E402
 from pcs_sindy.metrics import distributed_errors, end_effector_errors  # noqa: E402
@@ -57,6 +55,8 @@ from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
+from _results import write_section  # noqa: E402
+
 CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "end_to_end"
 ROWS = CACHE / "rows.json"
 CASES = ["three_segment", "five_segment"]
@@ -64,7 +64,8 @@ SOURCES = {
     "video": "rendered videos → MarkerPoseExtractor",
     "poses": "simulated poses, noise-free",
     "noisy": "simulated poses, seed noise",
-    "exact": "the simulator's strains on the true segmentation (no poses, no fusion; a reference for the regression alone)",
+    "exact": "the simulator's strains on the true segmentation "
+    "(no poses, no fusion; a reference for the regression alone)",
 }
 CONFIGS = {
     "weak": dict(formulation="weak", window_length=15),
@@ -100,7 +101,7 @@ def _video_poses(scenario, data) -> tuple[list[np.ndarray], dict]:
     extraction_time = time.perf_counter() - t0
     extraction_cpu = time.process_time() - c0
     poses = [tr.poses for tr in trajs]
-    err = np.concatenate([p[:, 1:] - r.poses_true[:, 1:] for p, r in zip(poses, data.train)])
+    err = np.concatenate([p[:, 1:] - r.poses_true[:, 1:] for p, r in zip(poses, data.train, strict=True)])
     info = dict(
         render_time=render_time,
         extraction_time=extraction_time,
@@ -111,7 +112,7 @@ def _video_poses(scenario, data) -> tuple[list[np.ndarray], dict]:
         frames_repaired=int(sum(len(d["frames_repaired"]) for d in extractor.diagnostics_)),
         marker_e_p=float(np.linalg.norm(err[..., :2], axis=-1).mean()),
         marker_e_theta=float(np.abs(err[..., 2]).mean()),
-        dt_ok=bool(all(np.allclose(tr.t, r.t, rtol=0, atol=1e-9) for tr, r in zip(trajs, data.train))),
+        dt_ok=bool(all(np.allclose(tr.t, r.t, rtol=0, atol=1e-9) for tr, r in zip(trajs, data.train, strict=True))),
     )
     np.savez(poses_file, **{f"p{k}": p for k, p in enumerate(poses)})
     info_file.write_text(json.dumps(info))
@@ -142,7 +143,7 @@ def run_source(name: str, source: str, configs: list[str]) -> list[dict]:
 
     t0, c0 = time.perf_counter(), time.process_time()
     fusion = KinematicFusion(threshold=0.2, total_length=total, pose_std=pose_std)
-    trajs = [PoseTrajectory(p, t) for p, t in zip(poses, times)]
+    trajs = [PoseTrajectory(p, t) for p, t in zip(poses, times, strict=True)]
     strains = fusion.fit(trajs).transform(trajs)
     base["fusion_time"] = time.perf_counter() - t0
     base["fusion_cpu"] = time.process_time() - c0
@@ -216,15 +217,15 @@ def _wc(row: dict, stage: str) -> str:
 
 def render(rows: list[dict]) -> str:
     lines = [
-        "Training data: `generate(seed=0)` (8 × 0.5 s at 1 kHz, forces held 10 ms, 20 markers + base); validation: the 7 s "
-        "sinusoidal recording, rolled out from rest (adaptive Dormand–Prince, compiled path), tip pose vs. the noise-free truth. "
+        "Training data: `generate(seed=0)` (8 × 0.5 s at 1 kHz, forces held 10 ms, 20 markers + base); validation: "
+        "the 7 s sinusoidal recording, rolled out from rest (adaptive Dormand–Prince, compiled path), tip pose vs. "
+        "the noise-free truth. "
         "Sources: " + "; ".join(f"`{k}` = {v}" for k, v in SOURCES.items()) + ". "
         "Videos: 640×480 MJPG `.avi` + camera JSON (`render_video`, `Camera.fit_robot(L)`), read back by "
-        "`MarkerPoseExtractor(camera='auto')`. Fusion: `KinematicFusion(threshold=0.2, total_length=L)` (rest length given; "
-        "least-squares shapes with refined boundaries). Regression: `EulerLagrangeRegressor(basis='physical')` "
-        "(numeric `PhysicalPCSLibrary`, bounded least squares, seed stiffness bounds); `weak` = "
-        "`formulation='weak'` (bump windows of 40 samples, stride 20, SG 15 for q̇), `strong` = SG 7/3 with "
-        "`exclude_force_jumps=True`.",
+        "`MarkerPoseExtractor(camera='auto')`. Fusion: `KinematicFusion(threshold=0.2, total_length=L)` (rest length "
+        "given; least-squares shapes with refined boundaries). Regression: `EulerLagrangeRegressor(basis='physical')` "
+        "(numeric `PhysicalPCSLibrary`, bounded least squares, seed stiffness bounds); `weak` = `formulation='weak'` "
+        "(bump windows of 40 samples, stride 20, SG 15 for q̇), `strong` = SG 7/3 with `exclude_force_jumps=True`.",
         "",
         "| case | source | config | found lengths [m] (true) | fusion e_p^dist [m] | e_p^EE [mm] | e_θ^EE [rad] | "
         "removed | fusion [s] wall (CPU) | fit [s] wall (CPU) | rollout [s] wall (CPU) | M not PD | load |",
@@ -235,16 +236,16 @@ def render(rows: list[dict]) -> str:
         true = "(" + ", ".join(f"{v:g}" for v in r["true_lengths"]) + ")"
         if r.get("skipped"):
             lines.append(
-                f"| {r['case']} | {r['source']} | {r['config']} | {found} {true} | {_fmt(r['fusion_e_p_dist'], '.2e')} | "
-                f"not fitted | – | – | {_wc(r, 'fusion')} | – | – | – | – |"
+                f"| {r['case']} | {r['source']} | {r['config']} | {found} {true} | "
+                f"{_fmt(r['fusion_e_p_dist'], '.2e')} | not fitted | – | – | {_wc(r, 'fusion')} | – | – | – | – |"
             )
             continue
         e_p = "diverged" if r["diverged"] else _fmt(1e3 * r["e_p"], ".3g")
         rollout = "–" if r["diverged"] else _wc(r, "rollout")
         load = _fmt(r.get("loadavg"), ".1f")
         lines.append(
-            f"| {r['case']} | {r['source']} | {r['config']} | {found} {true} | {_fmt(r['fusion_e_p_dist'], '.2e')} | {e_p} | "
-            f"{_fmt(r['e_theta'], '.3g')} | {', '.join(r['removed']) or '–'} | {_wc(r, 'fusion')} | "
+            f"| {r['case']} | {r['source']} | {r['config']} | {found} {true} | {_fmt(r['fusion_e_p_dist'], '.2e')} | "
+            f"{e_p} | {_fmt(r['e_theta'], '.3g')} | {', '.join(r['removed']) or '–'} | {_wc(r, 'fusion')} | "
             f"{_wc(r, 'fit')} | {rollout} | {r['not_pd']:.1%} | {load} |"
         )
     videos = {r["case"]: r["extraction"] for r in rows if r.get("extraction")}
@@ -263,7 +264,11 @@ def render(rows: list[dict]) -> str:
             )
     fitted = [r for r in rows if not r.get("skipped")]
     if fitted:
-        lines += ["", "Identified vs. true stiffness, relative error per strain (be, sh, ax of each segment; ∞ = removed):", ""]
+        lines += [
+            "",
+            "Identified vs. true stiffness, relative error per strain (be, sh, ax of each segment; ∞ = removed):",
+            "",
+        ]
         lines += ["| case | source | config | relative error of K |", "|---|---|---|---|"]
         for r in fitted:
             kt, kh = np.array(r["k_true"]), np.array(r["k_hat"])
@@ -324,7 +329,8 @@ def main(argv=None):
             "end_to_end",
             "End to end, videos → model: three and five segments",
             body,
-            "nice -n 10 .venv/bin/python benchmarks/end_to_end.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+            "nice -n 10 .venv/bin/python benchmarks/end_to_end.py "
+            + " ".join(argv if argv is not None else sys.argv[1:]),
         )
 
 

@@ -22,12 +22,12 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.kinematics import PlanarPCS, forward_kinematics  # noqa: E402
 from pcs_sindy.simulation.rendering import render_frames, render_video  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 LENGTHS = (0.07, 0.1)
 N_RECORDINGS = 4
@@ -74,23 +74,35 @@ def main() -> None:
             two.transform(paths[:2])  # start the worker processes outside the timing
             _, t_two = timed(lambda: two.transform(paths))
 
-            pos = np.concatenate([np.linalg.norm(tr.poses[..., :2] - tt[..., :2], axis=-1).ravel() for tr, tt in zip(trajs, truths)])
-            ang = np.concatenate([np.abs(tr.poses[..., 2] - tt[..., 2]).ravel() for tr, tt in zip(trajs, truths)])
+            pos = np.concatenate(
+                [
+                    np.linalg.norm(tr.poses[..., :2] - tt[..., :2], axis=-1).ravel()
+                    for tr, tt in zip(trajs, truths, strict=True)
+                ]
+            )
+            ang = np.concatenate(
+                [np.abs(tr.poses[..., 2] - tt[..., 2]).ravel() for tr, tt in zip(trajs, truths, strict=True)]
+            )
             repaired = sum(len(d["frames_repaired"]) for d in one.diagnostics_)
             rows.append(
                 f"| {size[0]}x{size[1]} | {cam.pixels_per_metre:.0f} | {total / t_one:.1f} | {total / t_two:.1f} | "
-                f"{total / t_arr:.1f} | {pos.max() * cam.pixels_per_metre:.3f} / {np.sqrt(np.mean(pos**2)) * cam.pixels_per_metre:.3f} | "
+                f"{total / t_arr:.1f} | {pos.max() * cam.pixels_per_metre:.3f} / "
+                f"{np.sqrt(np.mean(pos**2)) * cam.pixels_per_metre:.3f} | "
                 f"{np.degrees(ang.max()):.3f} / {np.degrees(np.sqrt(np.mean(ang**2))):.3f} | {repaired} |"
             )
             print(rows[-1], flush=True)
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     body = (
         f"{N_RECORDINGS} recordings x {args.frames} frames of a two-segment robot (0.07 + 0.1 m, base + 20 markers, "
-        "|kappa| <= 40 1/m), rendered by `render_video` to MJPG .avi with camera JSON (`Camera.fit_robot(0.17, size)`).\n"
-        "fps = frames extracted per second of wall time; 'file' includes video decoding, 'array' starts from frames in memory.\n\n"
-        "| resolution | px/m | fps, file, 1 core | fps, file, n_jobs=2 | fps, array, 1 core | position error max / rms [px] | angle error max / rms [deg] | frames repaired |\n"
+        "|kappa| <= 40 1/m), rendered by `render_video` to MJPG .avi with camera JSON "
+        "(`Camera.fit_robot(0.17, size)`).\n"
+        "fps = frames extracted per second of wall time; 'file' includes video decoding, "
+        "'array' starts from frames in memory.\n\n"
+        "| resolution | px/m | fps, file, 1 core | fps, file, n_jobs=2 | fps, array, 1 core | position error max / "
+        "rms [px] | angle error max / rms [deg] | frames repaired |\n"
         "|---|---|---|---|---|---|---|---|\n" + "\n".join(rows) + "\n\n"
-        f"1-minute load average at the end: {load:.2f} (the 2 cores are shared with other jobs, so parallel speed-up varies)."
+        f"1-minute load average at the end: {load:.2f} (the 2 cores are shared with other jobs, "
+        "so parallel speed-up varies)."
     )
     path = write_section(
         "extraction_speed",

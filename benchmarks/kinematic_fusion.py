@@ -16,8 +16,9 @@ absolute strain error against the simulator's strains.  Three variants:
 
 Input: the scenarios' simulated marker poses (``get_scenario(name).generate``)
 with and without the seed's noise, and for each PCS robot also the poses
-extracted from rendered videos (``render_frames`` -> ``MarkerPoseExtractor``).  The robot's total length is given (the seed's table
-assumes it known); the length estimated from the data is reported alongside.
+extracted from rendered videos (``render_frames`` -> ``MarkerPoseExtractor``).
+The robot's total length is given (the seed's table assumes it known); the
+length estimated from the data is reported alongside.
 
 Run: ``.venv/bin/python benchmarks/kinematic_fusion.py`` (about 5-10 minutes the
 first time, most of it simulating the scenarios, which are cached afterwards).
@@ -32,11 +33,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.metrics import distributed_errors  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion, threshold_sweep, select_threshold  # noqa: E402
+from pcs_sindy.segmentation import KinematicFusion, select_threshold, threshold_sweep  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 SEED_TABLE = {
     "one_segment": ("[0.1]", 8.21e-5, 6.38e-3),
@@ -234,7 +235,8 @@ def main(argv: list[str] | None = None) -> None:
     body = "\n".join(
         [
             "Input: the scenarios' simulated marker poses (20 markers + base, `generate(seed=0)`, 8 × 500 frames; "
-            "PAC: 500 configurations), and for the `rendered video` rows the poses extracted from rendered frames. Errors are against the noise-free marker poses; "
+            "PAC: 500 configurations), and for the `rendered video` rows the poses extracted from rendered frames. "
+            "Errors are against the noise-free marker poses; "
             "h = 0.2 for the PCS robots; the total length is given (the true one).",
             "Variants: `seed` = seed Algorithm 1 exactly (end-pose IK, runs merged, `min_segment_markers=1`); "
             "`end_pose` = Algorithm 1 + absorption of one-spacing segments; "
@@ -251,7 +253,8 @@ def main(argv: list[str] | None = None) -> None:
             "",
             *sweep_lines,
             "",
-            "Strain error ratios, least squares (refined boundaries) over end pose (marker boundaries), same number of segments:",
+            "Strain error ratios, least squares (refined boundaries) over end pose (marker boundaries), same number "
+            "of segments:",
             "",
             *ratio_lines,
             "",

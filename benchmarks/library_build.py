@@ -16,11 +16,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
+from pcs_sindy.library import PCSLagrangianLibrary, codegen, pcs_lagrangian  # noqa: E402
 
-from pcs_sindy.library import PCSLagrangianLibrary  # noqa: E402
-from pcs_sindy.library import codegen  # noqa: E402
-from pcs_sindy.library import pcs_lagrangian  # noqa: E402
+from _results import write_section  # noqa: E402
 
 LENGTHS = {1: [0.1], 2: [0.07, 0.1], 3: [0.05, 0.1, 0.06], 4: [0.05, 0.1, 0.06, 0.08]}
 SEED_SIZES = {"one segment": 51, "two segments": 438, "one segment without shear": 27}
@@ -129,7 +127,8 @@ def main() -> None:
         f"Load average during the run: {load[0]:.1f} / {load[1]:.1f} / {load[2]:.1f} (1/5/15 min) on a machine shared "
         "with other jobs: timings are upper bounds.",
         "",
-        "| segments | Lagrangian terms | basis functions n_f | cold build (cache disabled) [s] | cached load [s] | cache file [kB] | seed's derivation |",
+        "| segments | Lagrangian terms | basis functions n_f | cold build (cache disabled) [s] | cached load [s] | "
+        "cache file [kB] | seed's derivation |",
         "|---|---|---|---|---|---|---|",
     ]
     seed_time = {1: "26 s", 2: "19 min", 3: "called infeasible"}
@@ -163,11 +162,15 @@ def main() -> None:
         "Evaluation (4000 samples; `compile_dynamics` single-sample call = M(q) and bias(q, qd) for explicit "
         "integration; the budget for a 7 s rollout at 10x real time with ~40 000 RK stages is ~15 us):",
         "",
-        "| segments | n_psi | Psi(q, qd, qdd) 4000 samples [ms] | transform 4000 [ms] | mass_matrix 4000 [ms] | compile_dynamics build [s] | compile_dynamics call [us] |",
+        "| segments | n_psi | Psi(q, qd, qdd) 4000 samples [ms] | transform 4000 [ms] | mass_matrix 4000 [ms] | "
+        "compile_dynamics build [s] | compile_dynamics call [us] |",
         "|---|---|---|---|---|---|---|",
     ]
     for m, npsi, t_psi, t_feat, t_mass, t_comp, t_call in eval_rows:
-        body.append(f"| {m} | {npsi} | {t_psi * 1e3:.1f} | {t_feat * 1e3:.1f} | {t_mass * 1e3:.1f} | {t_comp:.3f} | {t_call * 1e6:.1f} |")
+        body.append(
+            f"| {m} | {npsi} | {t_psi * 1e3:.1f} | {t_feat * 1e3:.1f} | {t_mass * 1e3:.1f} | {t_comp:.3f} | "
+            f"{t_call * 1e6:.1f} |"
+        )
     if args.max_segments >= 3:
         body.append(f"| 3 | 1107 | {t_psi3 * 1e3 * 20:.0f} (measured on 200 samples, x20) | – | – | {t_compile3:.3f} | "
                     f"{t_call3 * 1e6:.1f} |")

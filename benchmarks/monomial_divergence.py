@@ -55,15 +55,17 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.integrators import DivergenceError  # noqa: E402
 from pcs_sindy.metrics import end_effector_errors  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
 
-CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "monomial_divergence_rows.json"
+from _results import write_section  # noqa: E402
+
+CACHE = (
+    Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "monomial_divergence_rows.json"
+)
 # name -> (description, options)
 ROWS = {
     "sg25": ("SG 25/3 (the seed's method)", {}),
@@ -75,18 +77,31 @@ ROWS = {
     "sg25-plain-lstsq": ("SG 25/3, plain unscaled lstsq", {"plain_lstsq": True}),
     "sg25-bend80": ("SG 25/3, training bend_amplitude 80", {"bend_amplitude": 80.0}),
     "sg25-bend120": ("SG 25/3, training bend_amplitude 120", {"bend_amplitude": 120.0}),
-    "exact-bend80": ("exact qd, qdd, training bend_amplitude 80", {"bend_amplitude": 80.0, "qd": "exact", "qdd": "exact"}),
+    "exact-bend80": (
+        "exact qd, qdd, training bend_amplitude 80",
+        {"bend_amplitude": 80.0, "qd": "exact", "qdd": "exact"},
+    ),
     # derivative error scaled down: qd = qd_true + a (qd_SG25 - qd_true), the same for qdd
     "blend-0.3": ("SG 25/3 derivative errors x 0.3", {"blend": 0.3}),
     "blend-0.1": ("SG 25/3 derivative errors x 0.1", {"blend": 0.1}),
     "blend-0.03": ("SG 25/3 derivative errors x 0.03", {"blend": 0.03}),
     "blend-0.01": ("SG 25/3 derivative errors x 0.01", {"blend": 0.01}),
-    "blend-0.1-bend80": ("SG 25/3 derivative errors x 0.1, training bend_amplitude 80", {"blend": 0.1, "bend_amplitude": 80.0}),
-    "blend-0.3-bend80": ("SG 25/3 derivative errors x 0.3, training bend_amplitude 80", {"blend": 0.3, "bend_amplitude": 80.0}),
-    "sg7-jumpfree-bend80": ("SG 7/3, force-jump windows left out, training bend_amplitude 80",
-                            {"window": 7, "jump_free": True, "bend_amplitude": 80.0}),
-    "sg25-10khz-jumpfree-bend80": ("10 kHz data, SG 25/3, force-jump windows left out, training bend_amplitude 80",
-                                   {"dt": 1e-4, "jump_free": True, "bend_amplitude": 80.0}),
+    "blend-0.1-bend80": (
+        "SG 25/3 derivative errors x 0.1, training bend_amplitude 80",
+        {"blend": 0.1, "bend_amplitude": 80.0},
+    ),
+    "blend-0.3-bend80": (
+        "SG 25/3 derivative errors x 0.3, training bend_amplitude 80",
+        {"blend": 0.3, "bend_amplitude": 80.0},
+    ),
+    "sg7-jumpfree-bend80": (
+        "SG 7/3, force-jump windows left out, training bend_amplitude 80",
+        {"window": 7, "jump_free": True, "bend_amplitude": 80.0},
+    ),
+    "sg25-10khz-jumpfree-bend80": (
+        "10 kHz data, SG 25/3, force-jump windows left out, training bend_amplitude 80",
+        {"dt": 1e-4, "jump_free": True, "bend_amplitude": 80.0},
+    ),
     # the same SG 25 data, 16 physical unknowns (bounded: PD mass matrix by construction)
     "sg25-physical": ("SG 25/3, physical basis (16 unknowns, bounded)", {"basis": "physical"}),
     # sampled 10x faster (10 kHz): the SG 25 window (2.5 ms) fits inside a 10 ms hold
@@ -139,8 +154,8 @@ def run_row(name, rollout=True):
     qdd = qdd_true if opts.get("qdd") == "exact" else qdd_sg
     if "blend" in opts:
         a = float(opts["blend"])
-        qd = [t + a * (e - t) for t, e in zip(qd_true, qd_sg)]
-        qdd = [t + a * (e - t) for t, e in zip(qdd_true, qdd_sg)]
+        qd = [t + a * (e - t) for t, e in zip(qd_true, qd_sg, strict=True)]
+        qdd = [t + a * (e - t) for t, e in zip(qdd_true, qdd_sg, strict=True)]
     taus = [r.tau for r in train]
     if opts.get("filter_tau"):
         taus = [savgol_filter(t, window, 3, axis=0) for t in taus]
@@ -153,7 +168,7 @@ def run_row(name, rollout=True):
             np.flatnonzero(EulerLagrangeRegressor._jump_free(r.tau, window) & (np.arange(len(r.t)) % step == 0))
             for r in train
         ]
-        pick = lambda arrs: [a[i] for a, i in zip(arrs, sel)]  # noqa: E731
+        pick = lambda arrs: [a[i] for a, i in zip(arrs, sel, strict=True)]  # noqa: E731
         qs, qd, qdd, qd_true, qdd_true, taus = map(pick, (qs, qd, qdd, qd_true, qdd_true, taus))
         jump_free = False
     # noise-free strains straight from the simulator: no pose -> strain estimation step in the way
@@ -175,7 +190,7 @@ def run_row(name, rollout=True):
         )
     # the regression actually solved (same rows as fit)
     keep = [model._jump_free(t, window) if jump_free else np.ones(len(t), bool) for t in taus]
-    cat = lambda arrs: np.concatenate([a[k] for a, k in zip(arrs, keep)])  # noqa: E731
+    cat = lambda arrs: np.concatenate([a[k] for a, k in zip(arrs, keep, strict=True)])  # noqa: E731
     psi = np.asarray(lib.euler_lagrange_matrix(cat([x.q for x in X]), cat(qd), cat(qdd)), dtype=float)
     psi = psi.reshape(-1, psi.shape[-1])
     target = cat(taus).reshape(-1)
@@ -195,8 +210,12 @@ def run_row(name, rollout=True):
         "n_samples": int(sum(k.sum() for k in keep)),
         "train_range": np.abs(np.concatenate([r.q for r in train])).max(axis=0).tolist(),
         "val_range": np.abs(val.q).max(axis=0).tolist(),
-        "qd_err": _relative_rms([a[k] for a, k in zip(qd, keep)], [a[k] for a, k in zip(qd_true, keep)]),
-        "qdd_err": _relative_rms([a[k] for a, k in zip(qdd, keep)], [a[k] for a, k in zip(qdd_true, keep)]),
+        "qd_err": _relative_rms(
+            [a[k] for a, k in zip(qd, keep, strict=True)], [a[k] for a, k in zip(qd_true, keep, strict=True)]
+        ),
+        "qdd_err": _relative_rms(
+            [a[k] for a, k in zip(qdd, keep, strict=True)], [a[k] for a, k in zip(qdd_true, keep, strict=True)]
+        ),
         "coef_err": float(np.linalg.norm(coef - pi_true) / np.linalg.norm(pi_true)) if monomial else None,
         "res_fit": float(np.linalg.norm(target - psi @ coef) / tn),
         "res_true": float(np.linalg.norm(target - psi @ pi_true) / tn) if monomial else None,
@@ -206,8 +225,11 @@ def run_row(name, rollout=True):
         "not_pd_train": not_pd(np.concatenate([x.q for x in X])),
         "not_pd_val": not_pd(val.q),
         # identified M against the simulator's on the validation states (relative Frobenius error, median)
-        "mass_err_val": float(np.median(
-            np.linalg.norm(model.mass_matrix(val.q) - m_val, axis=(1, 2)) / np.linalg.norm(m_val, axis=(1, 2)))),
+        "mass_err_val": float(
+            np.median(
+                np.linalg.norm(model.mass_matrix(val.q) - m_val, axis=(1, 2)) / np.linalg.norm(m_val, axis=(1, 2))
+            )
+        ),
         "k_rel": ((-2 * coef[k_idx] if monomial else model.stiffness_) / robot.stiffness - 1).tolist(),
         "fit_time": fit_time,
         "warnings": [str(w.message)[:100] for w in caught],
@@ -267,8 +289,8 @@ def render(rows):
         "with the fitted and with the TRUE coefficients. M err val: median over the validation states of "
         "‖M̂(q) − M(q)‖_F/‖M(q)‖_F.",
         "",
-        "| variant | bend range train / val [1/m] | qd err | qdd err | coef err | residual fit / true π | M err val | cond Ψ (scaled) "
-        "| M not PD train / val | stiffness error (be1, sh1, ax1, be2, sh2, ax2) | rollout |",
+        "| variant | bend range train / val [1/m] | qd err | qdd err | coef err | residual fit / true π | M err val | "
+        "cond Ψ (scaled) | M not PD train / val | stiffness error (be1, sh1, ax1, be2, sh2, ax2) | rollout |",
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
@@ -279,10 +301,10 @@ def render(rows):
                 f"e_p^EE {1e3 * r['e_p']:.3g} mm, e_θ^EE {r['e_theta']:.3g} rad")
         lines.append(
             f"| {ROWS[r['row']][0]} | {max(tr[0], tr[3]):.0f} / {max(va[0], va[3]):.0f} | {max(r['qd_err']):.2f} | "
-            f"{max(r['qdd_err']):.2f} | {_f(r['coef_err'], '.3g')} | {r['res_fit']:.3g} / {_f(r['res_true'], '.3g')} | "
-            f"{_f(r.get('mass_err_val'), '.3g')} | "
-            f"{r['cond']:.2g} ({r['cond_scaled']:.2g}) | {r['not_pd_train']:.1%} / {r['not_pd_val']:.1%} | "
-            f"{', '.join(f'{v:+.0%}' for v in r['k_rel'])} | {roll} |"
+            f"{max(r['qdd_err']):.2f} | {_f(r['coef_err'], '.3g')} | {r['res_fit']:.3g} / {_f(r['res_true'], '.3g')} "
+            f"| {_f(r.get('mass_err_val'), '.3g')} | {r['cond']:.2g} ({r['cond_scaled']:.2g}) | "
+            f"{r['not_pd_train']:.1%} / {r['not_pd_val']:.1%} | {', '.join(f'{v:+.0%}' for v in r['k_rel'])} | "
+            f"{roll} |"
         )
     lines += ["", "Relative RMS derivative errors per strain (be1, sh1, ax1, be2, sh2, ax2):", ""]
     for r in rows:
@@ -362,16 +384,23 @@ def main(argv=None):
     order = {k: i for i, k in enumerate(ROWS)}
     rows = sorted((r for r in rows if r["row"] in ROWS), key=lambda r: order[r["row"]])
     facts = robot_facts()
-    body = render(rows) + "\n\n" + (
-        "The robot on its default training data: RMS of the inertial force M(q) q̈ / RMS of τ per strain = "
-        + ", ".join(f"{v:.2f}" for v in facts["inertial_share"])
-        + "; linearised at q = 0, time constants "
-        + ", ".join(f"{v:.3g}" for v in facts["time_constants_ms"][:4])
-        + " … ms and oscillation periods "
-        + ", ".join(f"{v:.3g}" for v in facts["periods_ms"])
-        + " ms; smallest eigenvalue of the diagonal-normalised mass matrix D^-1/2 M D^-1/2 (D = diag M): median "
-        + f"{facts['normalised_min_eig'][0]:.3g}, minimum {facts['normalised_min_eig'][1]:.3g} over the training samples."
-    ) + "\n\n" + FINDINGS.strip()
+    body = (
+        render(rows)
+        + "\n\n"
+        + (
+            "The robot on its default training data: RMS of the inertial force M(q) q̈ / RMS of τ per strain = "
+            + ", ".join(f"{v:.2f}" for v in facts["inertial_share"])
+            + "; linearised at q = 0, time constants "
+            + ", ".join(f"{v:.3g}" for v in facts["time_constants_ms"][:4])
+            + " … ms and oscillation periods "
+            + ", ".join(f"{v:.3g}" for v in facts["periods_ms"])
+            + " ms; smallest eigenvalue of the diagonal-normalised mass matrix D^-1/2 M D^-1/2 (D = diag M): median "
+            + f"{facts['normalised_min_eig'][0]:.3g}, minimum {facts['normalised_min_eig'][1]:.3g} over the training "
+            "samples."
+        )
+        + "\n\n"
+        + FINDINGS.strip()
+    )
     print(body)
     if not args.no_write and rows:
         write_section(

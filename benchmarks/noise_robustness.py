@@ -36,7 +36,6 @@ from types import SimpleNamespace
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
 from dynamic_identification import estimate_strains  # noqa: E402
 
 from pcs_sindy.integrators import DivergenceError  # noqa: E402
@@ -45,6 +44,8 @@ from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.scenarios import add_pose_noise  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 CASES = ("one_segment", "two_segment")
 SIGMA_P_MM = (0.0, 0.1, 0.25, 0.5, 1.0)
@@ -115,7 +116,9 @@ def run_rows(case, sigma_p_mm, noise_seed, configs, budget, data_cache):
     taus = [r.tau for r in data.train]
     rows = []
     for config in configs:
-        row = dict(case=case, sigma_p_mm=sigma_p_mm, seed=noise_seed, config=config, strain_time=strain_time, budget=budget)
+        row = dict(
+            case=case, sigma_p_mm=sigma_p_mm, seed=noise_seed, config=config, strain_time=strain_time, budget=budget
+        )
         model = EulerLagrangeRegressor(**CONFIGS[config])
         t0 = time.perf_counter()
         try:
@@ -205,7 +208,9 @@ def render(rows, configs):
                     hit = [r for r in bad if r["status"] == status]
                     if hit:
                         reach = min(r["t_reached"] for r in hit)
-                        parts.append(f"{tag} {len(hit)}/{len(sel)}" + (f" (t = {reach:.2f} s)" if status != "fit failed" else ""))
+                        parts.append(
+                            f"{tag} {len(hit)}/{len(sel)}" + (f" (t = {reach:.2f} s)" if status != "fit failed" else "")
+                        )
                 cells.append("; ".join(parts))
             lines.append(f"| {config} | " + " | ".join(cells) + " |")
         lines.append("")
@@ -217,12 +222,18 @@ def render(rows, configs):
         for config in configs:
             cells = []
             for sp in SIGMA_P_MM:
-                sel = [r for r in rows if r["case"] == case and r["config"] == config and r["sigma_p_mm"] == sp and "k_rel_err" in r]
+                sel = [
+                    r
+                    for r in rows
+                    if r["case"] == case and r["config"] == config and r["sigma_p_mm"] == sp and "k_rel_err" in r
+                ]
                 vals = [abs(v) for r in sel for v in r["k_rel_err"] if np.isfinite(v)]
                 cells.append(f"{np.median(vals):.1%}" if vals else "–")
             if any(c != "–" for c in cells):
                 lines.append(f"| {case} | {config} | " + " | ".join(cells) + " |")
-    target = [r for r in rows if r["case"] == "two_segment" and r["config"] == "physical weak40" and r["sigma_p_mm"] == 0.5]
+    target = [
+        r for r in rows if r["case"] == "two_segment" and r["config"] == "physical weak40" and r["sigma_p_mm"] == 0.5
+    ]
     if target:
         ok = [1e3 * r["e_p"] for r in target if r["status"] == "ok"]
         lines += [
@@ -242,8 +253,8 @@ def plot(rows, configs, path):
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(CASES), figsize=(11, 4.2), sharey=True)
-    markers = dict(zip(CONFIGS, "osD^v"))
-    for ax, case in zip(np.atleast_1d(axes), CASES):
+    markers = dict(zip(CONFIGS, "osD^v", strict=True))
+    for ax, case in zip(np.atleast_1d(axes), CASES, strict=True):
         top = 1e3
         for k, config in enumerate(configs):
             xs, meds, lo, hi, fails = [], [], [], [], []
@@ -321,7 +332,8 @@ def main(argv=None):
             "noise_robustness",
             "Noise robustness: validation tip error against pose noise (issue 6)",
             body,
-            "nice -n 10 .venv/bin/python benchmarks/noise_robustness.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+            "nice -n 10 .venv/bin/python benchmarks/noise_robustness.py "
+            + " ".join(argv if argv is not None else sys.argv[1:]),
         )
 
 

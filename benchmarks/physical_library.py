@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.library.physical import PhysicalPCSLibrary, sliding_windows  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 LENGTHS = {
     1: [0.1],
@@ -91,8 +91,8 @@ def main() -> None:
     body = [
         "Euler–Lagrange matrix of `PhysicalPCSLibrary` (numeric, Gauss–Legendre 16 nodes per segment) on "
         f"{N_SAMPLES} random samples; weak form on the same samples with windows of 20 intervals (plain and "
-        "bump-weighted); one call of "
-        "the single-sample dynamics returned by `compile_dynamics` (M and bias, for a rollout). Best of 3.",
+        "bump-weighted); one call of the single-sample dynamics returned by `compile_dynamics` (M and bias, for a "
+        "rollout). Best of 3.",
         "",
         "| segments | coefficients | Psi, 4000 samples [s] | weak form [s] | weak form, bump [s] "
         "| compile_dynamics call [µs] | call / tiny numpy op |",

@@ -22,10 +22,10 @@ from scipy.optimize import lsq_linear
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.library.physical import PhysicalPCSLibrary, integrate_forces, sliding_windows  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 LEVELS = (0.0, 0.3, 1.0)
 SEEDS = (0, 1, 2)

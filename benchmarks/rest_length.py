@@ -16,12 +16,13 @@ import warnings
 
 import numpy as np
 
-from _results import write_section
 from pcs_sindy.metrics import end_effector_errors
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.segmentation import KinematicFusion
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import PoseTrajectory
+
+from _results import write_section
 
 
 def main() -> None:
@@ -49,17 +50,20 @@ def main() -> None:
                 f"| {q_ax} | {fit_s:.1f} |"
             )
             print(rows[-1], flush=True)
-    body = "\n".join([
-        __doc__.split("Run:")[0].strip().split("\n\n", 1)[1],
-        "",
-        "| rest length | total length used [m] | rest_strain | e_p^EE [mm] | e_θ^EE [rad] | identified axial rest strains | fit [s] |",
-        "|---|---|---|---|---|---|---|",
-        *rows,
-        "",
-        "With a rest length (1 + e) times the true one, the PCS shape is reproduced exactly by strains scaled by "
-        "1/(1 + e); the one term the physical library lacks is a constant force per strain, which `rest_strain=True` "
-        "identifies (expected axial rest strain -e/(1 + e)).",
-    ])
+    body = "\n".join(
+        [
+            __doc__.split("Run:")[0].strip().split("\n\n", 1)[1],
+            "",
+            "| rest length | total length used [m] | rest_strain | e_p^EE [mm] | e_θ^EE [rad] | identified axial "
+            "rest strains | fit [s] |",
+            "|---|---|---|---|---|---|---|",
+            *rows,
+            "",
+            "With a rest length (1 + e) times the true one, the PCS shape is reproduced exactly by strains scaled by "
+            "1/(1 + e); the one term the physical library lacks is a constant force per strain, which "
+            "`rest_strain=True` identifies (expected axial rest strain -e/(1 + e)).",
+        ]
+    )
     write_section("rest_length", "Rest length estimated vs measured, and identified rest strains", body,
                   ".venv/bin/python benchmarks/rest_length.py")
 

@@ -30,11 +30,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy._jit_rollout import LumpedModel  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 SCENARIOS = ("one_segment", "two_segment", "three_segment")
 DT = 1e-3
@@ -113,8 +113,8 @@ def main() -> None:
         "the structural Jacobian [[0, I], [-M⁻¹K, -M⁻¹D]], fixed steps of dt/2 and dt/3 (dt = 1 ms) or adaptive.  "
         "'first' = first call in the process (numba kernels loaded from the on-disk cache when warm).  "
         f"Compilation with a cold cache (fresh process, empty NUMBA_CACHE_DIR, import + one tiny rollout per method): "
-        f"{cold:.1f} s, once per installation.  "
-        f"1-minute load average of the 2-core machine: {load0:.1f} at the start, {load1:.1f} at the end (other "
+        f"{cold:.1f} s, once per installation.  1-minute load average of the 2-core machine: {load0:.1f} at the "
+        f"start, {load1:.1f} at the end (other "
         "jobs were running): wall times are inflated by the load, so the CPU time of the process is given too "
         "('x real time' = 7 s / time of the second call).  "
         "Error: max over strains of max |q - q_sim| / max |q_sim| against the simulator's validation trajectory "
@@ -123,11 +123,11 @@ def main() -> None:
         "Nodes: Gauss–Legendre nodes per segment (the library's rule has 16); the largest |κ L| of the validation "
         "run is given per scenario.  `EulerLagrangeRegressor.simulate` uses 8 nodes while |κ_i L_i| <= 6 (8 nodes "
         "reproduce 16 to <= 1e-10 relative there: tests/test_rollout_jit.py) and the library's rule beyond, so its "
-        "cost is the 8-node rows.  Recommended: `method=\"rosenbrock\", rtol=3e-5, atol=3e-8` (error controlled); "
+        'cost is the 8-node rows.  Recommended: `method="rosenbrock", rtol=3e-5, atol=3e-8` (error controlled); '
         "fixed steps are not (three_segment).",
         "",
-        "| scenario (max abs(κL)) | nodes | method | setting | first call [s] | wall [s] | CPU [s] | x real time (wall) "
-        "| x real time (CPU) | steps (rejected) | rhs calls | µs CPU / rhs call | rel. error vs simulator |",
+        "| scenario (max abs(κL)) | nodes | method | setting | first call [s] | wall [s] | CPU [s] | x real time "
+        "(wall) | x real time (CPU) | steps (rejected) | rhs calls | µs CPU / rhs call | rel. error vs simulator |",
         "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:

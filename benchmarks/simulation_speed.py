@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.simulation.dynamics import PCSRobot  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 ONE = dict(L=[0.1], rho=[1070], E=[1e4], G=[1e3], D=[1e-5, 1.5e-1, 1.5e-1])
 TWO = dict(L=[0.07, 0.1], rho=[1070, 1049], E=[1e4, 9e3], G=[1e3, 3e3], D=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])

@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
+import importlib
 import importlib.util
 from pathlib import Path
-
-import importlib
 
 import pcs_sindy
 

@@ -11,11 +11,13 @@ known in closed form.
 from __future__ import annotations
 
 import numpy as np
+import pysindy as ps
 import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer, scaled_lstsq, stiffness_bounds
+
 from toy_library import ToyLibrary
 
 # truth: masses, stiffnesses k (coef -k/2), coupling, damping
@@ -151,7 +153,9 @@ def test_plain_mode_matches_numpy_lstsq():
     w = rng.uniform(0.5, 2.0, size=200)
     opt_w = StiffnessThresholdOptimizer().fit(x, y[:, 0], sample_weight=w)
     sw = np.sqrt(w)
-    np.testing.assert_allclose(opt_w.coef_[0], np.linalg.lstsq(x * sw[:, None], y[:, 0] * sw, rcond=None)[0], rtol=1e-10)
+    np.testing.assert_allclose(
+        opt_w.coef_[0], np.linalg.lstsq(x * sw[:, None], y[:, 0] * sw, rcond=None)[0], rtol=1e-10
+    )
 
 
 def test_rank_deficient_and_bad_input_raise():
@@ -193,7 +197,6 @@ def test_set_params_returns_self_and_clone_round_trip():
 
 
 def test_plain_mode_inside_pysindy():
-    ps = pytest.importorskip("pysindy")
     t = np.linspace(0, 10, 2001)
     x = np.c_[np.cos(t), -np.sin(t)]  # x0' = x1, x1' = -x0
     model = ps.SINDy(optimizer=StiffnessThresholdOptimizer(), feature_library=ps.PolynomialLibrary(degree=1))

@@ -91,7 +91,7 @@ def test_video_pipeline_takes_pose_trajectories_for_strains(video_fit, data) -> 
     pipe, *_ = video_fit
     truth = [PoseTrajectory(r.poses[:60], t=r.t[:60]) for r in data.train[:2]]
     direct = pipe.named_steps["segments"].transform(truth)
-    for a, b in zip(pipe.transform_strains(truth), direct):
+    for a, b in zip(pipe.transform_strains(truth), direct, strict=True):
         np.testing.assert_array_equal(a.q, b.q)
     # exact poses give strains within the fused segmentation's accuracy of the simulator's
     q0, _ = pipe.initial_state(truth, recording=1)
@@ -128,11 +128,11 @@ def test_pipeline_is_the_composition_of_its_steps(pose_fit) -> None:
     np.testing.assert_array_equal(pipe.fusion_.boundaries_, fusion.boundaries_)
     np.testing.assert_array_equal(pipe.segment_lengths_, fusion.segment_lengths_)
     strains = fusion.transform(X)
-    for a, b in zip(pipe.transform_strains(X), strains):
+    for a, b in zip(pipe.transform_strains(X), strains, strict=True):
         np.testing.assert_array_equal(a.q, b.q)
     reg = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer()).fit(strains, y)
     np.testing.assert_array_equal(pipe.model_.coef_, reg.coef_)
-    for a, b in zip(pipe.predict(X), reg.predict(strains)):
+    for a, b in zip(pipe.predict(X), reg.predict(strains), strict=True):
         np.testing.assert_array_equal(a, b)
 
 
@@ -190,7 +190,7 @@ def test_grid_search_by_recording_picks_two_segments(data) -> None:
     assert failed and "force columns" in str(failed[0].message)  # exclusion is announced, with the reason
     scores = search.cv_results_["mean_test_score"]
     params = search.cv_results_["params"]
-    for p, s in zip(params, scores):
+    for p, s in zip(params, scores, strict=True):
         # NaN exactly for the candidates that cannot be fitted (1 segment for 6 forces)
         assert np.isnan(s) == (p["segments__threshold"] == 1.0), (p, s)
     assert search.best_params_ == {"segments__threshold": 0.2, "dynamics__optimizer__youngs_modulus_max": 1e8}
@@ -198,6 +198,7 @@ def test_grid_search_by_recording_picks_two_segments(data) -> None:
     assert best.n_segments_ == 2 and best.active_strains_.all()
 
 
+@pytest.mark.slow
 def test_loky_n_jobs_2_matches_sequential(data) -> None:
     X, y, _ = _poses(data, 3, 60)
     reg = EulerLagrangeRegressor(weak_window=20, weak_stride=5)
@@ -215,7 +216,7 @@ def test_loky_n_jobs_2_matches_sequential(data) -> None:
     # per-recording strain fits of the fusion (reuses the warm loky workers)
     f1 = KinematicFusion(n_jobs=1).fit(X)
     f2 = KinematicFusion(n_jobs=2).fit(X)
-    for a, b in zip(f1.transform(X), f2.transform(X)):
+    for a, b in zip(f1.transform(X), f2.transform(X), strict=True):
         np.testing.assert_array_equal(a.q, b.q)
         np.testing.assert_array_equal(a.metadata["base_poses"], b.metadata["base_poses"])
 

@@ -39,8 +39,9 @@ def _spans(ax):
     """(start, end) in data x of the shaded bands, left to right."""
     out = []
     for p in ax.patches:
-        x0 = p.get_x()
-        out.append((x0, x0 + p.get_width()))
+        # axvspan draws a Polygon before matplotlib 3.9 and a Rectangle since: read either through its path
+        xs = p.get_patch_transform().transform(p.get_path().vertices)[:, 0]
+        out.append((float(xs.min()), float(xs.max())))
     return sorted(out)
 
 
@@ -84,7 +85,7 @@ def test_profile_default_matches_merge_runs_of_segmentation():
         ends = [g[-1] + 1 for g in groups]  # marker index of each group's end
         starts = [0] + ends[:-1]
         fig = plot_strain_distance_profile(d, 0.2)
-        assert _spans(fig.axes[0]) == [(float(a), float(b)) for a, b in zip(starts, ends)]
+        assert _spans(fig.axes[0]) == [(float(a), float(b)) for a, b in zip(starts, ends, strict=True)]
         plt.close(fig)
 
 
@@ -148,7 +149,9 @@ def test_profile_draws_into_given_axes():
         (dict(distances=[0.1, 0.3], threshold=0.2, marker_arc_lengths=[0, 0.2, 0.1, 0.3]), "marker_arc_lengths"),
         (dict(distances=[0.1, 0.3], threshold=0.2, segment_lengths=[0.1, 0.2]), "segment_lengths"),
         (
-            dict(distances=[0.1, 0.3], threshold=0.2, marker_arc_lengths=[0, 0.1, 0.2, 0.3], segment_lengths=[0.1, 0.1]),
+            dict(
+                distances=[0.1, 0.3], threshold=0.2, marker_arc_lengths=[0, 0.1, 0.2, 0.3], segment_lengths=[0.1, 0.1]
+            ),
             "segment_lengths",
         ),
     ],
@@ -364,7 +367,9 @@ def test_stills_on_frames_with_camera():
         np.testing.assert_array_equal(img.get_array(), frames[k][..., ::-1])  # shown as RGB
         bb, det = ax.get_lines()
         # u = u0 + ppm x, v = v0 + ppm y for angle 0
-        np.testing.assert_allclose(bb.get_xydata(), np.column_stack([10 + 1000 * backbone[k, :, 0], 20 + 1000 * backbone[k, :, 1]]))
+        np.testing.assert_allclose(
+            bb.get_xydata(), np.column_stack([10 + 1000 * backbone[k, :, 0], 20 + 1000 * backbone[k, :, 1]])
+        )
         np.testing.assert_allclose(
             det.get_xydata(), np.column_stack([10 + 1000 * detected[k][:, 0], 20 + 1000 * detected[k][:, 1]])
         )

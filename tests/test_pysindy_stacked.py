@@ -12,8 +12,13 @@ import pysindy as ps
 import pytest
 
 from pcs_sindy import EulerLagrangeRegressor, StiffnessThresholdOptimizer
-from pcs_sindy.library import (PCSLagrangianLibrary, PhysicalPCSLibrary, StackedEulerLagrangeLibrary, stack_forces,
-                               unstack_forces)
+from pcs_sindy.library import (
+    PCSLagrangianLibrary,
+    PhysicalPCSLibrary,
+    StackedEulerLagrangeLibrary,
+    stack_forces,
+    unstack_forces,
+)
 from pcs_sindy.trajectory import StrainTrajectory
 
 
@@ -49,7 +54,7 @@ def test_sindy_stacked_equals_regressor(one_segment, kind, optimizer):
     assert reg.removed_strains_ == []
     opt = ps.STLSQ(threshold=0.0, alpha=0.0) if optimizer == "stlsq" else StiffnessThresholdOptimizer()
     model = ps.SINDy(feature_library=StackedEulerLagrangeLibrary(lib), optimizer=opt)
-    x = [np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd)]
+    x = [np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd, strict=True)]
     model.fit(x, t=[r.t for r in recs], x_dot=[stack_forces(r.tau) for r in recs])
     coef = model.coefficients()
     assert coef.shape == (1, reg.coef_.size)  # ONE coefficient vector shared by all degrees of freedom

@@ -21,6 +21,7 @@ from pcs_sindy.integration import DivergenceError
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.trajectory import StrainTrajectory
+
 from toy_library import ToyLibrary
 from truth import simulate_truth
 
@@ -351,7 +352,10 @@ def test_exclude_force_jumps_removes_the_differentiation_bias():
     # brute force: a sample is kept iff no force change occurs inside its window
     tau = taus[0]
     ref = np.array(
-        [3 <= k < len(tau) - 3 and all(np.array_equal(tau[j], tau[k - 3]) for j in range(k - 3, k + 4)) for k in range(len(tau))]
+        [
+            3 <= k < len(tau) - 3 and all(np.array_equal(tau[j], tau[k - 3]) for j in range(k - 3, k + 4))
+            for k in range(len(tau))
+        ]
     )
     np.testing.assert_array_equal(jump_free(tau, 7), ref)
     with pytest.raises(ValueError, match="exclude_force_jumps left no sample"):

@@ -227,7 +227,7 @@ def test_render_video_files_and_camera_json(tmp_path: Path, suffix: str) -> None
         files = sorted(out.video.glob("*.png"))
         assert len(files) == 5
         expected = render_frames(poses, cam, marker_size=SIZE)
-        for f, e in zip(files, expected):
+        for f, e in zip(files, expected, strict=True):
             np.testing.assert_array_equal(cv2.imread(str(f), cv2.IMREAD_UNCHANGED), e)
 
 

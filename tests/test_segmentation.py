@@ -262,12 +262,12 @@ def test_pac_sweep_is_sensible():
     rows = threshold_sweep(poses, hs, fusion=template)
     assert [r.h for r in rows] == hs
     n = [r.n_segments for r in rows]
-    assert all(a >= b for a, b in zip(n, n[1:]))  # larger h never adds segments
+    assert all(a >= b for a, b in zip(n, n[1:], strict=False))  # larger h never adds segments
     assert n[-1] == 1 and len(set(n)) >= 5
     e_p = [r.e_p_dist for r in rows]
     e_th = [r.e_theta_dist for r in rows]
-    assert all(a <= b for a, b in zip(e_p, e_p[1:]))  # fewer segments, larger error
-    assert all(a <= b for a, b in zip(e_th, e_th[1:]))
+    assert all(a <= b for a, b in zip(e_p, e_p[1:], strict=False))  # fewer segments, larger error
+    assert all(a <= b for a, b in zip(e_th, e_th[1:], strict=False))
     assert e_p[0] < 1e-3 * e_p[-1]  # pairs of marker intervals nearly reproduce every marker
     # the errors are those of the fitted model at that threshold
     fusion = clone(template).set_params(threshold=0.1).fit(poses)
@@ -386,7 +386,7 @@ def test_fit_transform_and_strains_without_metadata():
 
 
 def test_extraction_and_fusion_on_a_rendered_two_segment_video():
-    vision = pytest.importorskip("pcs_sindy.vision")
+    from pcs_sindy import vision
     from pcs_sindy.camera import Camera
     from pcs_sindy.simulation.rendering import render_frames
 

@@ -94,7 +94,9 @@ def test_body_drawn_and_colour_frames(random_set) -> None:
     truth = random_set[0][:6]
     grey = render_frames(truth, CAM, marker_size=SIZE, body=True, body_colour=200)
     check(extractor().transform([grey])[0], truth)
-    colour = render_frames(truth, CAM, marker_size=SIZE, colour=True, marker_colour=(160, 40, 20), body_colour=(200, 230, 240))
+    colour = render_frames(
+        truth, CAM, marker_size=SIZE, colour=True, marker_colour=(160, 40, 20), body_colour=(200, 230, 240)
+    )
     check(extractor().transform([colour])[0], truth)
     # a colour range finds the markers by colour; edge pixels are weighted by their colour mix
     ranged = extractor(threshold=((120, 0, 0), (200, 90, 60))).transform([colour])[0]
@@ -110,7 +112,9 @@ def test_bright_markers_and_plain_min_area_rect(random_set) -> None:
     check(extractor(polarity="bright").transform([inverted])[0], truth)
     check(extractor(polarity="bright", threshold=128).transform([inverted])[0], truth)
     # without the moment refinement, minAreaRect's centre and angle are coarser
-    check(extractor(refine=False).transform([random_set[1][:6]])[0], truth, pos_tol=1.0 / 3000.0, ang_tol=np.deg2rad(6.0))
+    check(
+        extractor(refine=False).transform([random_set[1][:6]])[0], truth, pos_tol=1.0 / 3000.0, ang_tol=np.deg2rad(6.0)
+    )
 
 
 def test_noisy_frames(random_set) -> None:
@@ -139,7 +143,7 @@ def test_background_clutter_and_roi(random_set) -> None:
     # more specks of dirt than markers: the known number of markers picks the markers
     rng = np.random.default_rng(1)
     for f in cluttered:
-        for x, y in zip(rng.integers(0, 550, 60), rng.integers(410, 432, 60)):
+        for x, y in zip(rng.integers(0, 550, 60), rng.integers(410, 432, 60), strict=True):
             f[y : y + 3, x : x + 3] = 0
     check(extractor(n_markers=20, roi=(0, 0, 560, 480)).transform([cluttered])[0], truth)
 
@@ -163,7 +167,9 @@ def test_calibration_from_straight_reference_frame(random_set) -> None:
     assert diag["camera"]["angle"] == pytest.approx(0.4, abs=2e-3)
     check(traj, truth, pos_tol=1.5 / 2500.0)
     # the same with everything given explicitly
-    given = extractor(camera=None, pixels_per_metre=2500.0, base_position=(300.0, 160.0), rest_direction=0.4 + np.pi / 2)
+    given = extractor(
+        camera=None, pixels_per_metre=2500.0, base_position=(300.0, 160.0), rest_direction=0.4 + np.pi / 2
+    )
     check(given.transform([frames])[0], truth, pos_tol=0.5 / 2500.0)
 
 
@@ -192,7 +198,7 @@ def test_video_png_folder_and_parallel(tmp_path: Path, curl_set) -> None:
     # the n_jobs path (joblib); threads keep the test fast, processes are benchmarked
     with parallel_backend("threading"):
         par = clone(ex).set_params(n_jobs=2).transform([str(avi), png])
-    for one, two in zip((a, b), par):
+    for one, two in zip((a, b), par, strict=True):
         np.testing.assert_array_equal(one.poses, two.poses)
 
 

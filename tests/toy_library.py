@@ -94,7 +94,9 @@ class ToyLibrary(LagrangianLibrary):
         n = int(self._mask.sum())
         zero = np.zeros_like(q)
         base = self.euler_lagrange_matrix(q, zero, zero) @ coef
-        cols = [self.euler_lagrange_matrix(q, zero, np.tile(np.eye(n)[j], (q.shape[0], 1))) @ coef - base for j in range(n)]
+        cols = [
+            self.euler_lagrange_matrix(q, zero, np.tile(np.eye(n)[j], (q.shape[0], 1))) @ coef - base for j in range(n)
+        ]
         return np.stack(cols, axis=-1)
 
     def bias_forces(self, q, qd, coef):
