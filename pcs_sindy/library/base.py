@@ -197,6 +197,11 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         return np.zeros(0, dtype=np.intp)
 
     @property
+    def rest_force_rows_(self) -> NDArray[np.intp]:
+        """The active strain (row) of each constant-force column (default: one per strain, in order)."""
+        return np.arange(np.asarray(self.rest_force_index_).size)
+
+    @property
     def lower_bounds_(self) -> NDArray[np.float64] | None:
         """Lower bounds of the coefficients (None: unbounded)."""
         return None
@@ -303,7 +308,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         out = np.zeros(self.n_strains)
         idx = np.asarray(self.rest_force_index_)
         if idx.size:
-            out[:] = c[idx]
+            out[self.rest_force_rows_] = c[idx]
         return out
 
     # ------------------------------------------------------------------ structure changes and text

@@ -79,6 +79,17 @@ _CHUNK = 512  # samples per vectorised block (bounds the memory of the node arra
 # --------------------------------------------------------------------------
 # Library
 # --------------------------------------------------------------------------
+def _rest_kinds(rest_strain: object) -> tuple[str, ...]:
+    """The strain kinds with a constant force: all (True), none (False) or the named ones."""
+    if isinstance(rest_strain, (bool, np.bool_)):
+        return STRAIN_NAMES if rest_strain else ()
+    if isinstance(rest_strain, (tuple, list)) and all(k in STRAIN_NAMES for k in rest_strain):
+        return tuple(rest_strain)
+    raise ValueError(
+        f"rest_strain must be True, False or a tuple of strain kinds from {STRAIN_NAMES}; got {rest_strain!r}"
+    )
+
+
 class _Spec:
     """Validated structure of a library (column layout, quadrature, constant matrices)."""
 
@@ -129,9 +140,10 @@ class _Spec:
                 if self.mask[e]:
                     names.append(f"k_{STRAIN_NAMES[c]}_{seg}")
                     kinds.append(("k", i, e))
-        self.rest_strain = bool(lib.rest_strain)
-        if self.rest_strain:
-            for e in self.active:
+        rest_kinds = _rest_kinds(lib.rest_strain)
+        self.rest_strain = bool(rest_kinds)
+        for e in self.active:
+            if STRAIN_NAMES[e % 3] in rest_kinds:
                 names.append(f"f0_{STRAIN_NAMES[e % 3]}_{e // 3 + 1}")
                 kinds.append(("f0", e // 3, e))
         for e in self.active:
@@ -145,6 +157,7 @@ class _Spec:
         self.stiffness_index = np.array([j for j, k in enumerate(kinds) if k[0] == "k"], dtype=int)
         self.damping_index = np.array([j for j, k in enumerate(kinds) if k[0] == "d"], dtype=int)
         self.rest_index = np.array([j for j, k in enumerate(kinds) if k[0] == "f0"], dtype=int)
+        self.rest_rows = np.array([row_of[k[2]] for k in kinds if k[0] == "f0"], dtype=int)
         lower = np.zeros(self.n_coef)
         lower[(kind_arr == "gx") | (kind_arr == "gy") | (kind_arr == "f0")] = -np.inf
         self.lower = lower
@@ -252,9 +265,9 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         g = np.asarray(self.gravity, dtype=float)
         if g.shape != (2,) or not np.all(np.isfinite(g)):
             raise ValueError(f"gravity must be a finite vector of shape (2,); got {self.gravity!r}")
-        for name in ("identify_gravity", "rest_strain"):
-            if not isinstance(getattr(self, name), (bool, np.bool_)):
-                raise ValueError(f"{name} must be True or False; got {getattr(self, name)!r}")
+        if not isinstance(self.identify_gravity, (bool, np.bool_)):
+            raise ValueError(f"identify_gravity must be True or False; got {self.identify_gravity!r}")
+        _rest_kinds(self.rest_strain)
         if self.rotary_inertia not in ("free", "tied", "none"):
             raise ValueError(f"rotary_inertia must be 'free', 'tied' or 'none'; got {self.rotary_inertia!r}")
         nq = self.n_quadrature
@@ -318,6 +331,10 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         return self._spec.rest_index.copy()
 
     @property
+    def rest_force_rows_(self) -> NDArray[np.intp]:
+        return self._spec.rest_rows.copy()
+
+    @property
     def lower_bounds_(self) -> NDArray[np.float64]:
         return self._spec.lower.copy()
 
@@ -378,7 +395,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         out[:, rows, spec.stiffness_index] = q
         out[:, rows, spec.damping_index] = qd
         if spec.rest_index.size:
-            out[:, rows, spec.rest_index] = -1.0
+            out[:, spec.rest_rows, spec.rest_index] = -1.0
         return out
 
     def euler_lagrange_matrix(
@@ -488,7 +505,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         rows = np.arange(n)
         integrand[:, rows, spec.stiffness_index] = q
         if spec.rest_index.size:
-            integrand[:, rows, spec.rest_index] = -1.0  # integrates to -int phi dt
+            integrand[:, spec.rest_rows, spec.rest_index] = -1.0  # integrates to -int phi dt
         mom[:, rows, spec.damping_index] = q  # int qd dt = q(t_b) - q(t_a), exactly
         return mom, integrand
 
