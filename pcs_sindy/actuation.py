@@ -338,7 +338,7 @@ class TendonActuation(Actuation):
         if np.any(arr < 0):
             idx = np.argwhere(arr < 0)[0]
             when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
-            raise ValueError(f"{name}[{idx[0]}, {idx[1]}] = {arr[tuple(idx)]!r}{when}: tendon {idx[1]} would push; "
+            raise ValueError(f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
                              "tendon tensions must be >= 0")
         return arr
 
@@ -408,6 +408,15 @@ class _ConstantActuation(Actuation):
 
     def _matrix_of(self, gains: NDArray) -> NDArray[np.float64]:
         return np.einsum("j,jnp->np", gains, self._arrays["units"])
+
+    def forces(self, q, u, gains=None, offsets=None):
+        """``A u`` (B, n) for every entry's gain (default: the given or identified ones)."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        g = self.gains_ if gains is None else np.asarray(gains, dtype=float).reshape(-1)
+        units = self._arrays["units"]
+        if g.size != units.shape[0]:
+            raise ValueError(f"gains must hold {units.shape[0]} values (one per entry of the layout); got {g.size}")
+        return u @ self._matrix_of(g).T
 
     def parts(self, q, u, offsets=None):
         u = np.asarray(u, dtype=float)

@@ -206,8 +206,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("fit", "identify the dynamics from strain files and tau files: a model file", fit)
     p.add_argument("strains", nargs="+", help="strain files (written by 'fuse')")
-    p.add_argument("--tau", nargs="+", required=True,
+    p.add_argument("--tau", nargs="+",
                    help="tau files (.npz with t, tau), matched to the strain files by name (stem) or else by order")
+    p.add_argument("--inputs", nargs="+",
+                   help="instead of --tau: actuator input files (.npz with t, u; actuated recordings qualify), "
+                        "matched like --tau; needs --actuation")
+    p.add_argument("--actuation",
+                   help="actuation layout (JSON: {\"type\": \"tendon\", \"end\": [...], \"side\": [...]} or "
+                        "pressure/linear; a scenario.json written by 'simulate' qualifies); offsets or gains not given "
+                        "are identified")
     p.add_argument("--out", required=True, help="model file (model.json + model.npz)")
     p.add_argument("--library", "--basis", choices=["physical", "monomial"],
                    help="Lagrangian library: lumped physical unknowns per segment (the default) or the seed's "
@@ -238,7 +245,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("rollout", "simulate a model under tau: predicted strains and poses, metrics against a truth", rollout)
     p.add_argument("model", help="model file (written by 'fit')")
-    p.add_argument("--tau", required=True, help="tau file (.npz with t, tau)")
+    p.add_argument("--tau", required=True,
+                   help="tau file (.npz with t, tau); for a model fitted with --actuation, its actuator inputs (t, u)")
     p.add_argument("--segmentation", help="segmentation file (written by 'fuse'): marker arc lengths")
     p.add_argument("--truth", help="pose file of the truth ('poses_true' when present, as in recordings, else 'poses')")
     p.add_argument("--initial", help="strain file whose first frame is q0 (default: rest, q0 = 0); qd0 = 0")

@@ -357,7 +357,8 @@ def build_regressor(
 
 
 def fit(
-    strains: Sequence[str | Path], tau: Sequence[str | Path], out: str | Path, *, library: str | None = None,
+    strains: Sequence[str | Path], tau: Sequence[str | Path] | None, out: str | Path, *,
+    inputs: Sequence[str | Path] | None = None, actuation: str | Path | dict | None = None, library: str | None = None,
     formulation: str | None = None, window_length: int | None = None, polyorder: int | None = None,
     exclude_force_jumps: bool | None = None, weak_window: int | None = None, weak_stride: int | None = None,
     rest_strain: bool | None = None, rotary_inertia: str | None = None, stiffness_threshold: float | None = None,
@@ -369,10 +370,14 @@ def fit(
     ----------
     strains : sequence of path
         Strain files (written by :func:`fuse`).
-    tau : sequence of path
+    tau : sequence of path or None
         Tau files (recordings qualify), matched to the strain files by name (stem), else by order.
     out : path
         Model file (``model.json`` + ``model.npz``).
+    inputs : sequence of path, optional
+        Instead of ``tau``: files of actuator inputs (``t``, ``u``), matched like ``tau``; needs ``actuation``.
+    actuation : path or dict, optional
+        The actuation layout (JSON file, see :func:`pcs_sindy.datafiles.read_layout`, or the dict itself).
     library, formulation, window_length, polyorder, exclude_force_jumps : optional
     weak_window, weak_stride, rest_strain, rotary_inertia, stiffness_threshold : optional
         As :func:`build_regressor`; None: the default of :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`.
@@ -384,12 +389,20 @@ def fit(
     EulerLagrangeRegressor
         The fitted model.
     """
-    data, taus = files.read_training_files(strains, tau)
+    if (tau is None) == (inputs is None):
+        raise CLIError("give the forces (--tau) or the actuator inputs (--inputs with --actuation), not both")
+    if inputs is not None and actuation is None:
+        raise CLIError("--inputs needs --actuation (the layout the inputs act through)")
+    layout = files.read_layout(actuation) if isinstance(actuation, (str, Path)) else actuation
+    data, taus = files.read_training_files(strains, tau if tau is not None else inputs,
+                                           key="tau" if tau is not None else "u")
     model = build_regressor(
         library=library, formulation=formulation, window_length=window_length, polyorder=polyorder,
         exclude_force_jumps=exclude_force_jumps, weak_window=weak_window, weak_stride=weak_stride,
         rest_strain=rest_strain, rotary_inertia=rotary_inertia, stiffness_threshold=stiffness_threshold,
     )
+    if layout is not None:
+        model.set_params(actuation=layout)
     start = time.perf_counter()
     model.fit(data, taus)
     seconds = time.perf_counter() - start
@@ -459,10 +472,11 @@ def rollout(
         model = files.read_model_file(model, EulerLagrangeRegressor, "model file")
     if segmentation is not None and not isinstance(segmentation, KinematicFusion):
         segmentation = files.read_model_file(segmentation, KinematicFusion, "segmentation file")
-    t, u = files.read_tau(tau)
+    actuated = getattr(model, "actuation_", None) is not None and model.actuation_.layout()["type"] != "identity"
+    t, u = files.read_tau(tau, "u" if actuated else "tau")
     kin = model.kinematics_
     n = kin.n_q
-    if u.shape[1] != n:
+    if not actuated and u.shape[1] != n:
         raise CLIError(f"tau file {str(tau)!r} has {u.shape[1]} force columns; the model has {n} strains "
                        f"({kin.n_segments} segment(s) x 3)")
     forward = model.forward_model()

@@ -13,6 +13,8 @@ what is wrong with it, or ``FileNotFoundError``.
 
 from __future__ import annotations
 
+import json
+
 import zipfile
 from pathlib import Path
 from typing import Any, Sequence
@@ -142,13 +144,35 @@ def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike) -> Path:
     return Path(path)
 
 
-def read_tau(path: str | Path) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Time stamps (T,) and generalised forces (T, n) of a tau file or recording."""
-    data = read_arrays(path, ["t", "tau"], "tau file")
-    t, tau = data["t"].astype(float), data["tau"].astype(float)
+def read_tau(path: str | Path, key: str = "tau") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Time stamps (T,) and generalised forces (T, n) of a tau file or recording (``key="u"``: actuator inputs)."""
+    what = "tau file" if key == "tau" else "input file"
+    data = read_arrays(path, ["t", key], what)
+    t, tau = data["t"].astype(float), data[key].astype(float)
     if tau.ndim != 2 or t.shape != (tau.shape[0],):
-        raise DataFileError(f"tau file {str(path)!r}: need t (T,) and tau (T, n); got {t.shape} and {tau.shape}")
+        raise DataFileError(f"{what} {str(path)!r}: need t (T,) and {key} (T, n); got {t.shape} and {tau.shape}")
     return t, tau
+
+
+def read_layout(path: str | Path) -> dict[str, Any]:
+    """An actuation layout from JSON: the layout itself, or a file holding it under ``"actuation"``.
+
+    A layout names its ``type`` (``"tendon"``, ``"pressure"``, ``"linear"``,
+    ``"identity"``) and the design parameters of :mod:`pcs_sindy.actuation`,
+    e.g. ``{"type": "tendon", "end": [0.07, 0.17], "side": [1, -1]}``; the
+    ``scenario.json`` written by ``pcs-sindy simulate`` qualifies.
+    """
+    src = Path(path)
+    try:
+        doc = json.loads(src.read_text())
+    except FileNotFoundError:
+        raise DataFileError(f"layout file {str(path)!r} does not exist") from None
+    except (OSError, ValueError) as err:
+        raise DataFileError(f"cannot read layout file {str(path)!r}: {err}") from None
+    layout = doc.get("actuation", doc) if isinstance(doc, dict) else None
+    if not isinstance(layout, dict) or "type" not in layout:
+        raise DataFileError(f"layout file {str(path)!r} holds no actuation layout (a JSON object with a 'type')")
+    return layout
 
 
 def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike) -> Path:
@@ -224,7 +248,7 @@ def _match_by_stem(strain_files: Sequence[str | Path], tau_files: Sequence[str |
 
 
 def read_training_files(
-    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path]
+    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path], key: str = "tau"
 ) -> tuple[list[StrainTrajectory], list[NDArray[np.float64]]]:
     """Strain trajectories and their forces, checked to belong together.
 
@@ -235,6 +259,8 @@ def read_training_files(
     tau_files : sequence of path
         Tau files, matched to the strain files by name (stem) when every strain
         file has one of the same stem, else by order.
+    key : {"tau", "u"}
+        ``"u"``: the files hold actuator inputs (any width), not generalised forces.
 
     Returns
     -------
@@ -250,9 +276,9 @@ def read_training_files(
     strains = [read_strains(p) for p in strain_files]
     taus = []
     for sfile, tfile, st in zip(strain_files, _match_by_stem(strain_files, tau_files), strains):
-        t, tau = read_tau(tfile)
+        t, tau = read_tau(tfile, key)
         n = st.kinematics.n_q
-        if tau.shape[1] != n:
+        if key == "tau" and tau.shape[1] != n:
             raise DataFileError(
                 f"tau file {str(tfile)!r} has {tau.shape[1]} force columns but strain file {str(sfile)!r} has {n} "
                 f"strains ({st.kinematics.n_segments} segment(s) x 3): tau must act on the same segmentation"

@@ -104,6 +104,8 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         n = getattr(fusion, "n_segments_", None)
         if n is None or y is None or getattr(fusion, "boundaries_", None) is before:
             return None
+        if getattr(self.steps[-1][1], "actuation", None) is not None:
+            return None  # actuator inputs: their width does not depend on the segmentation
         try:
             first = y[0] if isinstance(y, (list, tuple)) else y
             width = int(np.shape(first)[-1])
@@ -288,6 +290,7 @@ def make_pcs_pipeline(
     memory: Any = None,
     verbose: bool = False,
     n_jobs: int | None = None,
+    actuation: Any = None,
 ) -> PCSPipeline:
     """Videos (or pose trajectories) and forces to a PCS model, as one Pipeline.
 
@@ -315,6 +318,10 @@ def make_pcs_pipeline(
     n_jobs : int, optional
         If given, set on the steps that have ``n_jobs`` (the extractor and the
         fusion: recordings processed in parallel by joblib).
+    actuation : Actuation or dict, optional
+        How the inputs ``y`` act (:mod:`pcs_sindy.actuation`; e.g. a tendon
+        layout): given to the default regressor, so ``pipe.fit(videos, u_list)``
+        takes actuator inputs.  Not allowed with ``regressor`` (set it there).
 
     Returns
     -------
@@ -377,7 +384,10 @@ def make_pcs_pipeline(
     if fusion is None:
         fusion = KinematicFusion()
     if regressor is None:
-        regressor = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer())
+        regressor = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer(), actuation=actuation)
+    elif actuation is not None:
+        raise ValueError("actuation was given with regressor; set it on the regressor: "
+                         "EulerLagrangeRegressor(actuation=...)")
     steps: list[tuple[str, Any]] = []
     if start == "videos":
         steps.append(("poses", MarkerPoseExtractor() if extractor is None else extractor))

@@ -399,6 +399,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         X = as_strain_trajectories(X)
         act = self._new_actuation(segmentation_of(X))
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
+        if not any(np.any(r.u) for r in recs):
+            raise ValueError("y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
+                             "identified; record with actuation")
         lib = self._new_library().fit(X)
         offsets, offset_info = (None, None)
         if act.n_offsets:

@@ -366,3 +366,30 @@ def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
     text = (rep / "report.md").read_text()
     assert "| 5.22 |" in text and "| 0.138 |" in text  # the seed's numbers beside ours
     assert (rep / "equations.txt").read_text().startswith("L = ")
+
+
+def test_fit_and_rollout_from_actuator_inputs(tmp_path):
+    """An actuated robot through the CLI: inputs u and a layout file instead of tau."""
+    root = str(tmp_path)
+    assert main(["simulate", "two_segment_tendon", "--out", f"{root}/data", "--n-train", "2", "--train-duration", "0.3",
+                 "--validation-duration", "0.3", "--quiet"]) == 0
+    layout = json.loads((tmp_path / "data" / "scenario.json").read_text())["actuation"]
+    assert layout == {"type": "tendon", "end": [0.07, 0.07, 0.17, 0.17], "side": [1, -1, 1, -1]}
+    train = sorted(str(p) for p in (tmp_path / "data").glob("train_*.npz"))
+    assert main(["fuse", *train, "--out", f"{root}/strains", "--total-length", "0.17", "--threshold", "0.05",
+                 "--quiet"]) == 0
+    strains = sorted(str(p) for p in (tmp_path / "strains").glob("train_*.npz"))
+    model = f"{root}/model/model.json"
+    assert main(["fit", *strains, "--inputs", *train, "--actuation", f"{root}/data/scenario.json", "--out", model,
+                 "--quiet"]) == 0
+    from pcs_sindy.persistence import load
+
+    fitted = load(model)
+    # the true offsets of the scenario (+-15 mm), which the layout file does not hold
+    np.testing.assert_allclose(fitted.actuation_.offsets_, [0.015, -0.015, 0.015, -0.015], rtol=0.02)
+    assert main(["rollout", model, "--tau", f"{root}/data/validation.npz", "--truth", f"{root}/data/validation.npz",
+                 "--segmentation", f"{root}/strains/segmentation.json", "--out", f"{root}/roll", "--no-plot",
+                 "--quiet"]) == 0
+    metrics = json.loads((tmp_path / "roll" / "metrics.json").read_text())
+    assert metrics["e_p_ee"] < 1e-3
+    assert main(["fit", *strains, "--inputs", *train, "--out", model, "--quiet"]) == 2  # no layout

@@ -230,3 +230,22 @@ def test_recording_groups() -> None:
         recording_groups(X, ["a"])
     with pytest.raises(ValueError, match="X must be a list"):
         recording_groups(np.zeros(3))
+
+
+def test_pipeline_fits_actuator_inputs_from_poses() -> None:
+    scenario = get_scenario("one_segment_pneumatic")
+    data = scenario.generate(seed=0, n_train=3, validation=False)
+    poses = [PoseTrajectory(r.poses, t=r.t) for r in data.train]
+    mass = float(1070 * np.pi * 0.02**2 * 0.1)  # Table I: rho A L, as a user weighs it
+    from pcs_sindy.library import PhysicalPCSLibrary
+
+    pipe = make_pcs_pipeline(
+        start="poses", fusion=KinematicFusion(total_length=0.1),
+        regressor=EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation))
+    pipe.fit(poses, [r.u for r in data.train])
+    true = scenario.robot.actuation
+    np.testing.assert_allclose(pipe.model_.actuation_.gains_, np.r_[true.bending_gain, true.axial_gain], rtol=0.02)
+    with pytest.raises(ValueError, match="actuation was given with regressor"):
+        make_pcs_pipeline(regressor=EulerLagrangeRegressor(), actuation=scenario.actuation)
+    default = make_pcs_pipeline(start="poses", actuation=scenario.actuation)
+    assert default.named_steps["dynamics"].actuation == scenario.actuation

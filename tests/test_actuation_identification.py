@@ -1,0 +1,163 @@
+"""Identification from actuator inputs: tendons (offsets identified) and pressure chambers (gains identified).
+
+Truth: the ground-truth simulator's own actuation (an independent
+implementation of the tendon lengths and chamber columns), its actuated
+recordings, and finite differences.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pcs_sindy import EulerLagrangeRegressor, StrainTrajectory
+from pcs_sindy.actuation import (IdentityActuation, LinearActuation, PressureActuation, TendonActuation,
+                                 actuation_from_layout)
+from pcs_sindy.kinematics import PlanarPCS
+from pcs_sindy.library import PhysicalPCSLibrary
+from pcs_sindy.persistence import load, save
+from pcs_sindy.simulation import get_scenario
+from pcs_sindy.simulation.actuation import PressureActuation as TruePressure
+from pcs_sindy.simulation.actuation import TendonActuation as TrueTendon
+from pcs_sindy.simulation.dynamics import PCSRobot
+
+
+def _robot(lengths, actuation):
+    m = len(lengths)
+    return PCSRobot(lengths, density=[1000.0] * m, radius=0.02, youngs_modulus=[1e4] * m, shear_modulus=[1e3] * m,
+                    damping=[1e-4, 1e-2, 1e-2] * m, actuation=actuation)
+
+
+def _states(n, rng, size=20):
+    return rng.uniform(-1, 1, (size, n)) * np.tile([30.0, 0.2, 0.2], n // 3)
+
+
+@pytest.mark.parametrize("lengths", [(0.07, 0.1), (0.05, 0.06, 0.06)])
+def test_tendon_map_equals_the_simulators(lengths):
+    # terminations at a boundary, inside a segment and at the tip; offsets of both signs
+    end, offset = [0.07, 0.09, 0.17], [0.015, -0.01, 0.02]
+    end = [min(e, sum(lengths)) for e in end]
+    robot = _robot(lengths, TrueTendon(end, offset))
+    kin = PlanarPCS(lengths)
+    act = TendonActuation(end, np.sign(offset), offset=np.abs(offset)).fit(kin)
+    q = _states(kin.n_q, np.random.default_rng(0))
+    np.testing.assert_allclose(act.lengths(q), robot.tendon_lengths(q), rtol=1e-13)
+    np.testing.assert_allclose(act.matrix(q), robot.actuation_matrix(q), rtol=1e-12, atol=1e-15)
+    # A = -dl/dq by central differences of the lengths
+    h = 1e-6
+    fd = np.stack([(act.lengths(q + h * e) - act.lengths(q - h * e)) / (2 * h) for e in np.eye(kin.n_q)], axis=-1)
+    np.testing.assert_allclose(act.matrix(q), -np.swapaxes(fd, 1, 2), rtol=1e-6, atol=1e-9)
+    # kappa = 0 is an ordinary point: the straight robot's map equals the limit
+    np.testing.assert_allclose(act.matrix(np.zeros((1, kin.n_q))), act.matrix(1e-9 * np.ones((1, kin.n_q))), atol=1e-9)
+
+
+def test_pressure_map_equals_the_simulators_for_another_segmentation():
+    start, end, side, gb, ga = [0.0, 0.03], [0.1, 0.12], [1, -1], [3e-6, 2e-6], [2e-4, 1e-4]
+    lengths = (0.05, 0.04, 0.06)  # spans end inside segments
+    robot = _robot(lengths, TruePressure(start, end, side, gb, ga))
+    act = PressureActuation(start, end, side, gb, ga).fit(PlanarPCS(lengths))
+    q = _states(9, np.random.default_rng(1), 3)
+    np.testing.assert_allclose(act.matrix(q), robot.actuation_matrix(q), rtol=1e-13, atol=1e-18)
+    unknown = PressureActuation(start, end, side).fit(PlanarPCS(lengths))
+    assert unknown.gain_names_ == ["gb_1", "gb_2", "ga_1", "ga_2"]
+    np.testing.assert_allclose(unknown.matrix(q, gains=np.r_[gb, ga]), robot.actuation_matrix(q), rtol=1e-13)
+
+
+def _strains(recs, lengths):
+    return [StrainTrajectory(r.q, r.t, segment_lengths=lengths) for r in recs]
+
+
+@pytest.fixture(scope="module")
+def tendon_data():
+    scenario = get_scenario("two_segment_tendon")
+    return scenario, scenario.generate(seed=0, n_train=4, validation=False)
+
+
+def test_tendon_offsets_and_dynamics_are_identified(tendon_data):
+    scenario, data = tendon_data
+    lengths = scenario.robot.kinematics.segment_lengths
+    model = EulerLagrangeRegressor(actuation=scenario.actuation).fit(_strains(data.train, lengths),
+                                                                   [r.u for r in data.train])
+    true_offsets = np.asarray(scenario.robot.actuation.offset)
+    # measured: offsets within 0.1 %, stiffness within 0.05 %
+    np.testing.assert_allclose(model.actuation_.offsets_, true_offsets, rtol=1e-2)
+    np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-2)
+    info = model.identifiability_
+    assert info["offset_names"] == ["d_1", "d_2", "d_3", "d_4"]
+    assert np.all(info["offset_relative_standard_errors"] < 0.05)
+    text = model.equations()
+    assert any("offsets d [mm] (identified)" in line for line in text) and text[-1].startswith("D = diag(")
+    # the identified model, driven by the tensions, follows the simulator
+    rec = data.train[3]
+    sim = model.simulate(rec.q[0], rec.qd[0], rec.t, rec.u)
+    err = np.abs(sim.q - rec.q).max(axis=0) / np.abs(rec.q).max(axis=0)
+    assert np.all(err < 0.02), err
+    assert model.forward_model().n_inputs == 4
+    with pytest.raises(ValueError, match="tendon tensions must be >= 0"):
+        model.simulate(rec.q[0], rec.qd[0], rec.t, -rec.u)
+
+
+def test_actuated_model_file_round_trip(tendon_data, tmp_path):
+    scenario, data = tendon_data
+    lengths = scenario.robot.kinematics.segment_lengths
+    X = _strains(data.train[:2], lengths)
+    act = TendonActuation(scenario.actuation["end"], scenario.actuation["side"], offset=[0.015] * 4)
+    model = EulerLagrangeRegressor(actuation=act).fit(X, [r.u for r in data.train[:2]])
+    loaded = load(save(model, tmp_path / "tendon"))
+    assert isinstance(loaded.actuation_, TendonActuation)
+    np.testing.assert_array_equal(loaded.actuation_.offsets_, model.actuation_.offsets_)
+    rec = data.train[0]
+    a = model.simulate(rec.q[0], rec.qd[0], rec.t[:100], rec.u[:100])
+    b = loaded.simulate(rec.q[0], rec.qd[0], rec.t[:100], rec.u[:100])
+    np.testing.assert_array_equal(a.q, b.q)
+    assert loaded.equations() == model.equations()
+
+
+def test_pressure_gains_need_and_take_the_mass():
+    scenario = get_scenario("one_segment_pneumatic")
+    data = scenario.generate(seed=0, n_train=3, validation=False)
+    lengths = scenario.robot.kinematics.segment_lengths
+    X, u = _strains(data.train, lengths), [r.u for r in data.train]
+    with pytest.raises(ValueError, match=r"mass"):
+        EulerLagrangeRegressor(actuation=scenario.actuation).fit(X, u)
+    p = scenario.parameters
+    mass = float(np.sum(np.asarray(p["density"]) * np.pi * 0.02**2 * np.asarray(lengths)))
+    model = EulerLagrangeRegressor(actuation=scenario.actuation, library=PhysicalPCSLibrary(mass=mass)).fit(X, u)
+    true = scenario.robot.actuation
+    np.testing.assert_allclose(model.actuation_.gains_, np.r_[true.bending_gain, true.axial_gain], rtol=1e-2)
+    np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-2)
+    assert any(line.startswith("gains (identified)") for line in model.equations())
+
+
+def test_bad_inputs_are_named(tendon_data):
+    scenario, data = tendon_data
+    lengths = scenario.robot.kinematics.segment_lengths
+    X, u = _strains(data.train[:2], lengths), [r.u for r in data.train[:2]]
+    layout = scenario.actuation
+    with pytest.raises(ValueError, match=r"y\[0\] must have shape \(T, 4\)"):
+        EulerLagrangeRegressor(actuation=layout).fit(X, [v[:, :3] for v in u])
+    bad = [v.copy() for v in u]
+    bad[1][17, 2] = -0.5
+    with pytest.raises(ValueError, match=r"y\[1\]\[17, 2\] = -0.5 at t = 0.017 s: tendon 2 would push"):
+        EulerLagrangeRegressor(actuation=layout).fit(X, bad)
+    with pytest.raises(ValueError, match=r"end\[0\] = 0.3 m lies beyond the robot"):
+        EulerLagrangeRegressor(actuation={**layout, "end": [0.3, 0.07, 0.17, 0.17]}).fit(X, u)
+    with pytest.raises(ValueError, match="zero in every recording"):
+        EulerLagrangeRegressor(actuation=layout).fit(X, [np.zeros_like(v) for v in u])
+    with pytest.raises(ValueError, match="layout type must be one of"):
+        actuation_from_layout({"type": "magnet"})
+    with pytest.raises(ValueError, match="actuation must be None, an Actuation or a layout dict"):
+        EulerLagrangeRegressor(actuation="tendon").fit(X, u)
+
+
+def test_identity_and_linear_layouts():
+    kin = PlanarPCS((0.1,))
+    ident = IdentityActuation().fit(kin)
+    u = np.random.default_rng(0).normal(size=(5, 3))
+    np.testing.assert_array_equal(ident.forces(np.zeros((5, 3)), u), u)
+    lin = LinearActuation(pattern=[[1, 0], [0, 0], [0, 1]]).fit(kin)
+    assert lin.gain_names_ == ["a_be_1_1", "a_ax_1_2"]
+    A = lin.matrix(np.zeros((1, 3)), gains=[2.0, 3.0])[0]
+    np.testing.assert_array_equal(A, [[2.0, 0.0], [0.0, 0.0], [0.0, 3.0]])
+    with pytest.raises(ValueError, match=r"pattern must have shape \(3, p\)"):
+        LinearActuation(pattern=[[1, 0]]).fit(kin)
