@@ -226,6 +226,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             raise ValueError(f"weak_hold must be 'zoh' or 'trapezoid'; got {self.weak_hold!r}")
         lib = self.library
         ok = lib is None or (lib in _LIBRARIES if isinstance(lib, str) else isinstance(lib, LagrangianLibrary))
+        if ok and isinstance(lib, LagrangianLibrary):
+            lib._check_params()
         if not ok:
             raise ValueError(
                 f"library must be a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary) or one of "
