@@ -278,6 +278,10 @@ class TendonActuation(Actuation):
         projection, within ``(0, max_offset]``).
     max_offset : float, default 0.05
         Upper bound [m] of identified offsets.
+    shared : bool, default False
+        Identify one offset magnitude for all tendons (tendons routed at one
+        radius): a single parameter, far better determined from noisy data
+        than one per tendon (docs/results.md, "Identification from actuator inputs").
 
     Attributes
     ----------
@@ -293,11 +297,12 @@ class TendonActuation(Actuation):
     depends_on_q = True
 
     def __init__(self, end: ArrayLike = (), side: ArrayLike = (), offset: ArrayLike | None = None,
-                 max_offset: float = 0.05) -> None:
+                 max_offset: float = 0.05, shared: bool = False) -> None:
         self.end = end
         self.side = side
         self.offset = offset
         self.max_offset = max_offset
+        self.shared = shared
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
         end = _vector(self.end, "end")
@@ -312,8 +317,11 @@ class TendonActuation(Actuation):
         _inside(end, "end", total, allow_zero=False)
         out = {"cover": _cover(np.zeros(p), np.minimum(end, total), lengths), "side": side, "n_inputs": p,
                "gain_names": [], "gains": np.zeros(0)}
+        if not isinstance(self.shared, (bool, np.bool_)):
+            raise ValueError(f"shared must be True or False; got {self.shared!r}")
         if self.offset is None:
-            out.update(offset_names=[f"d_{k + 1}" for k in range(p)], offsets=side * min(0.01, 0.5 * self.max_offset))
+            names = ["d"] if self.shared else [f"d_{k + 1}" for k in range(p)]
+            out.update(offset_names=names, offsets=side * min(0.01, 0.5 * self.max_offset))
         else:
             mag = _vector(self.offset, "offset", p)
             if np.any(mag <= 0):
@@ -326,12 +334,12 @@ class TendonActuation(Actuation):
         return np.full(p, 1e-4 * self.max_offset), np.full(p, float(self.max_offset))
 
     def initial_offsets(self):
-        return np.abs(self.offsets_).copy() if self.n_offsets else np.zeros(0)
+        return np.abs(self.offsets_[: self.n_offsets]).copy()
 
     def _signed(self, offsets: NDArray | None) -> NDArray[np.float64]:
         if offsets is None or self.n_offsets == 0:
             return self.offsets_
-        return self._arrays["side"] * np.asarray(offsets, dtype=float)
+        return self._arrays["side"] * np.asarray(offsets, dtype=float)  # one shared magnitude broadcasts
 
     def check_inputs(self, u, name="u", t=None):
         arr = super().check_inputs(u, name, t)

@@ -41,8 +41,10 @@ from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
 from .trajectory import StrainTrajectory, as_strain_trajectories
 
-__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES"]
+__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
 
+#: default weak-form window in sampling intervals (shorter for recordings shorter than twice it)
+WEAK_WINDOW = 160
 #: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
 SCORE_DERIVATIVES = (7, 3)
@@ -99,10 +101,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     exclude_force_jumps : bool, default False
         Strong form: leave out every sample whose Savitzky–Golay window contains
         a jump of the held actuation (and the ends); for step actuation only.
-    weak_window : int, default 40
-        Weak form: window length in sampling intervals (every recording needs more samples).
-    weak_stride : int, default 20
-        Weak form: step between windows in samples.
+    weak_window : int, optional
+        Weak form: window length in sampling intervals (every recording needs
+        more samples).  Default: :data:`WEAK_WINDOW` (160), or half the shortest
+        recording when that is shorter.  Long windows average the noise of the
+        rates: measured best at 160 (0.16 s at 1 kHz) on the scenarios with pose
+        noise (docs/results.md, "Weak-form window").
+    weak_stride : int, optional
+        Weak form: step between windows in samples; default a quarter of the window.
     weak_hold : {"zoh", "trapezoid"}, default "zoh"
         Weak form: ``tau`` held on ``[t_k, t_{k+1})`` (exact for held actuation)
         or integrated by the trapezoid rule (smooth actuation).
@@ -167,8 +173,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         window_length: int = 7,
         polyorder: int = 3,
         exclude_force_jumps: bool = False,
-        weak_window: int = 40,
-        weak_stride: int = 20,
+        weak_window: int | None = None,
+        weak_stride: int | None = None,
         weak_hold: str = "zoh",
         check_mass_matrix: bool = True,
         rtol: float = 3e-5,
@@ -218,10 +224,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             raise ValueError(f"polyorder must be an integer with 2 <= polyorder < window_length; got {po!r}")
         if self.formulation not in _form.FORMULATIONS:
             raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
-        if not _is_int(self.weak_window) or self.weak_window < 2:
-            raise ValueError(f"weak_window must be an integer >= 2 (sampling intervals); got {self.weak_window!r}")
-        if not _is_int(self.weak_stride) or self.weak_stride < 1:
-            raise ValueError(f"weak_stride must be an integer >= 1 (samples); got {self.weak_stride!r}")
+        if self.weak_window is not None and (not _is_int(self.weak_window) or self.weak_window < 2):
+            raise ValueError(f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}")
+        if self.weak_stride is not None and (not _is_int(self.weak_stride) or self.weak_stride < 1):
+            raise ValueError(f"weak_stride must be None or an integer >= 1 (samples); got {self.weak_stride!r}")
         if self.weak_hold not in ("zoh", "trapezoid"):
             raise ValueError(f"weak_hold must be 'zoh' or 'trapezoid'; got {self.weak_hold!r}")
         lib = self.library
@@ -257,6 +263,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
             return PCSLagrangianLibrary()
         return clone(self.library)
+
+    def _weak_windows(self, shortest: int) -> tuple[int, int]:
+        """Weak-form window and stride: the given ones, or the defaults fitted to the shortest recording."""
+        width = self.weak_window
+        if width is None:
+            width = max(2, min(WEAK_WINDOW, (shortest - 1) // 2))
+        stride = self.weak_stride if self.weak_stride is not None else max(1, int(width) // 4)
+        return int(width), int(stride)
 
     def _new_actuation(self, kin: PlanarPCS) -> Actuation:
         act = self.actuation
@@ -348,12 +362,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             if not np.all(np.isfinite(tau)):
                 raise ValueError(f"y[{k}] contains NaN or inf (first at sample {np.argwhere(~np.isfinite(tau))[0][0]})")
             taus.append(tau)
+        width, stride = self._weak_windows(min(rec.n_frames for rec in X))
         recs = []
         for k, (rec, tau) in enumerate(zip(X, taus)):
             rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k])
             r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau)
             if formulation == "weak":
-                width, stride = int(self.weak_window), int(self.weak_stride)
                 if rec.n_frames <= width:
                     raise ValueError(
                         f"X[{k}] has {rec.n_frames} samples, too few for weak_window = {width} sampling intervals "
