@@ -31,8 +31,6 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.integrators import DivergenceError  # noqa: E402
 from pcs_sindy.metrics import end_effector_errors  # noqa: E402
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
@@ -40,6 +38,8 @@ from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.segmentation import fit_strains_least_squares  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 # (scenario, removal) -> seed's e_p^EE [mm], e_theta^EE [rad] for (no noise, noise)
 SEED = {

@@ -18,7 +18,11 @@ SECTIONS: list[tuple[str, str, list[str]]] = [
     ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline", "recording_groups"]),
     ("Vision: videos → poses", "pcs_sindy.vision", ["MarkerPoseExtractor"]),
     ("Camera", "pcs_sindy.camera", ["Camera"]),
-    ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion", "threshold_sweep", "select_threshold"]),
+    (
+        "Segmentation: poses → strains",
+        "pcs_sindy.segmentation",
+        ["KinematicFusion", "threshold_sweep", "select_threshold"],
+    ),
     ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary", "StackedEulerLagrangeLibrary"]),
     ("Optimizer", "pcs_sindy.optimizers", ["StiffnessThresholdOptimizer"]),
     ("Regressor: strains + τ → model", "pcs_sindy.regressor", ["EulerLagrangeRegressor"]),
@@ -26,12 +30,23 @@ SECTIONS: list[tuple[str, str, list[str]]] = [
     ("Kinematics", "pcs_sindy.kinematics", ["PlanarPCS", "forward_kinematics", "forward_kinematics_jacobian"]),
     ("Trajectories", "pcs_sindy.trajectory", ["PoseTrajectory", "StrainTrajectory"]),
     ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors"]),
-    ("Simulation (ground truth)", "pcs_sindy.simulation",
-     ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"]),
-    ("Plotting", "pcs_sindy.plotting", [
-        "plot_strain_distance_profile", "plot_error_vs_segments", "plot_rollout", "plot_end_effector",
-        "plot_stills", "animate_rollout",
-    ]),
+    (
+        "Simulation (ground truth)",
+        "pcs_sindy.simulation",
+        ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"],
+    ),
+    (
+        "Plotting",
+        "pcs_sindy.plotting",
+        [
+            "plot_strain_distance_profile",
+            "plot_error_vs_segments",
+            "plot_rollout",
+            "plot_end_effector",
+            "plot_stills",
+            "animate_rollout",
+        ],
+    ),
 ]
 
 
@@ -106,8 +121,16 @@ def render() -> str:
             lines += [f"### `{name}`", "", "```python", f"{kind} {_signature(obj, name)}", "```", "", _doc(obj), ""]
             if inspect.isclass(obj):
                 for meth_name, meth in _public_methods(obj):
-                    lines += [f"#### `{name}.{meth_name}`", "", "```python", _signature(meth, meth_name), "```", "",
-                              _doc(meth), ""]
+                    lines += [
+                        f"#### `{name}.{meth_name}`",
+                        "",
+                        "```python",
+                        _signature(meth, meth_name),
+                        "```",
+                        "",
+                        _doc(meth),
+                        "",
+                    ]
     return "\n".join(lines).rstrip() + "\n"
 
 

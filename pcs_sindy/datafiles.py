@@ -14,10 +14,10 @@ what is wrong with it, or ``FileNotFoundError``.
 from __future__ import annotations
 
 import json
-
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,8 +25,19 @@ from numpy.typing import ArrayLike, NDArray
 from .trajectory import StrainTrajectory
 
 __all__ = [
-    "FILE_FORMATS", "DataFileError", "output_dir", "read_arrays", "read_poses", "write_poses", "read_tau",
-    "write_tau", "read_strains", "write_strains", "write_recording", "read_training_files", "read_model_file",
+    "FILE_FORMATS",
+    "DataFileError",
+    "output_dir",
+    "read_arrays",
+    "read_poses",
+    "write_poses",
+    "read_tau",
+    "write_tau",
+    "read_strains",
+    "write_strains",
+    "write_recording",
+    "read_training_files",
+    "read_model_file",
     "write_model_file",
 ]
 
@@ -191,14 +202,18 @@ def read_strains(path: str | Path) -> StrainTrajectory:
     go to ``metadata`` (with ``source``, the path).
     """
     data = read_arrays(
-        path, ["t", "q", "segment_lengths"], "strain file",
+        path,
+        ["t", "q", "segment_lengths"],
+        "strain file",
         optional=["active_strains", "base_pose", *_STRAIN_METADATA],
     )
     meta: dict[str, Any] = {"source": str(path)}
     meta.update({key: data[key] for key in _STRAIN_METADATA if key in data})
     try:
         return StrainTrajectory(
-            data["q"], data["t"], segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
+            data["q"],
+            data["t"],
+            segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
             active_strains=data.get("active_strains"),
             base_pose=tuple(data["base_pose"]) if "base_pose" in data else (0.0, 0.0, 0.0),
             metadata=meta,

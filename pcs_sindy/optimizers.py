@@ -27,7 +27,8 @@ Identification side: never imports :mod:`pcs_sindy.simulation`.
 from __future__ import annotations
 
 import warnings
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 import scipy.linalg
@@ -92,7 +93,9 @@ def stiffness_bounds(
         raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
     area = np.pi * radius**2
     inertia = np.pi * radius**4 / 4
-    per_seg = np.array([inertia * youngs_modulus_max, shear_factor * area * shear_modulus_max, area * youngs_modulus_max])
+    per_seg = np.array(
+        [inertia * youngs_modulus_max, shear_factor * area * shear_modulus_max, area * youngs_modulus_max]
+    )
     return (f_l[:, None] * per_seg[None, :]).reshape(-1)
 
 
@@ -312,7 +315,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.rcond = rcond
         self.bounded = bounded
 
-    def set_params(self, **params: Any) -> "StiffnessThresholdOptimizer":
+    def set_params(self, **params: Any) -> StiffnessThresholdOptimizer:
         """Set parameters and return ``self`` (pysindy 2.1's returns None, which breaks GridSearchCV)."""
         BaseEstimator.set_params(self, **params)
         return self
@@ -357,7 +360,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             )
             return 1.0 if thr else np.inf
         if not isinstance(thr, (int, float, np.integer, np.floating)) or np.isnan(thr) or not thr > 0:
-            raise ValueError(f"threshold must be a number > 0 (factor on the stiffness bound; np.inf: no removal); got {thr!r}")
+            raise ValueError(
+                f"threshold must be a number > 0 (factor on the stiffness bound; np.inf: no removal); got {thr!r}"
+            )
         return float(thr)
 
     def _bounds(self, library: Any) -> NDArray[np.float64]:
@@ -366,7 +371,8 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)
             if bounds.shape != (3 * len(lengths),) or np.any(np.isnan(bounds)) or np.any(bounds <= 0):
                 raise ValueError(
-                    f"max_stiffness must hold {3 * len(lengths)} positive values (3 per segment); got {self.max_stiffness!r}"
+                    f"max_stiffness must hold {3 * len(lengths)} positive values (3 per segment); "
+                    f"got {self.max_stiffness!r}"
                 )
             return bounds
         return stiffness_bounds(
@@ -389,7 +395,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         feature_names: Sequence[str] | None = None,
         design: Callable[[Any, NDArray[np.bool_]], ArrayLike] | None = None,
         equality: tuple[ArrayLike, float] | None = None,
-    ) -> "StiffnessThresholdOptimizer":
+    ) -> StiffnessThresholdOptimizer:
         """Fit, removing over-stiff strains when the library and states are given.
 
         Parameters
@@ -495,7 +501,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             return self
 
         if sample_weight is not None:
-            raise ValueError("sample_weight is not supported together with library (rows change when strains are removed)")
+            raise ValueError(
+                "sample_weight is not supported together with library (rows change when strains are removed)"
+            )
         kin = library.kinematics
         m = kin.n_segments
         start_mask = np.asarray(kin.active_strains, dtype=bool).reshape(-1)
@@ -508,7 +516,8 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             for name, arr in (("q", q), ("qd", qd), ("qdd", qdd)):
                 if arr.shape != (n_samples, n_act) or n_samples * n_act != x.shape[0]:
                     raise ValueError(
-                        f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} rows of x; "
+                        f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} "
+                        "rows of x; "
                         f"got {arr.shape}"
                     )
                 if not np.all(np.isfinite(arr)):
@@ -540,8 +549,9 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
             lb = getattr(lib_r, "lower_bounds_", None) if self.bounded else None
             eq = None if equality is None else (np.asarray(equality[0], dtype=float)[col_map], float(equality[1]))
-            coef_r, info = scaled_lstsq(x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb,
-                                        equality=eq)
+            coef_r, info = scaled_lstsq(
+                x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb, equality=eq
+            )
             stiff = np.full(3 * m, np.inf)
             # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
             stiff[mask] = float(lib_r.stiffness_factor_) * coef_r[np.asarray(lib_r.stiffness_index_)]

@@ -20,8 +20,9 @@ from __future__ import annotations
 
 import os
 import re
+from collections.abc import Mapping, Sequence
 from pathlib import Path
-from typing import Any, Mapping, Sequence
+from typing import Any
 
 import cv2
 import matplotlib.pyplot as plt
@@ -78,7 +79,9 @@ def _check_time(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
         raise ValueError(f"{name} must be a non-empty 1-D array of time stamps; got shape {t.shape}")
     if t.size > 1 and np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
-        raise ValueError(f"{name} must be strictly increasing; {name}[{k + 1}] = {t[k + 1]!r} <= {name}[{k}] = {t[k]!r}")
+        raise ValueError(
+            f"{name} must be strictly increasing; {name}[{k + 1}] = {t[k + 1]!r} <= {name}[{k}] = {t[k]!r}"
+        )
     return t
 
 
@@ -115,7 +118,9 @@ def _predictions(
         labels = [labels]
     labels = [str(v) for v in labels]
     if len(labels) != len(arrays):
-        raise ValueError(f"labels must have one entry per prediction in {name} ({len(arrays)}); got {len(labels)}: {labels!r}")
+        raise ValueError(
+            f"labels must have one entry per prediction in {name} ({len(arrays)}); got {len(labels)}: {labels!r}"
+        )
     out = []
     for k, arr in enumerate(arrays):
         key = name if len(arrays) == 1 else f"{name}[{labels[k]!r}]"
@@ -218,7 +223,8 @@ def plot_strain_distance_profile(
         x_marker = _finite_array(marker_arc_lengths, "marker_arc_lengths")
         if x_marker.shape != (n + 1,):
             raise ValueError(
-                f"marker_arc_lengths must have shape ({n + 1},) (base + N markers for {d.size} distances); got {x_marker.shape}"
+                f"marker_arc_lengths must have shape ({n + 1},) (base + N markers for {d.size} distances); "
+                f"got {x_marker.shape}"
             )
         if np.any(np.diff(x_marker) <= 0):
             raise ValueError(f"marker_arc_lengths must be strictly increasing; got {x_marker.tolist()}")
@@ -234,7 +240,8 @@ def plot_strain_distance_profile(
         span = x_marker[-1] - x_marker[0]
         if abs(ends[-1] - x_marker[-1]) > 1e-6 * span:
             raise ValueError(
-                f"segment_lengths must add up to the robot's length {span!r} (marker_arc_lengths); got sum {lengths.sum()!r}"
+                f"segment_lengths must add up to the robot's length {span!r} (marker_arc_lengths); "
+                f"got sum {lengths.sum()!r}"
             )
         ends[-1] = x_marker[-1]
     else:
@@ -242,12 +249,18 @@ def plot_strain_distance_profile(
             b = _one_merge_step(d, h)
         else:
             raw = np.asarray(boundaries)
-            if raw.ndim != 1 or raw.size < 1 or not np.all(np.isfinite(raw.astype(float))) or np.any(raw != np.round(raw)):
+            if (
+                raw.ndim != 1
+                or raw.size < 1
+                or not np.all(np.isfinite(raw.astype(float)))
+                or np.any(raw != np.round(raw))
+            ):
                 raise ValueError(f"boundaries must be a 1-D array of marker indices; got {boundaries!r}")
             b = raw.astype(np.intp)
             if np.any(np.diff(b) <= 0) or b[0] < 1 or b[-1] != n:
                 raise ValueError(
-                    f"boundaries must be strictly increasing marker indices in 1..{n} ending at the tip {n}; got {b.tolist()}"
+                    f"boundaries must be strictly increasing marker indices in 1..{n} ending at the tip {n}; "
+                    f"got {b.tolist()}"
                 )
         ends = x_marker[b]
     starts = np.concatenate([[x_marker[0]], ends[:-1]])
@@ -256,7 +269,12 @@ def plot_strain_distance_profile(
     for j, (a, e) in enumerate(zip(starts, ends)):
         ax.axvspan(a, e, color=colors[j % len(colors)], alpha=0.18, linewidth=0, zorder=0)
         ax.text(
-            0.5 * (a + e), 0.97, str(j + 1), ha="center", va="top", fontsize="small",
+            0.5 * (a + e),
+            0.97,
+            str(j + 1),
+            ha="center",
+            va="top",
+            fontsize="small",
             transform=blended_transform_factory(ax.transData, ax.transAxes),
         )
     ax.plot(x_marker[1:-1], d, "o-", color="k", markersize=4, linewidth=1.2, label=r"$\bar d_{i,i+1}$ (scaled strains)")
@@ -268,7 +286,9 @@ def plot_strain_distance_profile(
     ax.set_xlabel(xlabel)
     ax.set_ylabel(r"average strain distance $\bar d_{i,i+1}$ [-]")
     m = len(ends)
-    ax.set_title(title if title is not None else f"strain-distance profile; shaded: {m} resulting segment{'s' * (m > 1)}")
+    ax.set_title(
+        title if title is not None else f"strain-distance profile; shaded: {m} resulting segment{'s' * (m > 1)}"
+    )
     ax.legend(loc="upper right", bbox_to_anchor=(1.0, 0.9), fontsize="small")
     return fig
 
@@ -280,9 +300,13 @@ def _check_rows(rows: Any) -> NDArray[np.float64]:
     try:
         arr = np.array([tuple(r) for r in rows], dtype=float)
     except (TypeError, ValueError) as err:
-        raise ValueError(f"rows must be a sequence of (h, n_segments, e_p_dist, e_theta_dist); got {rows!r} ({err})") from None
+        raise ValueError(
+            f"rows must be a sequence of (h, n_segments, e_p_dist, e_theta_dist); got {rows!r} ({err})"
+        ) from None
     if arr.ndim != 2 or arr.shape[0] < 1 or arr.shape[1] != 4:
-        raise ValueError(f"rows must be a non-empty sequence of (h, n_segments, e_p_dist, e_theta_dist); got shape {arr.shape}")
+        raise ValueError(
+            f"rows must be a non-empty sequence of (h, n_segments, e_p_dist, e_theta_dist); got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)):
         k = int(np.argwhere(~np.isfinite(arr))[0][0])
         raise ValueError(f"rows[{k}] contains NaN or inf: {tuple(arr[k])}")
@@ -531,7 +555,9 @@ def _per_still(value: Any, k: int, name: str, min_points: int = 1) -> list[NDArr
     if isinstance(value, np.ndarray) or not isinstance(value, (list, tuple)):
         arr = _finite_array(value, name)
         if arr.ndim != 3 or arr.shape[-1] not in (2, 3):
-            raise ValueError(f"{name} must have shape ({k}, P, 2 or 3) or be a list of {k} (P, 2 or 3) arrays; got {arr.shape}")
+            raise ValueError(
+                f"{name} must have shape ({k}, P, 2 or 3) or be a list of {k} (P, 2 or 3) arrays; got {arr.shape}"
+            )
         value = list(arr)
     if len(value) != k:
         raise ValueError(f"{name} must hold one entry per still ({k}); got {len(value)}")

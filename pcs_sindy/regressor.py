@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import time
 import warnings
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -33,9 +34,9 @@ from . import formulations as _form
 from . import identifiability as _ident
 from ._saving import PersistenceMixin
 from .actuation import Actuation, IdentityActuation, actuation_from_layout
+from .forward import reduce_strains
 from .integration import DivergenceError
 from .kinematics import PlanarPCS
-from .forward import reduce_strains
 from .library._with_gains import WithGains
 from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
@@ -199,7 +200,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.actuation = actuation
 
     @classmethod
-    def seed_method(cls, **overrides: Any) -> "EulerLagrangeRegressor":
+    def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
         """The seed's method: monomial Lagrangian basis, strong form, Savitzky–Golay 25/3.
 
         Parameters
@@ -225,7 +226,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if self.formulation not in _form.FORMULATIONS:
             raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
         if self.weak_window is not None and (not _is_int(self.weak_window) or self.weak_window < 2):
-            raise ValueError(f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}")
+            raise ValueError(
+                f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}"
+            )
         if self.weak_stride is not None and (not _is_int(self.weak_stride) or self.weak_stride < 1):
             raise ValueError(f"weak_stride must be None or an integer >= 1 (samples); got {self.weak_stride!r}")
         if self.weak_hold not in ("zoh", "trapezoid"):
@@ -250,7 +253,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
         for name in ("rtol", "atol"):
             val = getattr(self, name)
-            if isinstance(val, bool) or not isinstance(val, (int, float, np.floating)) or not (np.isfinite(val) and val > 0):
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float, np.floating))
+                or not (np.isfinite(val) and val > 0)
+            ):
                 raise ValueError(f"{name} must be a finite number > 0; got {val!r}")
 
     def _new_library(self) -> LagrangianLibrary:
@@ -305,7 +312,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if self.differentiation_method is not None and not fixed:
             rate = np.asarray(self.differentiation_method(q, t), dtype=float)
             acc = np.asarray(self.differentiation_method(rate, t), dtype=float)
-            if rate.shape != q.shape or acc.shape != q.shape or not (np.all(np.isfinite(rate)) and np.all(np.isfinite(acc))):
+            if (
+                rate.shape != q.shape
+                or acc.shape != q.shape
+                or not (np.all(np.isfinite(rate)) and np.all(np.isfinite(acc)))
+            ):
                 raise ValueError(
                     f"differentiation_method returned derivatives of shape {rate.shape}/{acc.shape} or with NaN for "
                     f"X[{k}] (q has shape {q.shape}); NaN edges are not accepted"
@@ -393,7 +404,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         *,
         qd: Sequence[ArrayLike] | None = None,
         qdd: Sequence[ArrayLike] | None = None,
-    ) -> "EulerLagrangeRegressor":
+    ) -> EulerLagrangeRegressor:
         """Identify the model.
 
         Parameters
@@ -416,8 +427,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         act = self._new_actuation(segmentation_of(X))
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
         if not any(np.any(r.u) for r in recs):
-            raise ValueError("y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
-                             "identified; record with actuation")
+            raise ValueError(
+                "y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
+                "identified; record with actuation"
+            )
         lib = self._new_library().fit(X)
         offsets, offset_info = (None, None)
         if act.n_offsets:
@@ -443,18 +456,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             active, removed = opt.active_strains_, list(opt.removed_strains_)
         else:
             if equality is not None:
-                raise ValueError(f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
-                                 "use StiffnessThresholdOptimizer")
+                raise ValueError(
+                    f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
+                    "use StiffnessThresholdOptimizer"
+                )
             opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
             coef_all = np.asarray(opt.coef_, dtype=float).reshape(-1)
             if coef_all.shape != (x.shape[-1],) or not np.all(np.isfinite(coef_all)):
-                raise ValueError(f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
-                                 f"expected ({x.shape[-1]},) finite values")
+                raise ValueError(
+                    f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
+                    f"expected ({x.shape[-1]},) finite values"
+                )
             lib_r, column_map = lib, np.arange(p_lib)
             active, removed = kin.active_strains.copy(), []
         coef, library_ = coef_all[:p_lib], lib_r
-        self.actuation_ = act.set_identified(coef_all[p_lib:] if act.n_gains else act.gains_,
-                                             act.offsets_ if offsets is None else act._signed(offsets))
+        self.actuation_ = act.set_identified(
+            coef_all[p_lib:] if act.n_gains else act.gains_, act.offsets_ if offsets is None else act._signed(offsets)
+        )
         self.optimizer_ = opt
         self.full_library_ = lib
         self.library_ = library_
@@ -470,8 +488,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         x_final = x if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
         final_cols = np.r_[column_map, p_lib + np.arange(act.n_gains)]
         eq = None if equality is None else (equality[0][final_cols], equality[1])
-        self.identifiability_ = self._identifiability(x_final, np.asarray(target)[:, kept], coef_all[final_cols],
-                                                      eq, offset_info)
+        self.identifiability_ = self._identifiability(
+            x_final, np.asarray(target)[:, kept], coef_all[final_cols], eq, offset_info
+        )
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix:
             self._check_mass_matrix(np.concatenate([r.q[:, kept] for r in recs]))
@@ -493,8 +512,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             rest[final] = np.where(f0 == 0.0, 0.0, f0 / stiff[final])
         self.stiffness_, self.damping_, self.rest_strain_ = stiff, damping, rest
 
-    def _identifiability(self, x: NDArray[np.float64], target: NDArray[np.float64], coef: NDArray[np.float64],
-                         equality: tuple | None, offset_info: dict | None) -> dict | None:
+    def _identifiability(
+        self,
+        x: NDArray[np.float64],
+        target: NDArray[np.float64],
+        coef: NDArray[np.float64],
+        equality: tuple | None,
+        offset_info: dict | None,
+    ) -> dict | None:
         x2 = x.reshape(-1, x.shape[-1])
         y2 = target.reshape(-1)
         if equality is not None:  # the scale row, as weighted in the fit
@@ -513,19 +538,26 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         names = lib.coefficient_names() + list(self.actuation_.gain_names_)
         info = _ident.identifiability(x2, y2, coef, names, tol=self.identifiability_tol)
         info["poorly_excited_strains"] = _ident.strain_excitation(
-            info, self.kinematics_.strain_names(active_only=True), lib.stiffness_index_, lib.damping_index_,
-            self.identifiability_tol)
+            info,
+            self.kinematics_.strain_names(active_only=True),
+            lib.stiffness_index_,
+            lib.damping_index_,
+            self.identifiability_tol,
+        )
         info["coef"] = np.asarray(coef, dtype=float).copy()
         info["formulation"] = self.formulation
         if offset_info is not None:
             info.update(offset_info)
-            info["poorly_determined"] += [nm for nm, r in zip(offset_info["offset_names"],
-                                                              offset_info["offset_relative_standard_errors"])
-                                          if not r <= self.identifiability_tol]
+            info["poorly_determined"] += [
+                nm
+                for nm, r in zip(offset_info["offset_names"], offset_info["offset_relative_standard_errors"])
+                if not r <= self.identifiability_tol
+            ]
         return info
 
-    def _fit_offsets(self, lib: LagrangianLibrary, act: Actuation,
-                     recs: list[_form.Recording]) -> tuple[NDArray[np.float64], dict]:
+    def _fit_offsets(
+        self, lib: LagrangianLibrary, act: Actuation, recs: list[_form.Recording]
+    ) -> tuple[NDArray[np.float64], dict]:
         """Nonlinear actuation parameters (tendon offsets) by variable projection.
 
         For given offsets the model is linear: the Lagrangian coefficients (and
@@ -553,8 +585,16 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
         lo, hi = act.offset_bounds()
         d0 = np.clip(act.initial_offsets(), lo, hi)
-        sol = least_squares(residual, d0, bounds=(lo, hi), x_scale=np.maximum(np.abs(d0), 1e-3), xtol=1e-12,
-                            ftol=1e-12, gtol=1e-12, max_nfev=200)
+        sol = least_squares(
+            residual,
+            d0,
+            bounds=(lo, hi),
+            x_scale=np.maximum(np.abs(d0), 1e-3),
+            xtol=1e-12,
+            ftol=1e-12,
+            gtol=1e-12,
+            max_nfev=200,
+        )
         r, jac = sol.fun, sol.jac
         dof = max(r.size - jac.shape[1] - rows.shape[-1], 1)
         s2 = float(r @ r) / dof
@@ -563,8 +603,13 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         except np.linalg.LinAlgError:
             se = np.full(sol.x.size, np.inf)
         names = list(act.offset_names_)
-        info = {"offset_names": names, "offsets": sol.x.copy(), "offset_standard_errors": se,
-                "offset_relative_standard_errors": se / np.abs(sol.x), "offset_fit_success": bool(sol.success)}
+        info = {
+            "offset_names": names,
+            "offsets": sol.x.copy(),
+            "offset_standard_errors": se,
+            "offset_relative_standard_errors": se / np.abs(sol.x),
+            "offset_fit_success": bool(sol.success),
+        }
         return sol.x, info
 
     def _check_mass_matrix(self, q: NDArray[np.float64]) -> None:
@@ -605,8 +650,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         fm = self.__dict__.get("_forward")
         if fm is None:
             act = getattr(self, "actuation_", None)
-            fm = self.library_.forward_model(self.model_coef_, actuation=None if isinstance(act, IdentityActuation)
-                                             else act)
+            fm = self.library_.forward_model(
+                self.model_coef_, actuation=None if isinstance(act, IdentityActuation) else act
+            )
             self.__dict__["_forward"] = fm
         return fm
 
@@ -790,9 +836,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         t, u = _simulate_inputs(t, u, tau)
         return self.forward_model().simulate(
-            q0, qd0, t, u, method=method, rtol=self.rtol if rtol is None else rtol,
-            atol=self.atol if atol is None else atol, step=step, max_step=max_step, max_abs_state=max_abs_state,
-            progress=self.progress if progress is None else progress, stats=stats)
+            q0,
+            qd0,
+            t,
+            u,
+            method=method,
+            rtol=self.rtol if rtol is None else rtol,
+            atol=self.atol if atol is None else atol,
+            step=step,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            progress=self.progress if progress is None else progress,
+            stats=stats,
+        )
 
     def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
         """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.
@@ -806,8 +862,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         ndarray, shape (n_recordings,)
         """
         pairs = self._rollout_tips(X, y, **simulate_kwargs)
-        return np.array([np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean())
-                         for sim, true in pairs])
+        return np.array(
+            [np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean()) for sim, true in pairs]
+        )
 
     # ------------------------------------------------------------------ text and pysindy
     def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
@@ -837,7 +894,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             print(line)
 
     @classmethod
-    def from_sindy(cls, model: Any) -> "EulerLagrangeRegressor":
+    def from_sindy(cls, model: Any) -> EulerLagrangeRegressor:
         """A fitted regressor from a ``pysindy.SINDy`` fit of the stacked Euler–Lagrange form.
 
         Parameters
@@ -897,15 +954,19 @@ def _simulate_inputs(t: Any, u: Any, tau: Any) -> tuple[Any, Any]:
     if tau is not None:
         if u is not None:
             raise ValueError("give the input as u (tau is its former name), not both")
-        warnings.warn("simulate(..., tau=...) is deprecated; pass the input as u (simulate(q0, qd0, t, u))",
-                      FutureWarning, stacklevel=3)
+        warnings.warn(
+            "simulate(..., tau=...) is deprecated; pass the input as u (simulate(q0, qd0, t, u))",
+            FutureWarning,
+            stacklevel=3,
+        )
         u = tau
     if t is None or u is None:
         raise ValueError("simulate needs the times t and the input u: simulate(q0, qd0, t, u)")
     t_arr = None if callable(t) else np.asarray(t)
     u_arr = None if callable(u) else np.asarray(u)
     if callable(t) or (t_arr is not None and t_arr.ndim == 2 and u_arr is not None and u_arr.ndim == 1):
-        warnings.warn("simulate(q0, qd0, tau, t) is deprecated; the order is simulate(q0, qd0, t, u)",
-                      FutureWarning, stacklevel=3)
+        warnings.warn(
+            "simulate(q0, qd0, tau, t) is deprecated; the order is simulate(q0, qd0, t, u)", FutureWarning, stacklevel=3
+        )
         t, u = u, t
     return t, u

@@ -11,8 +11,13 @@ import numpy as np
 import pytest
 
 from pcs_sindy import EulerLagrangeRegressor, StrainTrajectory
-from pcs_sindy.actuation import (IdentityActuation, LinearActuation, PressureActuation, TendonActuation,
-                                 actuation_from_layout)
+from pcs_sindy.actuation import (
+    IdentityActuation,
+    LinearActuation,
+    PressureActuation,
+    TendonActuation,
+    actuation_from_layout,
+)
 from pcs_sindy.kinematics import PlanarPCS
 from pcs_sindy.library import PhysicalPCSLibrary
 from pcs_sindy.persistence import load, save
@@ -24,8 +29,15 @@ from pcs_sindy.simulation.dynamics import PCSRobot
 
 def _robot(lengths, actuation):
     m = len(lengths)
-    return PCSRobot(lengths, density=[1000.0] * m, radius=0.02, youngs_modulus=[1e4] * m, shear_modulus=[1e3] * m,
-                    damping=[1e-4, 1e-2, 1e-2] * m, actuation=actuation)
+    return PCSRobot(
+        lengths,
+        density=[1000.0] * m,
+        radius=0.02,
+        youngs_modulus=[1e4] * m,
+        shear_modulus=[1e3] * m,
+        damping=[1e-4, 1e-2, 1e-2] * m,
+        actuation=actuation,
+    )
 
 
 def _states(n, rng, size=20):
@@ -76,8 +88,9 @@ def tendon_data():
 def test_tendon_offsets_and_dynamics_are_identified(tendon_data):
     scenario, data = tendon_data
     lengths = scenario.robot.kinematics.segment_lengths
-    model = EulerLagrangeRegressor(actuation=scenario.actuation).fit(_strains(data.train, lengths),
-                                                                   [r.u for r in data.train])
+    model = EulerLagrangeRegressor(actuation=scenario.actuation).fit(
+        _strains(data.train, lengths), [r.u for r in data.train]
+    )
     true_offsets = np.asarray(scenario.robot.actuation.offset)
     # measured: offsets within 0.1 %, stiffness within 0.05 %
     np.testing.assert_allclose(model.actuation_.offsets_, true_offsets, rtol=1e-2)

@@ -58,8 +58,16 @@ IDENTIFICATION = (
 )
 VISION = ("pcs_sindy.vision", "pcs_sindy.camera", "pcs_sindy.segmentation")
 COMPOSITION = ("pcs_sindy.pipeline",)
-TOP = ("pcs_sindy.cli", "pcs_sindy.commands", "pcs_sindy.datafiles", "pcs_sindy.demo", "pcs_sindy.report",
-       "pcs_sindy.plotting", "pcs_sindy.persistence", "pcs_sindy")
+TOP = (
+    "pcs_sindy.cli",
+    "pcs_sindy.commands",
+    "pcs_sindy.datafiles",
+    "pcs_sindy.demo",
+    "pcs_sindy.report",
+    "pcs_sindy.plotting",
+    "pcs_sindy.persistence",
+    "pcs_sindy",
+)
 
 LAYERS = {
     "ground": GROUND,

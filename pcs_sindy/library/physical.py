@@ -58,7 +58,8 @@ generalised momentum per unit parameter ``P`` (``J_p^T p_dot`` for ``rhoA_i``,
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -93,7 +94,7 @@ def _rest_kinds(rest_strain: object) -> tuple[str, ...]:
 class _Spec:
     """Validated structure of a library (column layout, quadrature, constant matrices)."""
 
-    def __init__(self, lib: "PhysicalPCSLibrary", kin: PlanarPCS) -> None:
+    def __init__(self, lib: PhysicalPCSLibrary, kin: PlanarPCS) -> None:
         lib._check_params()
         lengths = np.asarray(kin.segment_lengths, dtype=float)
         self.kin = kin
@@ -285,8 +286,10 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         for j, i in spec.cols_rhoA:
             a[j] = spec.kin.segment_lengths[i]
         if len(spec.cols_rhoA) != spec.kin.n_segments:
-            raise ValueError("mass fixes the scale only when every segment's density is identified; a segment whose "
-                             "strains are all removed has none")
+            raise ValueError(
+                "mass fixes the scale only when every segment's density is identified; a segment whose "
+                "strains are all removed has none"
+            )
         return a, float(self.mass)
 
     @property
@@ -598,21 +601,15 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             )
         area, inertia = np.pi * r**2, np.pi * r**4 / 4.0
         stiff = (f_l[:, None] * np.stack([E * inertia, shear_factor * G * area, E * area], axis=1)).reshape(-1)
+        per_segment = {"rhoA": rho * area, "rhoI": rho * inertia, "gx": rho * area * g[0], "gy": rho * area * g[1]}
+        per_strain = {"k": stiff, "d": d}
         out = np.empty(spec.n_coef)
         for j, (kind, i, e) in enumerate(spec.kinds):
-            out[j] = {
-                "rhoA": lambda: rho[i] * area[i],
-                "rhoI": lambda: rho[i] * inertia[i],
-                "gx": lambda: rho[i] * area[i] * g[0],
-                "gy": lambda: rho[i] * area[i] * g[1],
-                "k": lambda: stiff[e],
-                "d": lambda: d[e],
-                "f0": lambda: 0.0,
-            }[kind]()
+            out[j] = per_segment[kind][i] if kind in per_segment else per_strain[kind][e] if kind in per_strain else 0.0
         return out
 
     # -- strain removal -------------------------------------------------------------------
-    def restrict(self, active_strains: ArrayLike) -> "PhysicalPCSLibrary":
+    def restrict(self, active_strains: ArrayLike) -> PhysicalPCSLibrary:
         """Library of a subset of the active strains (removed strains held at 0).
 
         Parameters
@@ -661,8 +658,17 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         from pcs_sindy.forward import LumpedPCSModel
 
         lp = self.lumped_from_coef(coef)
-        return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
-                              lp["rest_force"], n_quadrature=lp["n_quadrature"], actuation=actuation)
+        return LumpedPCSModel(
+            self.kinematics,
+            lp["rhoA"],
+            lp["rhoI"],
+            lp["rhoAg"],
+            lp["stiffness"],
+            lp["damping"],
+            lp["rest_force"],
+            n_quadrature=lp["n_quadrature"],
+            actuation=actuation,
+        )
 
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """The Lagrangian's structure, ``M(q)``, the parameter values and ``D``.
