@@ -318,3 +318,30 @@ def test_plots_draw_the_run(two_segment):
     np.testing.assert_allclose(path_ax.lines[1].get_xydata(), res.tip * 1e3)
     assert len(strain_ax.lines) == 12 and len(command_ax.lines) == 6
     plt.close(fig)
+
+
+@pytest.mark.slow
+def test_an_identified_model_regulates_the_true_robot_from_its_state_and_from_noisy_poses():
+    from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory
+    from pcs_sindy.control.estimation import frame_strains
+
+    scenario = get_scenario("two_segment")
+    robot = scenario.robot
+    data = scenario.generate(seed=0, validation=False)
+    trajs = [PoseTrajectory(r.poses, t=r.t) for r in data.train]
+    fusion = KinematicFusion().fit(trajs)
+    model = EulerLagrangeRegressor().fit(fusion.transform(trajs), [r.tau for r in data.train])
+    assert not np.allclose(fusion.segment_lengths_, robot.segment_lengths)  # the state reaches it through poses
+    q_rest = plant_equilibrium(robot, np.zeros(6))
+    q_target = plant_equilibrium(robot, robot.stiffness * np.array([-15.0, 0.05, 0.0, 20.0, 0.0, 0.05]), q_rest)
+    poses = robot.kinematics.forward_kinematics(q_target, robot.kinematics.marker_arc_lengths(20))
+    t = np.arange(1501) * 1e-3
+    for observe, tol in (("state", 5e-5), ("poses", 5e-4)):
+        res = closed_loop(robot, SetpointRegulator(model), frame_strains(fusion, poses, 0.0), t, observe=observe,
+                          fusion=fusion, pose_noise=(1e-4, np.deg2rad(0.5)))
+        err = np.linalg.norm(res.tip - poses[-1, :2], axis=1)
+        assert err[t >= 1.4].mean() < tol, observe
+    assert res.frames.shape == (151, 21, 3) and np.allclose(res.frame_times, t[::10])
+    with pytest.raises(ValueError, match="camera_rate = 300"):
+        closed_loop(robot, SetpointRegulator(model), frame_strains(fusion, poses, 0.0), t, observe="poses",
+                    fusion=fusion, camera_rate=300.0)

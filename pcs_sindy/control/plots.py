@@ -31,6 +31,13 @@ def _as_list(results: Any, labels: Sequence[str] | None) -> tuple[list, list[str
     return runs, list(labels)
 
 
+def _names(names: Sequence[str] | None, count: int, prefix: str, what: str) -> list[str]:
+    out = [f"{prefix}{i + 1}" for i in range(count)] if names is None else list(names)
+    if len(out) != count:
+        raise ValueError(f"names must name the {count} {what}; got {len(out)}")
+    return out
+
+
 def plot_tip_path(results: Any, labels: Sequence[str] | None = None, ax: Any = None) -> Any:
     """Tip paths (x, y in mm, image-down +y as the robot hangs) of one or more results against the reference."""
     ax = _axes(ax)
@@ -62,11 +69,8 @@ def plot_tip_error(results: Any, labels: Sequence[str] | None = None, ax: Any = 
 def plot_strains(result: Any, names: Sequence[str] | None = None, ax: Any = None) -> Any:
     """The modelled strains the controller saw (solid) and its reference (dashed)."""
     ax = _axes(ax)
-    n = result.q_model.shape[1]
-    names = [f"q{i + 1}" for i in range(n)] if names is None else list(names)
-    if len(names) != n:
-        raise ValueError(f"names must name the {n} modelled strains; got {len(names)}")
-    for i in range(n):
+    names = _names(names, result.q_model.shape[1], "q", "modelled strains")
+    for i in range(len(names)):
         (line,) = ax.plot(result.t, result.q_model[:, i], lw=1.0, label=names[i])
         ax.plot(result.t, result.q_reference[:, i], "--", lw=0.8, color=line.get_color())
     ax.set_xlabel("t [s]")
@@ -78,11 +82,8 @@ def plot_strains(result: Any, names: Sequence[str] | None = None, ax: Any = None
 def plot_commands(result: Any, names: Sequence[str] | None = None, ax: Any = None) -> Any:
     """The held commands ``u`` over time."""
     ax = _axes(ax)
-    p = result.u.shape[1]
-    names = [f"u{i + 1}" for i in range(p)] if names is None else list(names)
-    if len(names) != p:
-        raise ValueError(f"names must name the {p} inputs; got {len(names)}")
-    for i in range(p):
+    names = _names(names, result.u.shape[1], "u", "inputs")
+    for i in range(len(names)):
         ax.step(result.t, result.u[:, i], where="post", lw=1.0, label=names[i])
     ax.set_xlabel("t [s]")
     ax.set_ylabel("command")
