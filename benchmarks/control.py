@@ -150,7 +150,7 @@ def run_setpoints(robot, models: dict, targets: list[dict], observe: str) -> dic
     for name, entry in models.items():
         variants = [(name, {})]
         if name != "true" and observe == "state":
-            variants.append((f"{name} PID", dict(feedforward=False, integral_limit=np.inf)))
+            variants.append((f"{name} PID", dict(feedforward=False, integral_limit=np.inf, integral_band=np.inf)))
         if observe == "poses" and name == "true":
             continue  # the fusion's segmentation is not the true one
         for label, kw in variants:

@@ -83,7 +83,8 @@ def test_pid_with_feedforward_follows_the_closed_form_discrete_response():
     m, d, k, dt = 2e-6, 1e-5, 1.3e-3, 1e-3
     q_star = 12.0
     kp, ki, kd = 4e-3, 2e-2, 1e-4
-    ctrl = SetpointRegulator(linear_model(m, d, k), kp=kp, ki=ki, kd=kd, integral_limit=np.inf)
+    ctrl = SetpointRegulator(linear_model(m, d, k), kp=kp, ki=ki, kd=kd, integral_limit=np.inf,
+                             integral_band=np.inf)
     t = np.arange(2000) * dt
     res = closed_loop(LinearPlant(m, d, k), ctrl, [q_star], t, q0=np.zeros(3), qd0=np.zeros(3))
     # independent: x = [q, qd, z] with u = k q* + kp (q* - q) + ki z - kd qd, z+ = z + dt (q* - q)
@@ -135,8 +136,9 @@ def test_regulation_reaches_the_equilibrium_of_the_true_statics(two_segment):
     assert res.final_tip_error() < 2e-4
     assert res.settling_time() < 1.0
     # without the model's feed-forward the integral has to find that force: far off half-way
-    pid = closed_loop(robot, SetpointRegulator(fm, feedforward=False, integral_limit=np.inf), q_star, t)
-    assert pid.tip_error[500] > 3 * res.tip_error[500]
+    pid = SetpointRegulator(fm, feedforward=False, integral_limit=np.inf, integral_band=np.inf)
+    pid = closed_loop(robot, pid, q_star, t)
+    assert pid.tip_error[300] > 3 * res.tip_error[300]
     assert pid.settling_time() > res.settling_time()
 
 

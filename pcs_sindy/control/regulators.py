@@ -6,8 +6,9 @@
     u   = A^+ tau
 
 with the model's static forces as feed-forward (``feedforward=False`` gives the
-PID baseline) and a clamped integrator (anti-windup: the integrator state is
-saturated, so it never winds beyond the limit).
+PID baseline) and two anti-windup measures: the integrator state is clamped
+(it never winds beyond the saturation) and each strain integrates only near
+its set-point (conditional integration).
 
 :class:`TipRegulator` (docs/control.md, "Tip regulation") finds the inputs
 ``u*`` whose model equilibrium ``q*`` puts the tip at the target (bounded
@@ -70,6 +71,11 @@ class SetpointRegulator(Controller):
         saturation).  Default: 10 % of the force that holds each strain at
         its typical magnitude (60 1/m bending, 0.3 shear/axial) with the
         static stiffness; ``np.inf`` for none.
+    integral_band : float, default 0.05
+        A strain integrates its error only while it is within this fraction of
+        its typical magnitude from the set-point (3 1/m bending, 0.015 shear
+        and axial): conditional integration, so the transient of a large move
+        winds up nothing the integral then has to unwind.  ``np.inf``: always.
     feedforward : bool, default True
         Add ``G(q*) + K q* - f0`` of the model.  False: PID on the strains.
     input_bounds, strain_limits
@@ -92,7 +98,7 @@ class SetpointRegulator(Controller):
     def __init__(self, model: Any, kp: ArrayLike | None = None, ki: ArrayLike | None = None,
                  kd: ArrayLike | None = None, *, rate: float = 10.0, effort: float = 1.0,
                  integral_rate: float | None = None, integral_limit: ArrayLike | None = None,
-                 feedforward: bool = True, input_bounds: Any = None, strain_limits: ArrayLike | None = None) -> None:
+                 integral_band: float = 0.05, feedforward: bool = True, input_bounds: Any = None, strain_limits: ArrayLike | None = None) -> None:
         super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
         self.kp = kp
         self.ki = ki
@@ -101,6 +107,7 @@ class SetpointRegulator(Controller):
         self.effort = effort
         self.integral_rate = integral_rate
         self.integral_limit = integral_limit
+        self.integral_band = integral_band
         self.feedforward = feedforward
 
     def start(self, reference: ArrayLike, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
@@ -135,10 +142,12 @@ class SetpointRegulator(Controller):
             self.integral_max_ = np.where(ki_diag > 0, limit / ki_diag, 0.0)
         self.linearisation_ = lin
         self.poles_ = loop_poles(lin, self.kp_, self.ki_, self.kd_, self.dt_)
-        if np.max(np.abs(self.poles_)) >= 1.0:
+        if np.max(np.abs(self.poles_)) > 1.0 + 1e-9:
             warnings.warn(f"the gains do not stabilise the model's linearisation at the set-point with a control "
-                          f"period of {self.dt_:g} s (largest |pole| {np.max(np.abs(self.poles_)):.4f} >= 1)",
+                          f"period of {self.dt_:g} s (largest |pole| {np.max(np.abs(self.poles_)):.6f} > 1)",
                           UserWarning, stacklevel=2)
+        band = check_positive(self.integral_band, "integral_band", allow_inf=True)
+        self._band = band * scales
         self.setpoint_ = q_ref
         self.feedforward_ = static_forces(fm, q_ref) if self.feedforward else np.zeros(n)
         self._z = np.zeros(n)
@@ -149,7 +158,8 @@ class SetpointRegulator(Controller):
     def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
         e = self.setpoint_ - q
         z = self._z
-        z += self.dt_ * e
+        # conditional integration: a strain integrates only near its set-point
+        z += self.dt_ * np.where(np.abs(e) <= self._band, e, 0.0)
         np.minimum(np.maximum(z, -self.integral_max_, out=z), self.integral_max_, out=z)
         tau = self.feedforward_ + self.kp_ @ e + self.ki_ @ z - self.kd_ @ qd
         return self._clip(self._inputs(tau, q))
