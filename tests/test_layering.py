@@ -19,6 +19,8 @@ Layers (what each may import besides itself):
   other; the simulator may use the camera model to render synthetic videos;
 - vision (images → poses → strains) imports no dynamics;
 - ``pipeline`` composes vision and identification;
+- ``control`` runs identified models on observations from vision; the plant
+  (the simulator) is passed in, never imported;
 - the top layer (CLI and its commands, data files, demo and report, plotting,
   model files, the package root's lazy re-exports) may import anything, and
   nothing below it imports it.
@@ -54,10 +56,11 @@ IDENTIFICATION = (
     "pcs_sindy.identifiability",
     "pcs_sindy.rollout",
     "pcs_sindy.actuation",
-    "pcs_sindy.control",
 )
 VISION = ("pcs_sindy.vision", "pcs_sindy.camera", "pcs_sindy.segmentation")
 COMPOSITION = ("pcs_sindy.pipeline",)
+#: controllers and closed loops: identified models observed through vision; the plant (the simulator) is passed in
+CONTROL = ("pcs_sindy.control",)
 TOP = (
     "pcs_sindy.cli",
     "pcs_sindy.commands",
@@ -76,6 +79,7 @@ LAYERS = {
     "identification": IDENTIFICATION,
     "vision": VISION,
     "composition": COMPOSITION,
+    "control": CONTROL,
     "top": TOP,
 }
 
@@ -93,6 +97,7 @@ LAYER_ALLOWED = {
     "identification": ("ground", "infrastructure", "identification"),
     "vision": ("ground", "infrastructure", "vision"),
     "composition": ("ground", "infrastructure", "vision", "identification", "composition"),
+    "control": ("ground", "infrastructure", "vision", "identification", "control"),
     "top": tuple(LAYERS),
 }
 #: single modules allowed across the table, each with the reason
