@@ -233,6 +233,22 @@ class Actuation(BaseEstimator, ABC):
     def describe(self, precision: int = 3) -> list[str]:
         """The map and its identified parameters as text."""
 
+    #: the constructor parameters that describe the design (what a user knows), in :meth:`design_layout`
+    _design_keys: tuple[str, ...] = ()
+
+    def design_layout(self) -> dict[str, Any]:
+        """The layout as the robot's design gives it (terminations and sides, spans), JSON-able."""
+        out: dict[str, Any] = {"type": self._kind}
+        for key in self._design_keys:
+            out[key] = np.asarray(getattr(self, key), dtype=float).tolist()
+            if key == "side":
+                out[key] = [int(v) for v in out[key]]
+        return out
+
+    def input_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Bounds (lower, upper) of the inputs, or None (unbounded)."""
+        return None
+
     def layout(self) -> dict[str, Any]:
         """The JSON-able layout (constructor parameters)."""
         return {
@@ -304,7 +320,12 @@ class TendonActuation(Actuation):
     """
 
     _kind = "tendon"
+    _design_keys = ("end", "side")
     depends_on_q = True
+
+    def input_bounds(self):
+        """Tensions pull: ``[0, inf)``."""
+        return np.zeros(self.n_inputs_), np.full(self.n_inputs_, np.inf)
 
     def __init__(
         self,
@@ -491,6 +512,7 @@ class PressureActuation(_ConstantActuation):
     """
 
     _kind = "pressure"
+    _design_keys = ("start", "end", "side")
 
     def __init__(
         self,

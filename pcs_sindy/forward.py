@@ -96,6 +96,16 @@ class ForwardModel(ABC):
         """Columns of the input ``u``: the actuators', or one generalised force per strain (3m)."""
         return int(self.kinematics.n_q) if self.actuation is None else int(self.actuation.n_inputs_)
 
+    @property
+    def input_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Bounds (lower, upper) of the inputs (e.g. tendon tensions >= 0), or None."""
+        return None if self.actuation is None else self.actuation.input_bounds()
+
+    @property
+    def actuation_layout(self) -> dict | None:
+        """The actuator layout as the design gives it, or None for generalised-force inputs."""
+        return None if self.actuation is None else self.actuation.design_layout()
+
     def input_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """``A(q)`` mapping the input ``u`` (p,) to generalised forces on the modelled strains, shape (..., n, p).
 

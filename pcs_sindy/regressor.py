@@ -155,6 +155,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         None when the regression has no more rows than coefficients.
     mass_matrix_not_pd_fraction_ : float
         Fraction of training samples where ``M(q)`` is not positive definite.
+    strain_range_ : ndarray, shape (2, n)
+        Smallest and largest value of each modelled strain in the training
+        data: where the model was identified (controllers stay inside it).
     n_regression_samples_ : int
         Rows of the regression per strain (samples, or windows in the weak form).
     actuation_ : Actuation
@@ -491,9 +494,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.identifiability_ = self._identifiability(
             x_final, np.asarray(target)[:, kept], coef_all[final_cols], eq, offset_info
         )
+        q_kept = np.concatenate([r.q[:, kept] for r in recs])
+        self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix:
-            self._check_mass_matrix(np.concatenate([r.q[:, kept] for r in recs]))
+            self._check_mass_matrix(q_kept)
         self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
