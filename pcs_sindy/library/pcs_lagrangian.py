@@ -13,8 +13,8 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
 from ..kinematics import PlanarPCS
-from . import special as _special
 from ._monomial_dynamics import DynamicsTables
+from ._monomial_terms import readable, reduce_product
 from .base import LagrangianLibrary
 from .codegen import CompiledBasis, build_basis
 from .derivation import PARAM_KINDS
@@ -31,72 +31,6 @@ def _compiled(m: int, cache_dir, progress: bool = False) -> CompiledBasis:
     if key not in _MEMORY:
         _MEMORY[key] = build_basis(m, cache_dir, progress=progress)
     return _MEMORY[key]
-
-
-def _canonical_phase(kind: str, phase: tuple[int, ...]) -> tuple[int, str | None, tuple[int, ...]]:
-    """(sign, kind or None if the atom is the constant 1, canonical phase); sign 0 means zero."""
-    if not any(phase):
-        return (1, None, phase) if kind == "c" else (0, None, phase)
-    first = next(a for a in phase if a != 0)
-    if first < 0:
-        return (-1 if kind == "s" else 1, kind, tuple(-a for a in phase))
-    return 1, kind, phase
-
-
-def _phase_tag(phase: tuple[int, ...]) -> str:
-    return "_".join(str(a) if a >= 0 else f"m{-a}" for a in phase)
-
-
-def _reduce_product(atoms, removed_q: set[str], removed_kappa_segments: set[int]):
-    """Limit q_e, qd_e -> 0 of one atom product: (exact factor, remaining atoms)."""
-    factor = Fraction(1)
-    out: dict[str, int] = {}
-    for name, power in atoms:
-        if name.startswith("F"):
-            seg = int(name.rsplit("_", 1)[1]) - 1
-            if seg in removed_kappa_segments:
-                factor *= _special.special(name[1:].rsplit("_", 1)[0]).value_at_zero ** power
-                continue
-        elif name[0] in "cs" and not name.startswith("sh_"):
-            phase = tuple(-int(p[1:]) if p.startswith("m") else int(p) for p in name[1:].split("_"))
-            phase = tuple(0 if k in removed_kappa_segments else a for k, a in enumerate(phase))
-            sign, kind, phase = _canonical_phase(name[0], phase)
-            factor *= sign**power
-            if kind is None:
-                continue
-            name = kind + _phase_tag(phase)
-        else:
-            base = name[1:] if name.startswith("d") else name
-            if base in removed_q:
-                return Fraction(0), ()
-        out[name] = out.get(name, 0) + power
-        if factor == 0:
-            return Fraction(0), ()
-    if factor == 0:
-        return Fraction(0), ()
-    return factor, tuple(sorted(out.items()))
-
-
-def _readable(atoms, state_names: dict[str, str], lengths_known: bool) -> str:
-    parts = []
-    for name, power in atoms:
-        if name.startswith("F"):
-            fn, seg = name[1:].rsplit("_", 1)
-            txt = f"{fn}(u{seg})"
-        elif name in state_names:
-            txt = state_names[name]
-        elif name[0] in "cs":
-            phase = tuple(-int(p[1:]) if p.startswith("m") else int(p) for p in name[1:].split("_"))
-            arg = " ".join(
-                ("+" if a > 0 else "-") + (f"{abs(a)}" if abs(a) != 1 else "") + f"u{k + 1}"
-                for k, a in enumerate(phase)
-                if a
-            )
-            txt = ("cos(" if name[0] == "c" else "sin(") + arg.lstrip("+") + ")"
-        else:
-            txt = name
-        parts.append(txt if power == 1 else f"{txt}^{power}")
-    return " ".join(parts) if parts else "1"
 
 
 class PCSLagrangianLibrary(LagrangianLibrary):
@@ -214,7 +148,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
             P[prod_index[t.atoms], lumped_index[t.param]] += float(t.coefficient) * float(
                 np.prod(L ** np.array(t.length_exponents))
             )
-        reduced = [_reduce_product(p, removed, removed_kappa) for p in products]
+        reduced = [reduce_product(p, removed, removed_kappa) for p in products]
         self._lumped_names = lumped
         if self.basis == "monomial":
             groups: dict[tuple, int] = {}
@@ -402,7 +336,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         if self.basis == "monomial":
             out = []
             for factor, red in zip(self._column_factor, self._column_reduced):
-                txt = _readable(red, names, True)
+                txt = readable(red, names, True)
                 out.append(txt if factor == 1 else f"{factor} {txt}")
             return out
         labels = {"mA": "T_A", "mI": "T_I", "gx": "Ug_x", "gy": "Ug_y", "kbe": "be^2", "ksh": "sh^2", "kax": "ax^2"}
