@@ -462,6 +462,21 @@ class LumpedPCSModel(ForwardModel):
             self._fast = params(int(fast_quadrature))
         self._work = _jit_dynamics.workspace(self._params)
 
+    @classmethod
+    def from_lumped(cls, kinematics: PlanarPCS, lumped: dict, actuation: Any = None) -> LumpedPCSModel:
+        """The model of a library's ``lumped_from_coef`` dictionary (``rest_force`` optional)."""
+        return cls(
+            kinematics,
+            lumped["rhoA"],
+            lumped["rhoI"],
+            lumped["rhoAg"],
+            lumped["stiffness"],
+            lumped["damping"],
+            lumped.get("rest_force"),
+            n_quadrature=lumped["n_quadrature"],
+            actuation=actuation,
+        )
+
     def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")))
         qd = np.ascontiguousarray(np.atleast_2d(self._reduce(qd, "qd")))

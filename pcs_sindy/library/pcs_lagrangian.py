@@ -594,17 +594,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         self._ensure_setup()
         c = self._coef(coef)
         if self.basis == "physical":
-            lp = self.lumped_from_coef(c)
-            return LumpedPCSModel(
-                self.kinematics,
-                lp["rhoA"],
-                lp["rhoI"],
-                lp["rhoAg"],
-                lp["stiffness"],
-                lp["damping"],
-                n_quadrature=lp["n_quadrature"],
-                actuation=actuation,
-            )
+            return LumpedPCSModel.from_lumped(self.kinematics, self.lumped_from_coef(c), actuation)
         tables = self._tables()
         pi_g, damping = self._pi_products(c), c[self._n_f :]
         return CallableModel(

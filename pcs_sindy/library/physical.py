@@ -566,18 +566,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         """The compiled :class:`~pcs_sindy.forward.LumpedPCSModel` of ``coef`` (rollouts, controllers)."""
         from pcs_sindy.forward import LumpedPCSModel
 
-        lp = self.lumped_from_coef(coef)
-        return LumpedPCSModel(
-            self.kinematics,
-            lp["rhoA"],
-            lp["rhoI"],
-            lp["rhoAg"],
-            lp["stiffness"],
-            lp["damping"],
-            lp["rest_force"],
-            n_quadrature=lp["n_quadrature"],
-            actuation=actuation,
-        )
+        return LumpedPCSModel.from_lumped(self.kinematics, self.lumped_from_coef(coef), actuation)
 
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """The Lagrangian's structure, ``M(q)``, the parameter values and ``D``.
