@@ -94,6 +94,8 @@ def _dark_coverage(grey: NDArray[np.uint8], bg: NDArray | float, fg: NDArray | f
     if np.ndim(bg):
         b = bg[y0:y1, x0:x1]
         f = fg[y0:y1, x0:x1]
+        # a brighter region next to a darker one (the edge of a floor) is not this pixel's background
+        local = np.minimum(local, 1.1 * b)
     else:
         b, f = np.float32(bg), np.float32(fg)
     local = np.where(local < 0.5 * (b + f), b, local)

@@ -24,6 +24,7 @@ Knows nothing of dynamics.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ from .binarisation import ColourSegmentation, LocalSegmentation, OtsuSegmentatio
 from .binarisation import candidate_segmentations
 from .camera import Camera, camera_json_path, read_camera_json
 from .frame_source import FrameSource
-from .marker_chain import chain_from_base, crossings, fill_gaps, frame_angles, link_chains, track, zigzags
+from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, zigzags
 from .markers import AREA, AXIS, LONG, PIXELS, SHORT, find_components, refine
 from .trajectory import PoseTrajectory
 
@@ -235,7 +236,7 @@ def _order_frame(
     """
     if prev is not None and len(cands):
         match = track(prev, pred, cands[:, :2])
-        if match is not None and match[0] >= 0 and np.count_nonzero(match < 0) <= 1:
+        if match is not None and np.count_nonzero(match < 0) <= 1:
             try:
                 return _finish(cands, match, st, phi0) + (True,)
             except FrameProblem:
@@ -257,24 +258,21 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
     missing = order < 0
     # a marker much smaller or larger than its chain neighbours is partly hidden or merged: treat it as missing
     area = np.where(missing, np.nan, cands[order, AREA])
-    pad = np.concatenate([[np.nan], area, [np.nan]])
-    both = np.stack([pad[:-2], pad[2:]])
-    cnt = np.isfinite(both).sum(axis=0)
-    nb = np.where(cnt > 0, np.nansum(both, axis=0) / np.maximum(cnt, 1), np.nan)
-    with np.errstate(invalid="ignore"):
-        missing = missing | ((area < 0.78 * nb) | (area > 1.28 * nb))
-    if missing.any():
-        isolated = missing.copy()
-        isolated[[0, -1]] = False
-        isolated[1:-1] &= ~missing[:-2] & ~missing[2:]
-        if not st["fill"] or not np.array_equal(isolated, missing):
-            raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
+    # the median of the three markers on either side: one odd marker does not make its neighbours odd
+    pad = np.concatenate([np.full(3, np.nan), area, np.full(3, np.nan)])
+    window = np.stack([pad[j : j + len(area)] for j in (0, 1, 2, 4, 5, 6)])
+    with np.errstate(invalid="ignore"), warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN window (markers missing around)
+        ref = np.nanmedian(window, axis=0)
+        missing = missing | (area < 0.78 * ref) | (area > 1.28 * ref)
+    if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
+        raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
     idx = order[~missing]
     pts = cands[idx, :2]
     phi_det, conflicts = frame_angles(pts, cands[idx, AXIS], phi0)
     pix = np.zeros((len(order), 3))
     pix[~missing, :2], pix[~missing, 2] = pts, phi_det
-    pix = fill_gaps(pix, missing)
+    pix = fill_gaps(pix, missing, st["base_pose"])
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
     if zigzags(pix[:, 2]) >= 3:
@@ -354,7 +352,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         first_dir = np.array([np.cos(_rest_direction(members[:, :2])), np.sin(_rest_direction(members[:, :2]))])
 
     # 3. every frame
-    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"]}
+    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"], "base_pose": None}
     T_hint = src.n_frames
     pix_all: list[NDArray[np.float64] | None] = []
     outcomes: list[_Frame | None] = []
@@ -398,6 +396,8 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
             continue
         prev2, prev = prev, out.pix[:, :2]
         phi0 = out.pix[0, 2]
+        if 0 not in out.filled:
+            st["base_pose"] = out.pix[0]
         outcomes.append(out)
         pix_all.append(out.pix)
     T = len(outcomes)

@@ -11,8 +11,9 @@ Plain functions on candidate tables (see :mod:`pcs_sindy.markers`):
   step over one missing marker;
 * :func:`track` - the fast path: match every marker of the previous frame to
   the candidate nearest its predicted position, when that is unambiguous;
-* :func:`fill_gaps` - the pose of a missing marker from its two neighbours
-  (exact for constant strain between them);
+* :func:`fill_gaps` - the pose of a missing marker from its neighbours
+  (exact for constant strain between them; the tip continues the last
+  stretch, the clamped base keeps its pose);
 * :func:`frame_angles`, :func:`crossings`, :func:`zigzags` - continuous
   angles along the chain and the checks that refuse a misordered chain.
 
@@ -29,7 +30,7 @@ from numpy.typing import NDArray
 from .kinematics import se2_compose, se2_relative, segment_inverse_kinematics, segment_pose
 from .markers import AREA, AXIS, LONG, SHORT
 
-__all__ = ["link_chains", "chain_from_base", "track", "fill_gaps", "frame_angles", "crossings", "zigzags", "wrap_half_pi"]
+__all__ = ["link_chains", "chain_from_base", "track", "fill_gaps", "fillable", "frame_angles", "crossings", "zigzags", "wrap_half_pi"]
 
 
 def wrap_half_pi(a: NDArray[np.float64] | float) -> Any:
@@ -152,10 +153,17 @@ def chain_from_base(
     left = np.ones(n, bool)
     left[base] = False
     target = n if n_target is None else n_target
+
+    def broken(msg: str) -> tuple[list[int | None], str | None]:
+        # one marker short, the two before it detected: the tip is missing (hidden or merged with clutter)
+        if allow_gaps and n_target is not None and len(order) == n_target - 1 and len(order) >= 3 and None not in order[-2:]:
+            return order + [None], None
+        return order, msg
+
     while len(order) < target:
         idx = np.flatnonzero(left)
         if idx.size == 0:
-            return order, f"chaining broke after {len(order)} markers (no candidate left)"
+            return broken(f"chaining broke after {len(order)} markers (no candidate left)")
         cur = last[-1]
         rel = points[idx] - points[cur]
         near = np.linalg.norm(rel, axis=1)
@@ -227,12 +235,12 @@ def chain_from_base(
                 # current one, if it is clearly the nearest and not far off.
                 ahead = np.flatnonzero(rel @ chord > 0.0)
                 if ahead.size == 0:
-                    return order, f"chaining broke after {len(order)} markers (no marker ahead)"
+                    return broken(f"chaining broke after {len(order)} markers (no marker ahead)")
                 by_near = ahead[np.argsort(near[ahead])]
                 j = by_near[0]
                 clear = by_near.size == 1 or near[by_near[1]] >= 1.4 * near[j]
                 if not (clear and near[j] <= 3.0 * step and dist[j] <= 1.5 * step):
-                    return order, (
+                    return broken(
                         f"chaining broke after {len(order)} markers (nearest candidate {best:.1f} px from the "
                         f"predicted position, spacing {step:.1f} px, no unambiguous marker ahead)"
                     )
@@ -240,7 +248,7 @@ def chain_from_base(
         order.append(nxt)
         last.append(nxt)
         left[nxt] = False
-    if n_target is not None and left.any() and len(last) >= 2:
+    if n_target is not None and left.any() and len(last) >= 2 and order[-1] is not None:
         # a marker-shaped candidate right where the marker after the tip would be: the chain is off by one
         # somewhere (a misjudged gap, a marker missing at the base), or the robot has more markers
         chord = points[last[-1]] - points[last[-2]]
@@ -279,21 +287,41 @@ def track(
     return match
 
 
-def fill_gaps(pixel_poses: NDArray[np.float64], missing: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Poses of isolated missing markers from their neighbours (constant strain between them).
+def fillable(missing: NDArray[np.bool_], base_known: bool = False) -> bool:
+    """Whether :func:`fill_gaps` can fill these missing markers.
+
+    Interior markers need both neighbours detected, the tip the two markers
+    before it, the base a known pose (it is clamped, so its last pose).
+    """
+    m = np.asarray(missing, bool)
+    n = m.size
+    inner = m[1:-1] & (m[:-2] | m[2:])
+    if inner.any() or (m[0] and not base_known):
+        return False
+    return not (m[-1] and (n < 4 or m[-2] or m[-3]))
+
+
+def fill_gaps(pixel_poses: NDArray[np.float64], missing: NDArray[np.bool_], base_pose: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+    """Poses of missing markers from their neighbours, assuming constant strain between them.
 
     ``pixel_poses`` (N + 1, 3) are ``[u, v, phi]`` in an image frame that is a
-    rotation and a scaling of the base frame, with continuous angles; the
-    markers flagged in ``missing`` (each with detected neighbours on both
-    sides) get the pose halfway along the constant-strain arc between their
-    neighbours (markers are equally spaced in rest arc length).
+    rotation and a scaling of the base frame, with continuous angles.  An
+    interior missing marker gets the pose halfway along the constant-strain
+    arc between its two neighbours (markers are equally spaced in rest arc
+    length); a missing tip continues the strain of the last two markers; a
+    missing base takes ``base_pose``.  See :func:`fillable`.
     """
     out = pixel_poses.copy()
-    i = np.flatnonzero(missing)
+    m = np.asarray(missing, bool)
+    if m[0]:
+        out[0] = base_pose
+    i = np.flatnonzero(m[1:-1]) + 1
     if i.size:
         # the strains scale with the (unknown) rest length, the halfway pose does not
         q = segment_inverse_kinematics(se2_relative(out[i - 1], out[i + 1]), 2.0)
         out[i] = se2_compose(out[i - 1], segment_pose(q, 1.0))
+    if m[-1]:
+        out[-1] = se2_compose(out[-2], se2_relative(out[-3], out[-2]))
     return out
 
 
