@@ -924,6 +924,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="marker WIDTH,THICKNESS in metres (default 0.008,0.002)")
     common(p, jobs=True)
 
+    from .calibration import configure_parser as _calibrate_args  # the command lives with the calibration
+    p = add("calibrate", "lens distortion and the robot's plane from checkerboard views: a camera JSON", None)
+    _calibrate_args(p)
+    common(p)
+
     p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", _extract)
     p.add_argument("videos", nargs="+", help="videos (or folders of image frames)")
     p.add_argument("--out", required=True, help="output directory (one pose file per video, same stem)")

@@ -191,10 +191,17 @@ def _find_base(src: FrameSource, det: _Detector, ends: NDArray[np.float64], spac
 def _rest_direction(pts: NDArray[np.float64]) -> float:
     """Image angle of the least-squares line through the first markers, pointing along the chain.
 
-    One pair of centres would carry their detection noise into every angle.
+    One pair of centres would carry their detection noise into every angle:
+    the line runs through as many markers from the base as lie on it (within
+    half a pixel; all of them in a straight reference frame), at least five.
     """
-    near = pts[: min(5, len(pts))]
-    dvec = np.linalg.svd(near - near.mean(axis=0), full_matrices=False)[2][0]
+    for k in range(len(pts), 1, -1):
+        near = pts[:k]
+        centred = near - near.mean(axis=0)
+        dvec = np.linalg.svd(centred, full_matrices=False)[2][0]
+        off = np.abs(centred @ np.array([-dvec[1], dvec[0]]))
+        if k <= 5 or off.max() <= 0.5:
+            break
     if dvec @ (near[-1] - near[0]) < 0:
         dvec = -dvec
     return float(np.arctan2(dvec[1], dvec[0]))

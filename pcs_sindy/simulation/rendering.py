@@ -573,10 +573,15 @@ def render_checkerboard(
         pts = _fixed((project(poly) + 0.5) * S - 0.5).reshape(-1, 1, 2)
         cv2.fillPoly(big, [pts], value, cv2.LINE_8, _SHIFT)
 
-    # squares (i, j) span [i - 1, i] x [j - 1, j] squares from the first inner corner
+    # OpenCV fills a polygon's boundary pixels too: shrink each square by one canvas pixel's worth
+    # (in board units at this view's scale) so that the black and white areas are exact
+    paper = project(square * np.array([[0.0, 0.0], [cols - 1.0, 0.0]]))
+    shrink = 0.5 / S * square * (cols - 1) / max(float(np.linalg.norm(paper[-1] - paper[0])), 1e-9)
     fill(square * np.array([[-2, -2], [cols + 1, -2], [cols + 1, rows + 1], [-2, rows + 1]], float), 235)
+    # squares (i, j) span [i - 1, i] x [j - 1, j] squares from the first inner corner
     for i in range(cols + 1):
         for j in range(rows + 1):
             if (i + j) % 2 == 0:
-                fill(square * np.array([[i - 1, j - 1], [i, j - 1], [i, j], [i - 1, j]], float), 20)
+                sq = square * np.array([[i - 1, j - 1], [i, j - 1], [i, j], [i - 1, j]], float)
+                fill(sq + shrink * np.array([[1, 1], [-1, 1], [-1, -1], [1, -1]]), 20)
     return cv2.resize(big, (width, height), interpolation=cv2.INTER_AREA)
