@@ -44,8 +44,9 @@ _KERNEL = np.ones((3, 3), np.uint8)
 
 
 def _histogram(image: NDArray[np.uint8]) -> NDArray[np.float64]:
-    """256-bin histogram of every other row and column (a quarter of the memory traffic, the same levels)."""
-    sub = np.ascontiguousarray(image[::2, ::2]) if min(image.shape[:2]) >= 64 else image
+    """256-bin histogram of a regular subsample of about 80 000 pixels (the same levels, far less memory traffic)."""
+    step = max(1, int(np.sqrt(image.shape[0] * image.shape[1] / 80_000)))
+    sub = np.ascontiguousarray(image[::step, ::step]) if step > 1 else image
     return cv2.calcHist([sub], [0], None, [256], [0, 256]).ravel().astype(float)
 
 

@@ -24,7 +24,6 @@ Knows nothing of dynamics.
 from __future__ import annotations
 
 import os
-import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -161,7 +160,7 @@ def _reference(p: dict[str, Any], segs: list[Segmentation], ref_img: NDArray[np.
     return det, cands, chain, {"chosen": det.seg.describe(), "reason": why, "candidates": report}
 
 
-def _find_base(src: FrameSource, det: _Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool) -> int:
+def _find_base(src: FrameSource, det: _Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool, reduce: int) -> int:
     """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording."""
     name = src.name
     picks = [k for k in np.linspace(0, src.n_frames - 1, _N_BASE_SAMPLES + 1).round().astype(int) if k != ref]
@@ -171,7 +170,7 @@ def _find_base(src: FrameSource, det: _Detector, ends: NDArray[np.float64], spac
     worst = np.zeros(2)
     for k in picks:
         try:
-            cands = det.accept(det(src.frame(int(k), grey=grey)))
+            cands = det.accept(det(src.frame(int(k), grey=grey, reduce=reduce)))
         except OSError:
             continue  # a frame the container cannot seek to: the pass over all frames will report it
         if len(cands) == 0:
@@ -268,9 +267,11 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
     # the median of the three markers on either side: one odd marker does not make its neighbours odd
     pad = np.concatenate([np.full(3, np.nan), area, np.full(3, np.nan)])
     window = np.stack([pad[j : j + len(area)] for j in (0, 1, 2, 4, 5, 6)])
-    with np.errstate(invalid="ignore"), warnings.catch_warnings():
-        warnings.simplefilter("ignore", RuntimeWarning)  # an all-NaN window (markers missing around)
-        ref = np.nanmedian(window, axis=0)
+    srt = np.sort(window, axis=0)  # NaN last
+    cnt = np.isfinite(window).sum(axis=0)
+    lo, hi = np.maximum(cnt - 1, 0) // 2, cnt // 2
+    ref = 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, np.minimum(hi, 5)[None], 0)[0])
+    with np.errstate(invalid="ignore"):
         missing = missing | (area < 0.78 * ref) | (area > 1.28 * ref)
     if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
         raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
@@ -287,6 +288,38 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
     if conflicts:
         raise FrameProblem(f"{conflicts} marker(s) face against the chain direction (ordering not trustworthy)")
     return pix, np.flatnonzero(missing).tolist(), len(cands) - len(idx)
+
+
+def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:
+    """Segmentation, fallbacks, chained markers, their spacing and the report, from the reference frame."""
+    roi = p["roi"]
+    segs = _segmentations(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
+    det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
+    members = cands[chain]
+    det.typical = {
+        "area": float(np.median(members[:, AREA])) if p["marker_area"] is None else float(p["marker_area"]),
+        "pixels": float(np.median(members[:, PIXELS])),
+        "long": float(np.median(members[:, LONG])),
+        "short": float(np.median(members[:, SHORT])),
+        "aspect": float(np.median(members[:, LONG] / np.maximum(members[:, SHORT], 1e-9))),
+    }
+    spacing = float(np.median(np.linalg.norm(np.diff(members[:, :2], axis=0), axis=1)))
+    grey = not det.seg.needs_colour
+    fallbacks = [_Detector(s, p) for s in segs if s is not det.seg and (not grey or not s.needs_colour)]
+    for f in fallbacks:
+        f.typical = det.typical
+    return det, fallbacks, members, spacing, choice
+
+
+def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
+    """Pixel-valued parameters for frames decoded at 1/red of the resolution."""
+    q = dict(p, min_area=p["min_area"] / red**2)
+    if p["marker_area"] is not None:
+        q["marker_area"] = p["marker_area"] / red**2
+    if p["roi"] is not None:
+        x, y, w, h = p["roi"]
+        q["roi"] = (x // red, y // red, max(1, -(-w // red)), max(1, -(-h // red)))
+    return q
 
 
 def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[PoseTrajectory, dict[str, Any]]:
@@ -315,32 +348,35 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         )
 
     # 1. the reference frame chooses the segmentation and fixes the markers
-    roi = p["roi"]
-    segs = _segmentations(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
-    det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
-    n = len(chain)
-    members = cands[chain]
-    det.typical = {
-        "area": float(np.median(members[:, AREA])) if p["marker_area"] is None else float(p["marker_area"]),
-        "pixels": float(np.median(members[:, PIXELS])),
-        "long": float(np.median(members[:, LONG])),
-        "short": float(np.median(members[:, SHORT])),
-        "aspect": float(np.median(members[:, LONG] / np.maximum(members[:, SHORT], 1e-9))),
-    }
-    spacing = float(np.median(np.linalg.norm(np.diff(members[:, :2], axis=0), axis=1)))
+    det, fallbacks, members, spacing, choice = _analyse(p, ref_img, name, ref)
     grey = not det.seg.needs_colour
-    fallbacks = [_Detector(s, p) for s in segs if s is not det.seg and (not grey or not s.needs_colour)]
-    for f in fallbacks:
-        f.typical = det.typical
+    n = len(members)
+    # large markers in JPEG data: decode at a fraction of the resolution (the decoder skips the fine
+    # DCT coefficients), keeping markers at least 6 px thick; coordinates are scaled back at the end
+    red = 1
+    if grey and src.jpeg:
+        red = 4 if det.typical["short"] >= 24 else 2 if det.typical["short"] >= 12 else 1
+    if red > 1:
+        try:
+            reduced = _analyse(_reduced_params(p, red), src.frame(ref, grey=True, reduce=red), name, ref)
+        except ValueError:
+            red = 1  # the markers do not survive the reduction: full resolution
+        else:
+            if len(reduced[2]) == n and not reduced[0].seg.needs_colour:
+                det, fallbacks, members, spacing, choice = reduced
+                choice = {**choice, "decoding": f"1/{red} resolution (markers {det.typical['short'] * red:.0f} px thick)"}
+            else:
+                red = 1
+    to_red = (lambda px: (np.asarray(px, dtype=float) - 0.5 * (red - 1)) / red)
 
     # 2. the base: given, the camera's origin, or the chain end that stays put
     ends = members[[0, -1], :2]
     if p["base_position"] is not None:
-        base_px, base_source = np.asarray(p["base_position"], dtype=float), "given"
+        base_px, base_source = to_red(p["base_position"]), "given"
     elif camera is not None and camera.origin is not None:
-        base_px, base_source = camera.unrectify(np.asarray(camera.origin)), "camera origin"
+        base_px, base_source = to_red(camera.unrectify(np.asarray(camera.origin))), "camera origin"
     else:
-        base_px, base_source = ends[_find_base(src, det, ends, spacing, ref, grey)], "stays put"
+        base_px, base_source = ends[_find_base(src, det, ends, spacing, ref, grey, red)], "stays put"
     gap = np.linalg.norm(ends - base_px, axis=1)
     if gap.min() > 0.5 * spacing:
         raise ValueError(
@@ -367,12 +403,13 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     found = []
     prev = prev2 = None
     phi0 = None
-    for k, frame in enumerate(tqdm(src.frames(grey=grey), total=T_hint, desc=f"extract {Path(name).name}", unit="frame",
-                                   disable=not p["progress"])):
-        if (frame.shape[1], frame.shape[0]) != size:
+    expected = (-(-size[0] // red), -(-size[1] // red))
+    for k, frame in enumerate(tqdm(src.frames(grey=grey, reduce=red), total=T_hint, desc=f"extract {Path(name).name}",
+                                   unit="frame", disable=not p["progress"])):
+        if (frame.shape[1], frame.shape[0]) != expected:
             raise ValueError(
-                f"recording {name!r}, frame {k}: size {frame.shape[1]}x{frame.shape[0]} differs from frame {ref} "
-                f"({size[0]}x{size[1]})"
+                f"recording {name!r}, frame {k}: size {frame.shape[1] * red}x{frame.shape[0] * red} differs from frame "
+                f"{ref} ({size[0]}x{size[1]})"
             )
         pred = None if prev is None else (prev if prev2 is None else 2.0 * prev - prev2)
         out = None
@@ -418,6 +455,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
 
     # 4. metres: through the lens (points, not frames), then the base frame
     raw = np.stack([o.pix if o is not None else np.zeros((n, 3)) for o in outcomes])
+    raw[..., :2] = raw[..., :2] * red + 0.5 * (red - 1)  # back to full-resolution pixels
     lens = camera if camera is not None else Camera(1.0, None, size, None)
     rect = raw.copy()
     rect[valid] = lens.rectify(raw[valid])
@@ -470,9 +508,9 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "fallback_frames": {k: o.seg for k, o in enumerate(outcomes) if o is not None and o.seg != choice["chosen"]},
         "ignored_components": np.array([o.ignored if o is not None else -1 for o in outcomes]),
         "max_theta_step": float(jumps.max()) if jumps.size else 0.0,
-        "marker_area_px": det.typical["area"],
+        "marker_area_px": det.typical["area"] * red**2,
         "marker_aspect": det.typical["aspect"],
-        "marker_spacing_px": spacing,
+        "marker_spacing_px": spacing * red,
         "base_marker": base_source,
         "calibration": calibration,
         "camera": camera.to_dict(),
