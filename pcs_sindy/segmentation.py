@@ -58,6 +58,7 @@ __all__ = [
     "chain_poses",
     "deformed_lengths",
     "estimate_total_length",
+    "jackknife_std",
     "segment_strains",
     "data_q_max",
     "strain_distances",
@@ -170,19 +171,30 @@ def deformed_lengths(chain: ArrayLike) -> NDArray[np.float64]:
 
 
 def estimate_total_length(chains: Sequence[ArrayLike]) -> float:
-    """Rest length of the robot: median over all frames of the deformed axial length.
+    """Rest length of the robot from poses alone: the median over all frames of the deformed axial length.
 
     This is the length that makes the median axial strain of the whole robot
     zero.  It is exact for PCS robots whose axial strain is zero at the median
-    frame; a robot that is stretched on average (e.g. hanging under its
-    weight) reads longer by that mean stretch.  Give ``total_length`` when it
-    is known.
+    frame; a robot that is stretched on average (hanging under its weight,
+    pulled by its actuation or by its own swinging) reads longer by that mean
+    stretch, which no kinematic estimate can tell from length.  Give the
+    measured length, or correct this one with the axial rest strain identified
+    from the dynamics (:meth:`KinematicFusion.correct_rest_length`,
+    :func:`pcs_sindy.rest_length.estimate_rest_length`).
     """
     totals = np.concatenate([deformed_lengths(c).sum(axis=1) for c in chains])
     value = float(np.median(totals))
     if not np.isfinite(value) or value <= 0:
         raise ValueError(f"could not estimate the total length from the data (got {value!r}); pass total_length")
     return value
+
+
+def jackknife_std(values: ArrayLike, full: float | None = None) -> float:
+    """Jackknife standard error from leave-one-out estimates ``values`` (NaN for fewer than two)."""
+    v = np.asarray(values, dtype=float)
+    if v.size < 2:
+        return float("nan")
+    return float(np.sqrt((v.size - 1) / v.size * np.sum((v - v.mean()) ** 2)))
 
 
 def segment_strains(
@@ -578,8 +590,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         ``"data"`` scales each strain type by the 99th percentile of its
         magnitude over the initial segments and all frames.
     total_length : float, optional
-        Rest length of the robot [m].  If None it is estimated as the median
-        deformed axial length of the marker chain (:func:`estimate_total_length`).
+        Rest length of the robot [m].  If None: the length the poses carry
+        (``metadata["rest_length"]``, set by ``MarkerPoseExtractor(robot_length=...)``),
+        else the median deformed axial length of the marker chain
+        (:func:`estimate_total_length`, long by any mean stretch; correct it
+        with :meth:`correct_rest_length` or use
+        :func:`pcs_sindy.rest_length.estimate_rest_length`).
     shape_fit : {"least_squares", "end_pose"}, default "least_squares"
         ``"end_pose"`` computes each segment's strains from its two end poses
         (the seed).  ``"least_squares"`` fits each frame's strains to all
@@ -615,6 +631,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     Attributes
     ----------
     total_length_ : float
+    total_length_source_ : str
+        Where the rest length came from (given, carried by the poses, estimated, corrected).
+    total_length_std_ : float
+        Its standard error: 0 when given; for the kinematic estimate the
+        jackknife over recordings (over blocks of frames for one recording),
+        which does not include the bias of a mean stretch.
     marker_arc_lengths_ : ndarray, shape (N + 1,)
         Rest arc lengths of the base and the markers.
     n_markers_ : int
@@ -721,7 +743,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self._check_params()
         _, chains, _ = self._chains(X)
         n_markers = chains[0].shape[1] - 1
-        total = float(self.total_length) if self.total_length is not None else estimate_total_length(chains)
+        total, source, std = self._rest_length(X, chains)
         s = np.linspace(0.0, total, n_markers + 1)
 
         if self.scaling == "data":
@@ -734,6 +756,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             chains, s, float(self.threshold), q_max, int(self.min_segment_markers), self.merge
         )
         self.total_length_ = total
+        self.total_length_source_ = source
+        self.total_length_std_ = std
         self.marker_arc_lengths_ = s
         self.n_markers_ = n_markers
         self.q_max_ = q_max
@@ -750,6 +774,67 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             ends, _ = refine_boundaries(target, s[1:], ends, q0, self.pose_std)
         self.segment_lengths_ = _lengths_from_ends(ends)
         self.n_segments_ = int(boundaries.size)
+        return self
+
+    def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
+        """(total rest length, where it comes from, its standard error) for :meth:`fit`."""
+        if self.total_length is not None:
+            return float(self.total_length), "given (total_length)", 0.0
+        trajs = as_pose_trajectories(X)
+        given = [tr.metadata.get("rest_length") for tr in trajs]
+        if any(g is not None for g in given):
+            values = {float(g) for g in given if g is not None}
+            if None in given or len(values) > 1:
+                raise ValueError(
+                    "X: the recordings carry different rest lengths in metadata['rest_length'] "
+                    f"({[None if g is None else float(g) for g in given]}); give total_length"
+                )
+            value = values.pop()
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"X: metadata['rest_length'] must be a length > 0 in metres; got {value!r}")
+            return value, "given with the poses (metadata['rest_length'])", 0.0
+        total = estimate_total_length(chains)
+        # leave one recording out (or, for one recording, one of 8 blocks of frames)
+        if len(chains) > 1:
+            parts = [estimate_total_length(chains[:k] + chains[k + 1 :]) for k in range(len(chains))]
+        else:
+            blocks = np.array_split(np.arange(chains[0].shape[0]), min(8, chains[0].shape[0]))
+            parts = [estimate_total_length([np.delete(chains[0], b, axis=0)]) for b in blocks if b.size < chains[0].shape[0]]
+        return total, "estimated: median deformed length (biased by any mean stretch)", jackknife_std(parts)
+
+    def correct_rest_length(self, rest_strain: ArrayLike, rest_strain_std: float | None = None) -> "KinematicFusion":
+        """Rescale the fitted rest lengths by identified axial rest strains; returns self.
+
+        A rest length read ``(1 + e)`` times too long makes an unloaded robot
+        look compressed: its identified axial rest strains (the constant force
+        per strain of ``EulerLagrangeRegressor(rest_strain=True)`` over the
+        stiffness) are ``-e / (1 + e)``.  Every length is scaled by
+        ``1 + q̄``, with ``q̄`` the length-weighted mean of the segments'
+        axial rest strains (one factor: markers stay equally spaced).
+
+        Parameters
+        ----------
+        rest_strain : array_like, shape (3m,)
+            ``regressor.rest_strain_`` of a model fitted to this fusion's strains.
+        rest_strain_std : float, optional
+            Standard error of ``q̄``, propagated to :attr:`total_length_std_`.
+        """
+        check_is_fitted(self, "segment_lengths_")
+        q = np.asarray(rest_strain, dtype=float)
+        if q.shape != (3 * self.n_segments_,) or not np.all(np.isfinite(q)):
+            raise ValueError(
+                f"rest_strain must be {3 * self.n_segments_} finite numbers (3 per segment); got shape {q.shape}"
+            )
+        mean = float(np.sum(self.segment_lengths_ * q[2::3]) / np.sum(self.segment_lengths_))
+        if not -0.5 < mean < 0.5:
+            raise ValueError(f"rest_strain: mean axial rest strain {mean:+.3f} is no length error; the fit went wrong")
+        factor = 1.0 + mean
+        self.total_length_ *= factor
+        self.marker_arc_lengths_ = self.marker_arc_lengths_ * factor
+        self.segment_lengths_ = self.segment_lengths_ * factor
+        self.total_length_source_ = f"{self.total_length_source_}, corrected by the identified axial rest strain {mean:+.5f}"
+        if rest_strain_std is not None:
+            self.total_length_std_ = float(np.hypot(self.total_length_std_ * factor, self.total_length_ * rest_strain_std))
         return self
 
     def _end_pose_q(self, chains: list[NDArray]) -> NDArray[np.float64]:
