@@ -287,7 +287,16 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
         raise FrameProblem("marker angles zigzag along the chain (interleaved markers; ordering not trustworthy)")
     if conflicts:
         raise FrameProblem(f"{conflicts} marker(s) face against the chain direction (ordering not trustworthy)")
-    return pix, np.flatnonzero(missing).tolist(), len(cands) - len(idx)
+    others = np.setdiff1d(np.arange(len(cands)), idx)
+    if others.size >= 5:
+        # marker-shaped components off the chain are clutter, unless they form a chain of their own
+        second = link_chains(cands[others])
+        if second and len(second[0]) >= max(5, len(order) // 2):
+            raise FrameProblem(
+                f"a second chain of {len(second[0])} markers besides the robot's (another robot in view? restrict "
+                "the view with roi=(x, y, width, height))"
+            )
+    return pix, np.flatnonzero(missing).tolist(), others.size
 
 
 def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:

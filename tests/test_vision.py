@@ -358,3 +358,26 @@ def test_never_silently_misordered() -> None:
     pos = np.linalg.norm(traj.poses[good, :, :2] - truth[good, :, :2], axis=-1) * cam.pixels_per_metre
     ang = np.degrees(np.abs(traj.poses[good, :, 2] - truth[good, :, 2]))
     assert pos.max() < 1.0 and ang.max() < 3.0  # markers 10 px wide, 2.6 px thick here
+
+
+def test_bad_footage_named_by_recording_and_frame(tmp_path: Path, random_set) -> None:
+    truth, frames = random_set
+    # no markers at all: the reference frame says so first
+    blank = np.full((3, 480, 640), 230, np.uint8)
+    with pytest.raises(ValueError, match=r"array recording 0', frame 0 \(reference frame\): .*no markers found"):
+        extractor().transform([blank])
+    # a second robot: in the reference frame, and appearing later in the recording
+    shifted = np.full_like(frames[:4], 255)
+    shifted[:, :, 150:] = frames[:4, :, :-150]  # the same robot again, 150 px to the right
+    both = np.minimum(frames[:4], shifted)
+    with pytest.raises(ValueError, match=r"frame 0 \(reference frame\): two chains of markers"):
+        extractor().transform([both])
+    later = frames[:4].copy()
+    later[2] = both[2]
+    with pytest.raises(ValueError, match=r"array recording 0', frame 2: .*second chain"):
+        extractor().transform([later])
+    # a camera JSON made at another resolution, found next to the video
+    avi = render_video(truth[:3], tmp_path / "clip.avi", CAM, fps=50.0, marker_size=SIZE).video
+    Camera(3000.0, (320.0, 90.0), (800, 600)).to_json(tmp_path / "clip.avi.camera.json", extra={"fps": 50.0})
+    with pytest.raises(ValueError, match=r"clip.avi', frame 0: frames are 640x480 pixels but the camera \(camera JSON"):
+        MarkerPoseExtractor(progress=False).transform([str(avi)])
