@@ -28,6 +28,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
@@ -36,11 +37,12 @@ from .binarisation import ColourSegmentation, LocalSegmentation, OtsuSegmentatio
 from .binarisation import candidate_segmentations
 from .camera import Camera, camera_json_path, read_camera_json
 from .frame_source import FrameSource
-from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, zigzags
-from .markers import AREA, AXIS, LONG, PIXELS, SHORT, find_components, refine
+from .frame_tracker import Detector, FrameResult, FrameTracker
+from .marker_chain import link_chains
+from .markers import AREA, LONG, PIXELS, SHORT
 from .trajectory import PoseTrajectory
 
-__all__ = ["extract_recording"]
+__all__ = ["extract_recording", "MarkerStream"]
 
 _N_BASE_SAMPLES = 8
 _HINTS = (
@@ -49,10 +51,6 @@ _HINTS = (
     "markers), a fixed grey level threshold=<0-255> or a colour range threshold=((b0, g0, r0), (b1, g1, r1)); "
     "polarity='bright' for markers lighter than the background"
 )
-
-
-class FrameProblem(ValueError):
-    """A frame whose markers could not be extracted."""
 
 
 def _segmentations(p: dict[str, Any], ref_img: NDArray[np.uint8]) -> list[Segmentation]:
@@ -73,47 +71,6 @@ def _segmentations(p: dict[str, Any], ref_img: NDArray[np.uint8]) -> list[Segmen
     return [OtsuSegmentation(float(thr), p["polarity"], p["blur"])]
 
 
-class _Detector:
-    """Per-frame candidates with one segmentation, knowing the typical marker once it is set."""
-
-    def __init__(self, seg: Segmentation, p: dict[str, Any]) -> None:
-        self.seg = seg
-        self.p = p
-        self.typical: dict[str, float] | None = None
-
-    def __call__(self, frame: NDArray[np.uint8]) -> NDArray[np.float64]:
-        roi = self.p["roi"]
-        x0 = y0 = 0
-        if roi is not None:
-            x0, y0, w, h = roi
-            frame = frame[y0 : y0 + h, x0 : x0 + w]
-        work = self.seg.work(frame)
-        binary = self.seg.binary(work)
-        comps = find_components(binary)
-        ok = comps.area >= self.p["min_area"]
-        if self.typical is not None:
-            t = self.typical
-            ok &= (comps.area >= 0.25 * t["pixels"]) & (comps.area <= 4.0 * t["pixels"])
-            ok &= comps.box[:, 2:].max(axis=1) <= 1.6 * (t["long"] + t["short"]) + 3
-        else:
-            ok &= comps.box[:, 2:].max(axis=1) <= 0.5 * max(binary.shape)  # not a floor or a wall
-        if not self.p["refine"]:
-            from .markers import _BinaryCoverage
-
-            return refine(_BinaryCoverage(binary), None, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
-        return refine(self.seg, work, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
-
-    def accept(self, cands: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The marker-shaped candidates (area and aspect like the typical marker)."""
-        t = self.typical
-        lo, hi = self.p["area_tolerance"]
-        tol = self.p["aspect_tolerance"]
-        aspect = cands[:, LONG] / np.maximum(cands[:, SHORT], 1e-9)
-        ok = (cands[:, AREA] >= lo * t["area"]) & (cands[:, AREA] <= hi * t["area"])
-        ok &= (aspect >= t["aspect"] / tol) & (aspect <= t["aspect"] * tol)
-        return cands[ok]
-
-
 def _pick_chain(chains: list[NDArray[np.intp]], n_expected: int | None) -> NDArray[np.intp] | None:
     if not chains:
         return None
@@ -129,7 +86,7 @@ def _reference(p: dict[str, Any], segs: list[Segmentation], ref_img: NDArray[np.
     n_expected = None if p["n_markers"] is None else p["n_markers"] + 1
     results = []
     for seg in segs:
-        det = _Detector(seg, p)
+        det = Detector(seg, p)
         cands = det(ref_img)
         chains = link_chains(cands)
         chain = _pick_chain(chains, n_expected)
@@ -160,7 +117,7 @@ def _reference(p: dict[str, Any], segs: list[Segmentation], ref_img: NDArray[np.
     return det, cands, chain, {"chosen": det.seg.describe(), "reason": why, "candidates": report}
 
 
-def _find_base(src: FrameSource, det: _Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool, reduce: int) -> int:
+def _find_base(src: FrameSource, det: Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool, reduce: int) -> int:
     """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording."""
     name = src.name
     picks = [k for k in np.linspace(0, src.n_frames - 1, _N_BASE_SAMPLES + 1).round().astype(int) if k != ref]
@@ -222,81 +179,45 @@ def _resolve_camera(recording: Any, p: dict[str, Any]) -> tuple[Camera | None, s
     return camera, (None if camera is None else "given camera"), json_fps
 
 
-class _Frame:
-    """The outcome of one frame: raw pixel poses of the chain, or a problem."""
+def _first_direction(camera: Camera | None, p: dict[str, Any], members: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rest direction (+y of the base frame) in the recorded image, for the first step of the chain."""
+    if camera is not None and camera.angle is not None:
+        o = camera.unrectify(np.asarray(camera.origin if camera.origin is not None else (0.0, 0.0)))
+        tip = camera.unrectify(o + 10.0 * np.array([-np.sin(camera.angle), np.cos(camera.angle)]))
+        return (tip - o) / np.linalg.norm(tip - o)
+    rest = float(p["rest_direction"]) if p["rest_direction"] is not None else _rest_direction(members[:, :2])
+    return np.array([np.cos(rest), np.sin(rest)])
 
-    __slots__ = ("pix", "found", "filled", "tracked", "seg", "ignored")
 
-    def __init__(self, pix: NDArray[np.float64], found: int, filled: list[int], tracked: bool, seg: str, ignored: int) -> None:
-        self.pix, self.found, self.filled, self.tracked, self.seg, self.ignored = pix, found, filled, tracked, seg, ignored
+def _complete_camera(
+    camera: Camera | None, lens: Camera, p: dict[str, Any], rect_ref: NDArray[np.float64], origin: NDArray[np.float64],
+    calibration: str | None, what: str, ref: int,
+) -> tuple[Camera, str]:
+    """The camera with its base frame: origin, angle and scale from the parameters or the reference frame.
 
-
-def _order_frame(
-    cands: NDArray[np.float64], st: dict[str, Any], prev: NDArray[np.float64] | None, pred: NDArray[np.float64] | None, phi0: float | None
-) -> tuple[NDArray[np.float64], list[int], int, bool]:
-    """Order one frame's marker-shaped candidates into the chain; raises FrameProblem.
-
-    The previous frame's markers are tracked first (cheap); when that is
-    ambiguous or leaves a frame that fails the checks, the frame is chained
-    from the base.
+    ``rect_ref`` are the reference frame's markers in rectified pixels, ``origin``
+    the base marker's rectified position (used unless the camera or ``base_position`` gives one).
     """
-    if prev is not None and len(cands):
-        match = track(prev, pred, cands[:, :2])
-        if match is not None and np.count_nonzero(match < 0) <= 1:
-            try:
-                return _finish(cands, match, st, phi0) + (True,)
-            except FrameProblem:
-                pass
-    if len(cands) == 0:
-        raise FrameProblem("no markers found")
-    d = np.linalg.norm(cands[:, :2] - st["base_px"], axis=1)
-    b = int(np.argmin(d))
-    if d[b] > 0.5 * st["spacing"]:
-        raise FrameProblem(f"no marker within {0.5 * st['spacing']:.1f} px of the base position {st['base_px'].round(1).tolist()}")
-    seq, err = chain_from_base(cands[:, :2], cands[:, AXIS], b, st["spacing"], st["first_dir"], st["n"], st["fill"])
-    if err is not None:
-        raise FrameProblem(err)
-    return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0) + (False,)
-
-
-def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, Any], phi0: float | None) -> tuple:
-    """Angles, filled gaps and checks of an ordered chain (-1: missing): (pixel poses, filled, ignored)."""
-    missing = order < 0
-    # a marker much smaller or larger than its chain neighbours is partly hidden or merged: treat it as missing
-    area = np.where(missing, np.nan, cands[order, AREA])
-    # the median of the three markers on either side: one odd marker does not make its neighbours odd
-    pad = np.concatenate([np.full(3, np.nan), area, np.full(3, np.nan)])
-    window = np.stack([pad[j : j + len(area)] for j in (0, 1, 2, 4, 5, 6)])
-    srt = np.sort(window, axis=0)  # NaN last
-    cnt = np.isfinite(window).sum(axis=0)
-    lo, hi = np.maximum(cnt - 1, 0) // 2, cnt // 2
-    ref = 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, np.minimum(hi, 5)[None], 0)[0])
-    with np.errstate(invalid="ignore"):
-        missing = missing | (area < 0.78 * ref) | (area > 1.28 * ref)
-    if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
-        raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
-    idx = order[~missing]
-    pts = cands[idx, :2]
-    phi_det, conflicts = frame_angles(pts, cands[idx, AXIS], phi0)
-    pix = np.zeros((len(order), 3))
-    pix[~missing, :2], pix[~missing, 2] = pts, phi_det
-    pix = fill_gaps(pix, missing, st["base_pose"])
-    if crossings(pix[:, :2]):
-        raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
-    if zigzags(pix[:, 2]) >= 3:
-        raise FrameProblem("marker angles zigzag along the chain (interleaved markers; ordering not trustworthy)")
-    if conflicts:
-        raise FrameProblem(f"{conflicts} marker(s) face against the chain direction (ordering not trustworthy)")
-    others = np.setdiff1d(np.arange(len(cands)), idx)
-    if others.size >= 5:
-        # marker-shaped components off the chain are clutter, unless they form a chain of their own
-        second = link_chains(cands[others])
-        if second and len(second[0]) >= max(5, len(order) // 2):
-            raise FrameProblem(
-                f"a second chain of {len(second[0])} markers besides the robot's (another robot in view? restrict "
-                "the view with roi=(x, y, width, height))"
-            )
-    return pix, np.flatnonzero(missing).tolist(), others.size
+    if camera is not None and camera.origin is not None:
+        origin = np.asarray(camera.origin)
+    elif p["base_position"] is not None:
+        origin = lens.rectify(np.asarray(p["base_position"], dtype=float))
+    if camera is not None and camera.angle is not None:
+        angle = camera.angle
+    elif p["rest_direction"] is not None and (camera is None or not camera.has_lens):
+        angle = float(p["rest_direction"]) - 0.5 * np.pi
+    else:
+        angle = _rest_direction(rect_ref[:, :2]) - 0.5 * np.pi
+    if camera is not None:
+        ppm, calibration = camera.pixels_per_metre, f"{calibration} (base frame found in the footage)"
+    elif p["pixels_per_metre"] is not None:
+        ppm, calibration = float(p["pixels_per_metre"]), "given pixels_per_metre"
+    elif p["robot_length"] is not None:
+        ppm = float(np.sum(np.linalg.norm(np.diff(rect_ref[:, :2], axis=0), axis=1))) / float(p["robot_length"])
+        calibration = f"straight reference frame {ref} with robot_length={p['robot_length']!r}"
+    else:
+        raise ValueError(f"{what}: no calibration; give camera, pixels_per_metre, or robot_length (with a straight reference frame)")
+    return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration
 
 
 def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:
@@ -314,7 +235,7 @@ def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int)
     }
     spacing = float(np.median(np.linalg.norm(np.diff(members[:, :2], axis=0), axis=1)))
     grey = not det.seg.needs_colour
-    fallbacks = [_Detector(s, p) for s in segs if s is not det.seg and (not grey or not s.needs_colour)]
+    fallbacks = [Detector(s, p) for s in segs if s is not det.seg and (not grey or not s.needs_colour)]
     for f in fallbacks:
         f.typical = det.typical
     return det, fallbacks, members, spacing, choice
@@ -394,48 +315,23 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         )
     if np.argmin(gap) == 1:
         members = members[::-1]
-    if camera is not None and camera.angle is not None:
-        o = camera.unrectify(np.asarray(camera.origin if camera.origin is not None else (0.0, 0.0)))
-        tip = camera.unrectify(o + 10.0 * np.array([-np.sin(camera.angle), np.cos(camera.angle)]))
-        first_dir = (tip - o) / np.linalg.norm(tip - o)
-    elif p["rest_direction"] is not None:
-        first_dir = np.array([np.cos(p["rest_direction"]), np.sin(p["rest_direction"])])
-    else:
-        first_dir = np.array([np.cos(_rest_direction(members[:, :2])), np.sin(_rest_direction(members[:, :2]))])
+    first_dir = _first_direction(camera, p, members)
 
     # 3. every frame
-    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"], "base_pose": None}
-    T_hint = src.n_frames
-    pix_all: list[NDArray[np.float64] | None] = []
-    outcomes: list[_Frame | None] = []
+    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"]}
+    tracker = FrameTracker([det] + fallbacks, st)
+    outcomes: list[FrameResult | None] = []
     problems: dict[int, str] = {}
     found = []
-    prev = prev2 = None
-    phi0 = None
     expected = (-(-size[0] // red), -(-size[1] // red))
-    for k, frame in enumerate(tqdm(src.frames(grey=grey, reduce=red), total=T_hint, desc=f"extract {Path(name).name}",
+    for k, frame in enumerate(tqdm(src.frames(grey=grey, reduce=red), total=src.n_frames, desc=f"extract {Path(name).name}",
                                    unit="frame", disable=not p["progress"])):
         if (frame.shape[1], frame.shape[0]) != expected:
             raise ValueError(
                 f"recording {name!r}, frame {k}: size {frame.shape[1] * red}x{frame.shape[0] * red} differs from frame "
                 f"{ref} ({size[0]}x{size[1]})"
             )
-        pred = None if prev is None else (prev if prev2 is None else 2.0 * prev - prev2)
-        out = None
-        err = None
-        n_found = 0
-        for d in [det] + fallbacks:
-            shaped = d.accept(d(frame))
-            if d is det:
-                n_found = len(shaped)
-            try:
-                pix, filled, ignored, tracked = _order_frame(shaped, st, prev, pred, phi0)
-            except FrameProblem as e:
-                if err is None:
-                    err = str(e)
-                continue
-            out = _Frame(pix, len(shaped) - ignored, filled, tracked, d.seg.describe(), ignored)
-            break
+        out, n_found, err = tracker.step(frame)
         found.append(n_found)
         if out is None:
             what = "no markers found" if n_found == 0 else f"found {n_found} marker-shaped components"
@@ -443,16 +339,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
             if p["on_missing"] == "raise":
                 raise ValueError(f"recording {name!r}, frame {k}: {msg}")
             problems[k] = msg
-            prev = prev2 = None
-            outcomes.append(None)
-            pix_all.append(None)
-            continue
-        prev2, prev = prev, out.pix[:, :2]
-        phi0 = out.pix[0, 2]
-        if 0 not in out.filled:
-            st["base_pose"] = out.pix[0]
         outcomes.append(out)
-        pix_all.append(out.pix)
     T = len(outcomes)
     if T == 0:
         raise ValueError(f"recording {name!r}: no frames")
@@ -469,28 +356,8 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     rect = raw.copy()
     rect[valid] = lens.rectify(raw[valid])
     if camera is None or camera.origin is None or camera.angle is None:
-        origin = np.median(rect[valid, 0, :2], axis=0) if camera is None or camera.origin is None else np.asarray(camera.origin)
-        if camera is not None and camera.angle is not None:
-            angle = camera.angle
-        elif p["rest_direction"] is not None and (camera is None or not camera.has_lens):
-            angle = float(p["rest_direction"]) - 0.5 * np.pi
-        else:
-            angle = _rest_direction(rect[ref, :, :2]) - 0.5 * np.pi
-        if camera is not None:
-            ppm, calibration = camera.pixels_per_metre, f"{calibration} (base frame found in the footage)"
-        elif p["pixels_per_metre"] is not None:
-            ppm, calibration = float(p["pixels_per_metre"]), "given pixels_per_metre"
-        elif p["robot_length"] is not None:
-            ppm = float(np.sum(np.linalg.norm(np.diff(rect[ref, :, :2], axis=0), axis=1))) / float(p["robot_length"])
-            calibration = f"straight reference frame {ref} with robot_length={p['robot_length']!r}"
-        else:
-            raise ValueError(
-                f"recording {name!r}: no calibration; give camera, pixels_per_metre, or robot_length "
-                "(with a straight reference frame)"
-            )
-        if p["base_position"] is not None:
-            origin = lens.rectify(np.asarray(p["base_position"], dtype=float))
-        camera = replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle)
+        origin = np.median(rect[valid, 0, :2], axis=0)
+        camera, calibration = _complete_camera(camera, lens, p, rect[ref], origin, calibration, f"recording {name!r}", ref)
     poses = camera.from_rectified(rect)
     # the base is clamped: pick the 2pi branch that puts its first valid angle nearest 0
     first = int(np.argmax(valid))
@@ -528,3 +395,90 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     if p["robot_length"] is not None:
         meta["rest_length"] = float(p["robot_length"])
     return PoseTrajectory(poses, dt=dt, metadata=meta), diag
+
+
+class MarkerStream:
+    """Marker poses of one frame after another, from a live camera: see :meth:`MarkerPoseExtractor.stream`.
+
+    Parameters
+    ----------
+    reference : uint8 image
+        The first frame (the robot in view; straight and at rest when the
+        scale comes from ``robot_length``).
+    p : dict
+        The extractor's validated parameters.
+    """
+
+    def __init__(self, reference: NDArray[np.uint8], p: dict[str, Any]) -> None:
+        ref_img = np.asarray(reference)
+        if ref_img.dtype != np.uint8 or ref_img.ndim not in (2, 3):
+            raise ValueError(f"reference must be a uint8 image (H, W) or (H, W, 3); got {ref_img.dtype} {ref_img.shape}")
+        camera = None if isinstance(p["camera"], str) else p["camera"]
+        self.size = (int(ref_img.shape[1]), int(ref_img.shape[0]))
+        if camera is not None and tuple(camera.image_size) != self.size:
+            raise ValueError(
+                f"stream, reference frame: frames are {self.size[0]}x{self.size[1]} pixels but the camera expects "
+                f"{camera.image_size[0]}x{camera.image_size[1]}"
+            )
+        det, fallbacks, members, spacing, choice = _analyse(p, ref_img, "stream", 0)
+        ends = members[[0, -1], :2]
+        if p["base_position"] is not None:
+            base_px = np.asarray(p["base_position"], dtype=float)
+        elif camera is not None and camera.origin is not None:
+            base_px = camera.unrectify(np.asarray(camera.origin))
+        else:
+            raise ValueError("stream: the base cannot be told from one frame; give base_position or a camera with an origin")
+        gap = np.linalg.norm(ends - base_px, axis=1)
+        if gap.min() > 0.5 * spacing:
+            raise ValueError(f"stream, reference frame: neither end of the marker chain lies near the base {base_px.round(1).tolist()}")
+        if np.argmin(gap) == 1:
+            members = members[::-1]
+        self.grey = not det.seg.needs_colour
+        self.n_markers = len(members) - 1
+        st = {"n": len(members), "base_px": base_px, "spacing": spacing, "first_dir": _first_direction(camera, p, members),
+              "fill": p["fill_missing"]}
+        self.tracker = FrameTracker([det] + fallbacks, st)
+        self.diagnostics = {"binarisation": choice}
+        out, _, err = self.tracker.step(self._prepare(ref_img))
+        if out is None:
+            raise ValueError(f"stream, reference frame: {err}")
+        lens = camera if camera is not None else Camera(1.0, None, self.size, None)
+        rect = lens.rectify(out.pix)
+        if camera is None or not camera.has_base_frame:
+            camera, calibration = _complete_camera(camera, lens, p, rect, rect[0, :2], "given camera", "stream", 0)
+            self.diagnostics["calibration"] = calibration
+        self.camera = camera
+        first = camera.from_rectified(rect)
+        self._branch = 2 * np.pi * np.round(first[0, 2] / (2 * np.pi))  # the base angle nearest 0, kept from now on
+        self.n_frames = 1
+        self.last = first - np.array([0.0, 0.0, self._branch])
+
+    def _prepare(self, frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
+        img = np.asarray(frame)
+        if (img.shape[1], img.shape[0]) != self.size or img.dtype != np.uint8:
+            raise ValueError(
+                f"stream, frame {getattr(self, 'n_frames', 0)}: expected a uint8 image of {self.size[0]}x{self.size[1]} "
+                f"pixels; got {img.dtype} {img.shape[1::-1] if img.ndim >= 2 else img.shape}"
+            )
+        if self.grey and img.ndim == 3:
+            img = cv2.cvtColor(img, cv2.COLOR_BGR2GRAY)
+        return img
+
+    def update(self, frame: NDArray[np.uint8]) -> NDArray[np.float64]:
+        """Poses (N + 1, 3) of the base and the markers in this frame, metres/radians in the base frame.
+
+        Raises
+        ------
+        ValueError
+            When the frame's markers cannot be extracted (the message says
+            why); the next frame is then chained from the base again.
+        """
+        out, n_found, err = self.tracker.step(self._prepare(frame))
+        k = self.n_frames
+        self.n_frames += 1
+        if out is None:
+            raise ValueError(f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}")
+        poses = self.camera.from_rectified(self.camera.rectify(out.pix))
+        poses[:, 2] -= self._branch
+        self.last = poses
+        return poses

@@ -651,6 +651,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     segment_lengths_ : ndarray, shape (m,)
         Segment rest lengths (off the marker grid after boundary refinement).
     n_segments_ : int
+    base_pose_ : ndarray, shape (3,)
+        Median base pose of the fitted recordings (the reference of :meth:`transform_frame`).
 
     Examples
     --------
@@ -741,7 +743,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         y : ignored
         """
         self._check_params()
-        _, chains, _ = self._chains(X)
+        _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
         total, source, std = self._rest_length(X, chains)
         s = np.linspace(0.0, total, n_markers + 1)
@@ -774,6 +776,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             ends, _ = refine_boundaries(target, s[1:], ends, q0, self.pose_std)
         self.segment_lengths_ = _lengths_from_ends(ends)
         self.n_segments_ = int(boundaries.size)
+        all_bases = np.concatenate(bases)
+        self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
         return self
 
     def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
@@ -883,6 +887,49 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             )
         return out
+
+    def transform_frame(self, poses: ArrayLike, q0: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Strains (3m,) of one frame of poses (N + 1, 3): state estimation at camera rate.
+
+        The same estimate as :meth:`transform` for that frame (the base is
+        :attr:`base_pose_`, the median of the fitted recordings', when
+        ``fixed_base``; the frame's own base otherwise), with the
+        least-squares shape fit compiled for one frame (tens of
+        microseconds; the first call compiles it, cached on disk).
+
+        Parameters
+        ----------
+        poses : array_like, shape (N + 1, 3)
+            Base and markers, as the extractor returns one frame.
+        q0 : array_like, shape (3m,), optional
+            Start of the least-squares fit, e.g. the previous frame's strains
+            (default: the closed-form strains from the segments' end poses;
+            ignored by ``shape_fit="end_pose"``).
+        """
+        check_is_fitted(self, "segment_lengths_")
+        P = np.array(poses, dtype=float)
+        if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
+            raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
+        P[:, 2] = np.unwrap(P[:, 2])
+        base = np.array(self.base_pose_ if self.fixed_base else P[0], dtype=float)
+        base[2] += 2.0 * np.pi * np.round((P[0, 2] - base[2]) / (2.0 * np.pi))  # the frame's branch of the base angle
+        rel = se2_relative(base, P)
+        if q0 is not None:
+            start = np.asarray(q0, dtype=float).reshape(-1)
+            if start.shape != (3 * self.n_segments_,) or not np.all(np.isfinite(start)):
+                raise ValueError(f"q0 must be {3 * self.n_segments_} finite strains; got shape {np.shape(q0)}")
+        if q0 is None or self.shape_fit == "end_pose":
+            q = segment_strains(rel[None], self.marker_arc_lengths_, self.boundaries_)[0].reshape(-1)
+        else:
+            q = start
+        if self.shape_fit == "least_squares":
+            from ._frame_fit import fit_frame
+
+            std = np.asarray(self.pose_std, dtype=float)
+            w = np.array([1.0 / std[0], 1.0 / std[0], 1.0 / std[1]])
+            q, _ = fit_frame(np.ascontiguousarray(rel[1:]), np.asarray(self.segment_lengths_, dtype=float),
+                             np.ascontiguousarray(self.marker_arc_lengths_[1:]), q.copy(), w, 50, 1e-10)
+        return q
 
     def inverse_transform(self, X: Any) -> list[PoseTrajectory]:
         """Poses of the base and the markers, shape (T, N + 1, 3), from strain trajectories.

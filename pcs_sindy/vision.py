@@ -27,12 +27,12 @@ from sklearn.base import BaseEstimator, TransformerMixin
 
 from ._saving import PersistenceMixin
 from .camera import Camera
-from .extraction import extract_recording
+from .extraction import MarkerStream, extract_recording
 from .frame_source import check_recordings, describe, read_frames
 from .markers import detect_markers
 from .trajectory import PoseTrajectory
 
-__all__ = ["MarkerPoseExtractor", "detect_markers", "read_frames"]
+__all__ = ["MarkerPoseExtractor", "MarkerStream", "detect_markers", "read_frames"]
 
 _THRESHOLDS = ("auto", "otsu", "local", "colour")
 
@@ -319,6 +319,32 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
             results = Parallel(n_jobs=self.n_jobs)(jobs)
         self.diagnostics_ = [diag for _, diag in results]
         return [traj for traj, _ in results]
+
+    def stream(self, reference: Any) -> MarkerStream:
+        """A streaming extractor for a live camera, set up on its first frame.
+
+        ``stream(first_frame).update(frame)`` returns the poses (N + 1, 3) of
+        one frame at a time (about a millisecond at 640x480), tracking the
+        markers from frame to frame; with :meth:`KinematicFusion.transform_frame
+        <pcs_sindy.segmentation.KinematicFusion.transform_frame>` it gives the
+        strains of a robot under control at camera rate.  The base must be
+        known from the first frame: give ``base_position`` or a camera with an
+        origin; the scale comes from the camera, ``pixels_per_metre`` or
+        ``robot_length`` (the first frame straight).  ``n_jobs``, ``fps``,
+        ``dt`` and ``on_missing`` do not apply: ``update`` raises on a frame
+        it cannot extract.
+
+        Parameters
+        ----------
+        reference : uint8 image, (H, W) or (H, W, 3)
+
+        Returns
+        -------
+        MarkerStream
+            ``update(frame)``, plus ``camera``, ``n_markers``, ``diagnostics``.
+        """
+        params = self._validate()
+        return MarkerStream(reference, params)
 
     def __sklearn_tags__(self):  # stateless: transform needs no fit
         tags = super().__sklearn_tags__()

@@ -1,0 +1,195 @@
+"""One frame after another: the markers of each frame, ordered base -> tip.
+
+:class:`FrameTracker` holds what a recording's reference frame fixed (the
+segmentation and its fallbacks, the typical marker, the base, the spacing)
+and what the last frames showed; :meth:`FrameTracker.step` turns one frame
+into the pixel poses of the whole chain, tracking the previous frame's
+markers when that is unambiguous and chaining from the base otherwise,
+filling an isolated missing marker, and refusing chains that cannot be
+trusted.  Used by the batch extraction and by the streaming extractor.
+
+Knows nothing of dynamics.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .binarisation import Segmentation
+from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, zigzags
+from .markers import AREA, AXIS, LONG, SHORT, find_components, refine
+
+__all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
+
+
+class FrameProblem(ValueError):
+    """A frame whose markers could not be extracted."""
+
+
+class Detector:
+    """Per-frame candidates with one segmentation, knowing the typical marker once it is set."""
+
+    def __init__(self, seg: Segmentation, p: dict[str, Any]) -> None:
+        self.seg = seg
+        self.p = p
+        self.typical: dict[str, float] | None = None
+
+    def __call__(self, frame: NDArray[np.uint8]) -> NDArray[np.float64]:
+        roi = self.p["roi"]
+        x0 = y0 = 0
+        if roi is not None:
+            x0, y0, w, h = roi
+            frame = frame[y0 : y0 + h, x0 : x0 + w]
+        work = self.seg.work(frame)
+        binary = self.seg.binary(work)
+        comps = find_components(binary)
+        ok = comps.area >= self.p["min_area"]
+        if self.typical is not None:
+            t = self.typical
+            ok &= (comps.area >= 0.25 * t["pixels"]) & (comps.area <= 4.0 * t["pixels"])
+            ok &= comps.box[:, 2:].max(axis=1) <= 1.6 * (t["long"] + t["short"]) + 3
+        else:
+            ok &= comps.box[:, 2:].max(axis=1) <= 0.5 * max(binary.shape)  # not a floor or a wall
+        if not self.p["refine"]:
+            from .markers import _BinaryCoverage
+
+            return refine(_BinaryCoverage(binary), None, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
+        return refine(self.seg, work, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
+
+    def accept(self, cands: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The marker-shaped candidates (area and aspect like the typical marker)."""
+        t = self.typical
+        lo, hi = self.p["area_tolerance"]
+        tol = self.p["aspect_tolerance"]
+        aspect = cands[:, LONG] / np.maximum(cands[:, SHORT], 1e-9)
+        ok = (cands[:, AREA] >= lo * t["area"]) & (cands[:, AREA] <= hi * t["area"])
+        ok &= (aspect >= t["aspect"] / tol) & (aspect <= t["aspect"] * tol)
+        return cands[ok]
+
+
+class FrameResult:
+    """The outcome of one frame: raw pixel poses of the chain, or a problem."""
+
+    __slots__ = ("pix", "found", "filled", "tracked", "seg", "ignored")
+
+    def __init__(self, pix: NDArray[np.float64], found: int, filled: list[int], tracked: bool, seg: str, ignored: int) -> None:
+        self.pix, self.found, self.filled, self.tracked, self.seg, self.ignored = pix, found, filled, tracked, seg, ignored
+
+
+def _order_frame(
+    cands: NDArray[np.float64], st: dict[str, Any], prev: NDArray[np.float64] | None, pred: NDArray[np.float64] | None, phi0: float | None
+) -> tuple[NDArray[np.float64], list[int], int, bool]:
+    """Order one frame's marker-shaped candidates into the chain; raises FrameProblem.
+
+    The previous frame's markers are tracked first (cheap); when that is
+    ambiguous or leaves a frame that fails the checks, the frame is chained
+    from the base.
+    """
+    if prev is not None and len(cands):
+        match = track(prev, pred, cands[:, :2])
+        if match is not None and np.count_nonzero(match < 0) <= 1:
+            try:
+                return _finish(cands, match, st, phi0) + (True,)
+            except FrameProblem:
+                pass
+    if len(cands) == 0:
+        raise FrameProblem("no markers found")
+    d = np.linalg.norm(cands[:, :2] - st["base_px"], axis=1)
+    b = int(np.argmin(d))
+    if d[b] > 0.5 * st["spacing"]:
+        raise FrameProblem(f"no marker within {0.5 * st['spacing']:.1f} px of the base position {st['base_px'].round(1).tolist()}")
+    seq, err = chain_from_base(cands[:, :2], cands[:, AXIS], b, st["spacing"], st["first_dir"], st["n"], st["fill"])
+    if err is not None:
+        raise FrameProblem(err)
+    return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0) + (False,)
+
+
+def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, Any], phi0: float | None) -> tuple:
+    """Angles, filled gaps and checks of an ordered chain (-1: missing): (pixel poses, filled, ignored)."""
+    missing = order < 0
+    # a marker much smaller or larger than its chain neighbours is partly hidden or merged: treat it as missing
+    area = np.where(missing, np.nan, cands[order, AREA])
+    # the median of the three markers on either side: one odd marker does not make its neighbours odd
+    pad = np.concatenate([np.full(3, np.nan), area, np.full(3, np.nan)])
+    window = np.stack([pad[j : j + len(area)] for j in (0, 1, 2, 4, 5, 6)])
+    srt = np.sort(window, axis=0)  # NaN last
+    cnt = np.isfinite(window).sum(axis=0)
+    lo, hi = np.maximum(cnt - 1, 0) // 2, cnt // 2
+    ref = 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, np.minimum(hi, 5)[None], 0)[0])
+    with np.errstate(invalid="ignore"):
+        missing = missing | (area < 0.78 * ref) | (area > 1.28 * ref)
+    if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
+        raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
+    idx = order[~missing]
+    pts = cands[idx, :2]
+    phi_det, conflicts = frame_angles(pts, cands[idx, AXIS], phi0)
+    pix = np.zeros((len(order), 3))
+    pix[~missing, :2], pix[~missing, 2] = pts, phi_det
+    pix = fill_gaps(pix, missing, st["base_pose"])
+    if crossings(pix[:, :2]):
+        raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
+    if zigzags(pix[:, 2]) >= 3:
+        raise FrameProblem("marker angles zigzag along the chain (interleaved markers; ordering not trustworthy)")
+    if conflicts:
+        raise FrameProblem(f"{conflicts} marker(s) face against the chain direction (ordering not trustworthy)")
+    others = np.setdiff1d(np.arange(len(cands)), idx)
+    if others.size >= 5:
+        # marker-shaped components off the chain are clutter, unless they form a chain of their own
+        second = link_chains(cands[others])
+        if second and len(second[0]) >= max(5, len(order) // 2):
+            raise FrameProblem(
+                f"a second chain of {len(second[0])} markers besides the robot's (another robot in view? restrict "
+                "the view with roi=(x, y, width, height))"
+            )
+    return pix, np.flatnonzero(missing).tolist(), others.size
+
+
+class FrameTracker:
+    """The per-frame work of one recording, given what its reference frame fixed.
+
+    Parameters
+    ----------
+    detectors : list of Detector
+        The chosen segmentation first, then the fallbacks tried on frames it cannot complete.
+    state : dict
+        ``n`` (markers incl. the base), ``base_px``, ``spacing``, ``first_dir``
+        (rest direction in the image), ``fill`` (fill isolated missing markers).
+    """
+
+    def __init__(self, detectors: list[Detector], state: dict[str, Any]) -> None:
+        self.detectors = detectors
+        self.st = dict(state, base_pose=None)
+        self.phi0 = None  # the base angle's branch, kept across failed frames so angles stay continuous
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the previous frames' positions (after a frame that could not be extracted)."""
+        self.prev = self.prev2 = None
+
+    def step(self, frame: NDArray[np.uint8]) -> tuple[FrameResult | None, int, str | None]:
+        """(result or None, marker-shaped components found, the first problem met) for one frame."""
+        pred = None if self.prev is None else (self.prev if self.prev2 is None else 2.0 * self.prev - self.prev2)
+        err = None
+        n_found = 0
+        for d in self.detectors:
+            shaped = d.accept(d(frame))
+            if d is self.detectors[0]:
+                n_found = len(shaped)
+            try:
+                pix, filled, ignored, tracked = _order_frame(shaped, self.st, self.prev, pred, self.phi0)
+            except FrameProblem as e:
+                err = err or str(e)
+                continue
+            out = FrameResult(pix, len(shaped) - ignored, filled, tracked, d.seg.describe(), ignored)
+            self.prev2, self.prev = self.prev, pix[:, :2]
+            self.phi0 = pix[0, 2]
+            if 0 not in filled:
+                self.st["base_pose"] = pix[0]
+            return out, n_found, None
+        self.reset()
+        return None, n_found, err
+
+
