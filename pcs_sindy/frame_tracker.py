@@ -19,7 +19,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .binarisation import Segmentation
-from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, zigzags
+from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, wrap_half_pi, zigzags
 from .markers import AREA, AXIS, LONG, SHORT, find_components, refine
 
 __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
@@ -79,6 +79,38 @@ class FrameResult:
         self.pix, self.found, self.filled, self.tracked, self.seg, self.ignored = pix, found, filled, tracked, seg, ignored
 
 
+def _rematch(cands: NDArray[np.float64], match: NDArray[np.intp], spacing: float) -> NDArray[np.intp]:
+    """Markers the previous frame could not place, found from their neighbours in this frame.
+
+    A fast marker (the tip) can outrun the prediction from the previous
+    frames; its detected neighbours predict it better: halfway between them,
+    or, for the tip, the last chord turned by the last turn (constant strain).
+    Taken only when a single unclaimed candidate lies near the prediction.
+    """
+    match = match.copy()
+    n = len(match)
+    free = np.setdiff1d(np.arange(len(cands)), match[match >= 0])
+    for i in np.flatnonzero(match < 0):
+        if 0 < i < n - 1 and match[i - 1] >= 0 and match[i + 1] >= 0:
+            guess = 0.5 * (cands[match[i - 1], :2] + cands[match[i + 1], :2])
+        elif i == n - 1 and n >= 3 and match[i - 1] >= 0 and match[i - 2] >= 0:
+            a, b = cands[match[i - 2]], cands[match[i - 1]]
+            turn = float(wrap_half_pi(b[AXIS] - a[AXIS]))
+            c, s_ = np.cos(turn), np.sin(turn)
+            chord = b[:2] - a[:2]
+            guess = b[:2] + np.array([c * chord[0] - s_ * chord[1], s_ * chord[0] + c * chord[1]])
+        else:
+            continue
+        if free.size == 0:
+            break
+        d = np.linalg.norm(cands[free, :2] - guess, axis=1)
+        order = np.argsort(d)
+        if d[order[0]] <= 0.35 * spacing and (order.size == 1 or d[order[1]] > 0.8 * spacing):
+            match[i] = free[order[0]]
+            free = np.delete(free, order[0])
+    return match
+
+
 def _order_frame(
     cands: NDArray[np.float64], st: dict[str, Any], prev: NDArray[np.float64] | None, pred: NDArray[np.float64] | None, phi0: float | None
 ) -> tuple[NDArray[np.float64], list[int], int, bool]:
@@ -90,6 +122,8 @@ def _order_frame(
     """
     if prev is not None and len(cands):
         match = track(prev, pred, cands[:, :2])
+        if match is not None and 0 < np.count_nonzero(match < 0) <= 2:
+            match = _rematch(cands, match, st["spacing"])
         if match is not None and np.count_nonzero(match < 0) <= 1:
             try:
                 return _finish(cands, match, st, phi0) + (True,)
