@@ -12,7 +12,7 @@ from sklearn.base import clone
 
 from pcs_sindy.camera import Camera
 from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
-from pcs_sindy.simulation.rendering import marker_corners, render_frames, render_video
+from pcs_sindy.simulation.rendering import Nuisances, marker_corners, render_frames, render_video
 from pcs_sindy.trajectory import PoseTrajectory
 from pcs_sindy.vision import MarkerPoseExtractor, read_frames
 
@@ -381,3 +381,41 @@ def test_bad_footage_named_by_recording_and_frame(tmp_path: Path, random_set) ->
     Camera(3000.0, (320.0, 90.0), (800, 600)).to_json(tmp_path / "clip.avi.camera.json", extra={"fps": 50.0})
     with pytest.raises(ValueError, match=r"clip.avi', frame 0: frames are 640x480 pixels but the camera \(camera JSON"):
         MarkerPoseExtractor(progress=False).transform([str(avi)])
+
+
+def test_uneven_light_and_floor_choose_the_local_threshold() -> None:
+    # strong light fall-off and a dark floor the robot hangs into: one global level cannot separate the markers
+    truth = poses_of(smooth_strains(12))
+    nz = Nuisances(lighting_gradient=1.2, gradient_angle=0.0, vignetting=0.5, floor=120.0, floor_level=0.55, noise=2.0)
+    frames = render_frames(truth, CAM, marker_size=SIZE, nuisances=nz)
+    with pytest.raises(ValueError, match=r"array recording 0', frame \d+"):
+        extractor(threshold="otsu").transform([frames])  # part of the robot merges with the floor
+    with pytest.raises(ValueError, match=r"frame 0 \(reference frame\): expected a chain of 21 .*otsu: a chain of \d+ .*Try: "):
+        extractor(threshold="otsu", n_markers=20).transform([frames])
+    ex = extractor()
+    check(ex.transform([frames])[0], truth)
+    choice = ex.diagnostics_[0]["binarisation"]
+    assert choice["chosen"].startswith("local") and "a chain of 21 " not in choice["candidates"]["otsu"]
+
+
+def test_degraded_footage_with_defaults() -> None:
+    # every nuisance at once, drawn at random: extracted with default settings, at sub-pixel accuracy
+    truth = poses_of(smooth_strains(200)[:40])  # a fifth of the curl: motion blur of a few pixels at the tip
+    frames = render_frames(truth, CAM, marker_size=SIZE, nuisances=Nuisances.random(3, len(truth), 20))
+    ex = extractor(on_missing="interpolate")
+    traj = ex.transform([frames])[0]
+    diag = ex.diagnostics_[0]
+    assert diag["frames_repaired"] == [] and diag["frames_complete"] >= len(truth) - 4
+    pos = np.linalg.norm(traj.poses[..., :2] - truth[..., :2], axis=-1) * CAM.pixels_per_metre
+    ang = np.degrees(np.abs(traj.poses[..., 2] - truth[..., 2]))
+    assert np.sqrt(np.mean(pos**2)) < 0.3 and np.sqrt(np.mean(ang**2)) < 1.5
+
+
+def test_coloured_outlined_markers_on_a_grey_floor() -> None:
+    truth = poses_of(smooth_strains(10))
+    nz = Nuisances(floor=150.0, floor_level=0.6, lighting_gradient=0.3, noise=2.0)
+    frames = render_frames(truth, CAM, marker_size=(0.008, 0.0025), marker_style="outline", colour=True,
+                           marker_colour=(190, 90, 30), body_colour=(215, 215, 225), nuisances=nz)
+    ex = extractor()
+    check(ex.transform([frames])[0], truth)
+    assert ex.diagnostics_[0]["binarisation"]["chosen"].startswith("colour")
