@@ -95,8 +95,6 @@ def _dark_coverage(grey: NDArray[np.uint8], bg: NDArray | float, fg: NDArray | f
     if np.ndim(bg):
         b = bg[y0:y1, x0:x1]
         f = fg[y0:y1, x0:x1]
-        # a brighter region next to a darker one (the edge of a floor) is not this pixel's background
-        local = np.minimum(local, 1.1 * b)
     else:
         b, f = np.float32(bg), np.float32(fg)
     local = np.where(local < 0.5 * (b + f), b, local)
@@ -199,7 +197,6 @@ class LocalSegmentation(Segmentation):
         # closing removes every dark structure narrower than the kernel: markers, text, cables, the
         # robot's body; what stays is the lit background, a floor, a tray
         background = cv2.morphologyEx(grey, cv2.MORPH_CLOSE, cv2.getStructuringElement(cv2.MORPH_RECT, (k, k)))
-        background = cv2.GaussianBlur(background, (5, 5), 0)
         bg = np.maximum(background.astype(np.float32), 8.0)
         ratio = np.clip(255.0 * grey / bg, 0, 255).astype(np.uint8)
         hist = _histogram(ratio)

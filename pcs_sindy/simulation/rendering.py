@@ -126,7 +126,7 @@ class Nuisances:
         frames are drawn among the markers and frames of the recording.
         """
         rng = np.random.default_rng(seed)
-        n_occ = int(min(max(1, n_frames // 100), max(1, n_frames // 4), 5))
+        n_occ = int(min(3, max(1, n_frames // 4)))  # a few frames
         return cls(
             lighting_gradient=strength * rng.uniform(0.3, 0.6),
             gradient_angle=rng.uniform(-np.pi, np.pi),
