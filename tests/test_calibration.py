@@ -13,6 +13,7 @@ from pcs_sindy.calibration import calibrate_camera, find_board
 from pcs_sindy.camera import Camera
 from pcs_sindy.cli import main
 from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
+from pcs_sindy.persistence import load, save
 from pcs_sindy.simulation.rendering import render_checkerboard, render_frames
 from pcs_sindy.vision import MarkerPoseExtractor
 
@@ -65,9 +66,10 @@ def test_lens_camera_matches_opencv_projection() -> None:
     assert Camera.from_dict(json.loads(json.dumps(cam.to_dict()))) == cam
 
 
-def test_camera_with_open_base_frame() -> None:
+def test_camera_with_open_base_frame(tmp_path: Path) -> None:
     cam = Camera.from_pinhole(K, DIST, PLANE_R, PLANE_T, SIZE)
     open_ = Camera(cam.pixels_per_metre, None, SIZE, None, cam.camera_matrix, cam.dist_coeffs, cam.rectification)
+    assert load(save(open_, tmp_path / "cam")) == open_ and Camera.from_json(open_.to_json(tmp_path / "c.json")) == open_
     with pytest.raises(ValueError, match="base frame"):
         open_.to_pixels([0.0, 0.0])
     np.testing.assert_allclose(open_.rectify([[100.0, 200.0]]), cam.rectify([[100.0, 200.0]]))
