@@ -15,14 +15,17 @@ from __future__ import annotations
 
 from typing import Any
 
+import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from .binarisation import Segmentation
 from .marker_chain import chain_from_base, crossings, fill_gaps, fillable, frame_angles, link_chains, track, wrap_half_pi, zigzags
-from .markers import AREA, AXIS, LONG, SHORT, find_components, refine
+from .markers import AREA, AXIS, LONG, SHORT, find_components, measure_components
 
 __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
+
+_OPEN = np.ones((3, 3), np.uint8)
 
 
 class FrameProblem(ValueError):
@@ -32,9 +35,10 @@ class FrameProblem(ValueError):
 class Detector:
     """Per-frame candidates with one segmentation, knowing the typical marker once it is set."""
 
-    def __init__(self, seg: Segmentation, p: dict[str, Any]) -> None:
+    def __init__(self, seg: Segmentation, p: dict[str, Any], opened: bool = False) -> None:
         self.seg = seg
         self.p = p
+        self.opened = opened
         self.typical: dict[str, float] | None = None
 
     def __call__(self, frame: NDArray[np.uint8]) -> NDArray[np.float64]:
@@ -45,6 +49,10 @@ class Detector:
             frame = frame[y0 : y0 + h, x0 : x0 + w]
         work = self.seg.work(frame)
         binary = self.seg.binary(work)
+        if self.opened:
+            # strokes of text, cables and outlines thinner than 3 px touching a marker merge with it: cut
+            # them off (a marker 5 px thick keeps its shape; its edge is measured on the grey image)
+            binary = cv2.morphologyEx(binary, cv2.MORPH_OPEN, _OPEN)
         comps = find_components(binary)
         ok = comps.area >= self.p["min_area"]
         if self.typical is not None:
@@ -56,8 +64,8 @@ class Detector:
         if not self.p["refine"]:
             from .markers import _BinaryCoverage
 
-            return refine(_BinaryCoverage(binary), None, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
-        return refine(self.seg, work, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
+            return measure_components(_BinaryCoverage(binary), None, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
+        return measure_components(self.seg, work, comps, np.flatnonzero(ok), binary.shape, (x0, y0))
 
     def accept(self, cands: NDArray[np.float64]) -> NDArray[np.float64]:
         """The marker-shaped candidates (area and aspect like the typical marker)."""
@@ -141,20 +149,37 @@ def _order_frame(
     return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0) + (False,)
 
 
+# How much a marker's area, long side and short side may differ (log ratio) from its chain
+# neighbours' medians, in one combined distance: a partly hidden marker loses area, one merged
+# with clutter or text grows in length and width, motion blur widens it (short side) the most
+_SHAPE_SCALE = np.array([0.25, 0.12, 0.3])
+
+
+def _neighbour_median(values: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Median of the three chain neighbours on either side of each marker (NaN: missing)."""
+    n = len(values)
+    pad = np.concatenate([np.full(3, np.nan), values, np.full(3, np.nan)])
+    window = np.stack([pad[j : j + n] for j in (0, 1, 2, 4, 5, 6)])
+    srt = np.sort(window, axis=0)  # NaN last
+    cnt = np.isfinite(window).sum(axis=0)
+    lo, hi = np.maximum(cnt - 1, 0) // 2, np.minimum(cnt // 2, 5)
+    return 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, hi[None], 0)[0])
+
+
+def _odd_shapes(cands: NDArray[np.float64], order: NDArray[np.intp], missing: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    """Markers whose shape differs from their neighbours': partly hidden, or merged with something."""
+    feats = np.where(missing[:, None], np.nan, cands[order][:, [AREA, LONG, SHORT]])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ref = np.stack([_neighbour_median(feats[:, c]) for c in range(3)], axis=1)
+        dist = np.sqrt(np.sum((np.log(feats / ref) / _SHAPE_SCALE) ** 2, axis=1))
+        return dist > 1.0
+
+
 def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, Any], phi0: float | None) -> tuple:
     """Angles, filled gaps and checks of an ordered chain (-1: missing): (pixel poses, filled, ignored)."""
     missing = order < 0
     # a marker much smaller or larger than its chain neighbours is partly hidden or merged: treat it as missing
-    area = np.where(missing, np.nan, cands[order, AREA])
-    # the median of the three markers on either side: one odd marker does not make its neighbours odd
-    pad = np.concatenate([np.full(3, np.nan), area, np.full(3, np.nan)])
-    window = np.stack([pad[j : j + len(area)] for j in (0, 1, 2, 4, 5, 6)])
-    srt = np.sort(window, axis=0)  # NaN last
-    cnt = np.isfinite(window).sum(axis=0)
-    lo, hi = np.maximum(cnt - 1, 0) // 2, cnt // 2
-    ref = 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, np.minimum(hi, 5)[None], 0)[0])
-    with np.errstate(invalid="ignore"):
-        missing = missing | (area < 0.78 * ref) | (area > 1.28 * ref)
+    missing = missing | _odd_shapes(cands, order, missing)
     if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
         raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
     idx = order[~missing]
@@ -197,6 +222,13 @@ class FrameTracker:
         self.detectors = detectors
         self.st = dict(state, base_pose=None)
         self.phi0 = None  # the base angle's branch, kept across failed frames so angles stay continuous
+        first = detectors[0]
+        # markers thick enough to survive a 3 x 3 opening: frames with a marker that looks merged are tried
+        # again with thin strokes cut off the binary mask
+        self.opened = None
+        if first.typical is not None and first.typical["short"] >= 5.0:
+            self.opened = Detector(first.seg, first.p, opened=True)
+            self.opened.typical = first.typical
         self.reset()
 
     def reset(self) -> None:
@@ -208,16 +240,24 @@ class FrameTracker:
         pred = None if self.prev is None else (self.prev if self.prev2 is None else 2.0 * self.prev - self.prev2)
         err = None
         n_found = 0
-        for d in self.detectors:
+        best = None
+        order = [self.detectors[0]] + ([self.opened] if self.opened is not None else []) + self.detectors[1:]
+        for d in order:
+            if best is not None and (d is not self.opened or not best[0][1]):
+                break  # done, unless the result filled a marker that the opened mask might recover
             shaped = d.accept(d(frame))
             if d is self.detectors[0]:
                 n_found = len(shaped)
             try:
-                pix, filled, ignored, tracked = _order_frame(shaped, self.st, self.prev, pred, self.phi0)
+                result = _order_frame(shaped, self.st, self.prev, pred, self.phi0)
             except FrameProblem as e:
                 err = err or str(e)
                 continue
-            out = FrameResult(pix, len(shaped) - ignored, filled, tracked, d.seg.describe(), ignored)
+            if best is None or len(result[1]) < len(best[0][1]):
+                best = (result, d, len(shaped))
+        if best is not None:
+            (pix, filled, ignored, tracked), d, n_shaped = best
+            out = FrameResult(pix, n_shaped - ignored, filled, tracked, d.seg.describe(), ignored)
             self.prev2, self.prev = self.prev, pix[:, :2]
             self.phi0 = pix[0, 2]
             if 0 not in filled:

@@ -23,7 +23,7 @@ from numpy.typing import NDArray
 
 from .binarisation import OtsuSegmentation, RangeSegmentation, Segmentation
 
-__all__ = ["Components", "find_components", "refine", "detect_markers", "U", "V", "AXIS", "AREA", "LONG", "SHORT", "PIXELS"]
+__all__ = ["Components", "find_components", "measure_components", "detect_markers", "U", "V", "AXIS", "AREA", "LONG", "SHORT", "PIXELS"]
 
 # columns of a candidate table
 U, V, AXIS, AREA, LONG, SHORT, PIXELS = range(7)
@@ -65,7 +65,7 @@ def find_components(binary: NDArray[np.uint8]) -> Components:
     return Components(tuple(contours), area, box, 0.5 * (lo + hi))
 
 
-def refine(
+def measure_components(
     seg: Segmentation, work: Any, comps: Components, which: NDArray[np.intp], shape: tuple[int, int], offset: tuple[int, int] = (0, 0)
 ) -> NDArray[np.float64]:
     """Sub-pixel measurements of the components ``which``: a candidate table (K, 7).
@@ -109,8 +109,9 @@ def detect_markers(
     blur: int = 0,
     roi: tuple[int, int, int, int] | None = None,
     min_area: float = 4.0,
-    refine_centres: bool = True,
-    **_ignored: Any,
+    refine: bool = True,
+    name: str = "frame",
+    index: int = 0,
 ) -> NDArray[np.float64]:
     """Candidate marker components of one image with one segmentation.
 
@@ -128,13 +129,15 @@ def detect_markers(
         Only this rectangle is searched; coordinates stay those of the frame.
     min_area : float
         Components smaller than this (pixels) are noise.
-    refine_centres : bool
+    refine : bool
         Coverage-weighted moments (sub-pixel); otherwise the moments of the binary component.
+    name, index : str, int
+        Accepted for compatibility (recording and frame of the image); unused.
 
     Returns
     -------
     ndarray, shape (K, 7)
-        Columns ``u, v, axis, area, long, short, pixels`` (see :func:`refine`).
+        Columns ``u, v, axis, area, long, short, pixels`` (see :func:`measure_components`).
     """
     if isinstance(threshold, tuple):
         seg: Segmentation = RangeSegmentation(*threshold)
@@ -149,10 +152,10 @@ def detect_markers(
     binary = seg.binary(work)
     comps = find_components(binary)
     keep = np.flatnonzero(comps.area >= min_area)
-    if not refine_centres:
+    if not refine:
         seg = _BinaryCoverage(binary)
         work = None
-    return refine(seg, work, comps, keep, binary.shape, (x0, y0))
+    return measure_components(seg, work, comps, keep, binary.shape, (x0, y0))
 
 
 class _BinaryCoverage(Segmentation):
