@@ -122,8 +122,12 @@ class Nuisances:
     def random(cls, seed: int, n_frames: int, n_markers: int, strength: float = 1.0) -> "Nuisances":
         """Every nuisance at once, with magnitudes drawn at random (reproducibly from ``seed``).
 
-        ``strength`` scales the photometric ones; the occluded marker and
-        frames are drawn among the markers and frames of the recording.
+        ``strength`` scales the photometric ones.  Ranges: light falling by
+        30-60 % across the image, 20-40 % vignetting, noise of 2-6 grey
+        levels, an exposure of 30-100 % of the frame interval, JPEG quality
+        60-90, clutter, a floor of grey 140-190 over the bottom 8-15 %, and
+        30-60 % of one marker (not the base or the first) hidden for 3
+        frames (fewer in recordings under 12 frames).
         """
         rng = np.random.default_rng(seed)
         n_occ = int(min(3, max(1, n_frames // 4)))  # a few frames
