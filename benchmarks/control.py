@@ -140,7 +140,7 @@ def setpoint_targets(robot, q_rest, n: int, rng) -> list[dict]:
 def model_setpoint(entry: dict, target: dict) -> np.ndarray:
     if entry.get("fusion") is None:
         return target["q"]
-    return frame_strains(entry["fusion"], target["poses"], 0.0)
+    return frame_strains(entry["fusion"], target["poses"])
 
 
 def run_setpoints(robot, models: dict, targets: list[dict], observe: str) -> dict:
@@ -283,8 +283,8 @@ def step_costs(robot, entry: dict, q_rest) -> list[str]:
     frame = robot.kinematics.forward_kinematics(qp, robot.kinematics.marker_arc_lengths(20))
     tic = time.perf_counter()
     for _ in range(200):
-        frame_strains(entry["fusion"], frame, 0.0)
-    lines.append(f"| one camera frame through `KinematicFusion.transform` (`frame_strains`) | "
+        frame_strains(entry["fusion"], frame)
+    lines.append(f"| one camera frame through `KinematicFusion.transform_frame` (`frame_strains`) | "
                  f"{1e6 * (time.perf_counter() - tic) / 200:.1f} | |")
     qa, qda = np.asarray(q_rest, dtype=float), np.zeros(6)
     for _ in range(50):

@@ -14,6 +14,9 @@ HERE = Path(__file__).resolve().parent
 ORDER = [
     "simulation_speed",
     "extraction_speed",
+    "degraded_footage",
+    "calibration_round_trip",
+    "streaming_state_estimation",
     "library_build",
     "physical_library",
     "physical_weak_form",
@@ -24,6 +27,7 @@ ORDER = [
     "end_to_end",
     "monomial_divergence",
     "rest_length",
+    "rest_length_estimate",
 ]
 
 

@@ -32,6 +32,7 @@ from .commands import (
     CLIError,
     RolloutResult,
     build_regressor,
+    calibrate,
     extract,
     fit,
     fuse,
@@ -103,6 +104,18 @@ def _number(kind: type, check: Callable[[Any], bool], expected: str) -> Callable
 
 
 _positive_int = _number(int, lambda v: v >= 1, "a positive integer")
+
+
+def _pattern(text: str) -> tuple[int, int]:
+    try:
+        cols, rows = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected COLSxROWS inner corners such as 9x6; got {text!r}") from None
+    if cols < 2 or rows < 2:
+        raise argparse.ArgumentTypeError(f"a checkerboard has at least 2x2 inner corners; got {text!r}")
+    return cols, rows
+
+
 _n_jobs = _number(int, lambda v: v >= 1 or v == -1, "a positive integer or -1 (all cores)")
 _positive_float = _number(float, lambda v: np.isfinite(v) and v > 0, "a finite number > 0")
 _threshold = _number(float, lambda v: v > 0, "a number > 0 or inf")
@@ -228,6 +241,22 @@ def build_parser() -> argparse.ArgumentParser:
         "--marker-size",
         type=_pair,
         help=f"marker WIDTH,THICKNESS in metres (default {','.join(map(str, _default(render_frames, 'marker_size')))})",
+    )
+
+    p = add("calibrate", "lens distortion and the robot's plane from checkerboard views: a camera JSON", calibrate)
+    p.add_argument("views", nargs="+", help="checkerboard images, folders of images or videos (every --every-th frame)")
+    p.add_argument("--pattern", type=_pattern, required=True, help="inner corners COLSxROWS, e.g. 9x6 for 10x7 squares")
+    p.add_argument("--square", type=_positive_float, required=True, help="side of a square in metres")
+    p.add_argument("--plane", help="image of the board lying in the robot's plane (default: the last view)")
+    p.add_argument(
+        "--out", required=True, help="camera JSON to write (name it <video>.camera.json to have 'extract' find it)"
+    )
+    p.add_argument("--fps", type=_positive_float, help="frame rate to store in the JSON (optional)")
+    p.add_argument(
+        "--every",
+        type=_positive_int,
+        default=_default(calibrate, "every"),
+        help=f"use every N-th frame of a video (default {_default(calibrate, 'every')})",
     )
 
     p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", extract)

@@ -36,6 +36,7 @@ __all__ = [
     "scenarios",
     "simulate",
     "render",
+    "calibrate",
     "extract",
     "fuse",
     "fit",
@@ -250,6 +251,73 @@ def render(
     return [Path(v) for v, _ in results]
 
 
+def calibrate(
+    views: Sequence[str | Path],
+    out: str | Path,
+    *,
+    pattern: tuple[int, int],
+    square: float,
+    plane: str | Path | None = None,
+    fps: float | None = None,
+    every: int = 10,
+    quiet: bool = False,
+) -> tuple[Any, dict[str, Any]]:
+    """Lens distortion and the robot's plane from checkerboard views: a camera JSON at ``out``.
+
+    Parameters
+    ----------
+    views : sequence of path
+        Checkerboard images, folders of images or videos.
+    out : path
+        Camera JSON to write; name it ``<video>.camera.json`` to have ``extract`` find it.
+    pattern : (columns, rows)
+        Inner corners of the board.
+    square : float
+        Side of a square in metres.
+    plane : path, optional
+        Image of the board lying in the robot's plane; default the last view.
+    fps : float, optional
+        Frame rate stored in the JSON.
+    every : int
+        Every ``every``-th frame of a video or folder is a view.
+    quiet : bool
+        No messages.
+
+    Returns
+    -------
+    camera : Camera
+    report : dict
+        :func:`~pcs_sindy.calibration.calibrate_camera`'s report.
+    """
+    from .calibration import calibrate_camera, read_views
+
+    for name in [*views, *([plane] if plane is not None else [])]:
+        if not Path(name).exists():
+            raise CLIError(f"view {str(name)!r} does not exist")
+    images, names = read_views(views, every)
+    if plane is not None:
+        extra, extra_names = read_views([plane])
+        images, names = images + extra[:1], names + extra_names[:1]
+    camera, report = calibrate_camera(images, pattern, square, plane=-1, names=names)
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    extra_keys: dict[str, Any] = {"calibration": {k: v for k, v in report.items() if k != "pixels_per_metre"}}
+    if fps is not None:
+        extra_keys["fps"] = float(fps)
+    camera.to_json(path, extra=extra_keys)
+    if report["lens"]:
+        lens = f"lens fitted on {report['views_used']} views, rms reprojection {report['rms_reprojection_px']:.3f} px"
+    else:
+        lens = "no lens fit (fewer than three views with a board): perspective only"
+    missing = report["views_without_board"]
+    _say(
+        quiet,
+        f"calibrated {path}: {lens}; plane {camera.pixels_per_metre:.1f} px/m, plane view residual "
+        f"{report['plane_reprojection_px']:.3f} px" + (f"; no board in {len(missing)} view(s)" if missing else ""),
+    )
+    return camera, report
+
+
 def _extract_one(extractor: Any, video: str, progress: bool) -> tuple[Any, dict[str, Any]]:
     """Extract one video (module level so joblib can run it in a worker)."""
     extractor = extractor.set_params(progress=progress)
@@ -310,7 +378,8 @@ def extract(
     results = _over_files(_extract_one, [(clone(extractor), str(v)) for v in videos], n_jobs, "extract", quiet)
     paths = []
     for name, (tr, diag) in zip(videos, results):
-        paths.append(files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses))
+        rest = tr.metadata.get("rest_length")
+        paths.append(files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses, rest_length=rest))
         repaired = len(diag["frames_repaired"])
         _say(
             quiet,
@@ -355,8 +424,12 @@ def fuse(
     trajs = []
     for name in poses:
         t, arr = files.read_poses(name)
+        meta: dict[str, Any] = {"source": str(name)}
+        rest = files.read_rest_length(name)
+        if rest is not None:
+            meta["rest_length"] = rest
         try:
-            trajs.append(PoseTrajectory(arr, t, dt=None if t is not None else 1e-3, metadata={"source": str(name)}))
+            trajs.append(PoseTrajectory(arr, t, dt=None if t is not None else 1e-3, metadata=meta))
         except ValueError as err:
             raise CLIError(f"pose file {str(name)!r}: {err}") from None
     _unique_stems(poses, "pose files")
@@ -379,11 +452,12 @@ def fuse(
         f"{fusion.n_segments_} segment(s), lengths [{lengths}] m (total {fusion.total_length_:.4f} m), "
         f"threshold h = {fusion.threshold:g}",
     )
-    if total_length is None:  # a hanging robot reads long by its gravity stretch
+    if fusion.total_length_source_.startswith("estimated"):  # a hanging robot reads long by its gravity stretch
         _say(
             quiet,
-            "note: the rest length was estimated as the median deformed length, which biases every length "
-            "and strain of a stretched robot ('fit' absorbs it in rest strains): pass --total-length",
+            f"note: the rest length was estimated as the median deformed length (standard error "
+            f"{1e3 * fusion.total_length_std_:.2f} mm), which biases every length and strain of a stretched robot "
+            "('fit' absorbs it in rest strains): pass --total-length, or --robot-length to 'extract'",
         )
     _say(quiet, f"segmentation -> {seg}; {len(strains)} strain file(s) -> {folder}")
     return fusion, strains, trajs

@@ -146,13 +146,26 @@ def read_poses(path: str | Path, key: str = "poses") -> tuple[NDArray[np.float64
     return (None if t is None else t.astype(float)), poses
 
 
-def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike) -> Path:
-    """Write a pose file (``t``, ``poses``); returns its path."""
+def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike, rest_length: float | None = None) -> Path:
+    """Write a pose file (``t``, ``poses`` and, when known, the robot's ``rest_length``); returns its path."""
     t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float)
     if poses.ndim != 3 or poses.shape[-1] != 3 or t.shape != (poses.shape[0],):
         raise ValueError(f"need t (T,) and poses (T, N + 1, 3); got {t.shape} and {poses.shape}")
-    np.savez(path, t=t, poses=poses)
+    extra = {} if rest_length is None else {"rest_length": np.float64(rest_length)}
+    np.savez(path, t=t, poses=poses, **extra)
     return Path(path)
+
+
+def read_rest_length(path: str | Path) -> float | None:
+    """The robot's rest length in metres stored in a pose file, or None."""
+    data = read_arrays(path, [], "pose file", optional=["rest_length"])
+    value = data.get("rest_length")
+    if value is None:
+        return None
+    value = float(np.asarray(value))
+    if not np.isfinite(value) or value <= 0:
+        raise DataFileError(f"pose file {str(path)!r}: 'rest_length' must be a length > 0 in metres; got {value!r}")
+    return value
 
 
 def read_tau(path: str | Path, key: str = "tau") -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -1,6 +1,6 @@
 """Planar Piecewise Constant Strain (PCS) kinematics and SE(2) pose algebra.
 
-Conventions (DESIGN.md §3): the configuration of segment ``i`` is
+Conventions (docs/method.md, "Configuration"): the configuration of segment ``i`` is
 ``q_i = [kappa_be, sigma_sh, sigma_ax]`` where ``sigma_ax`` is the deviation
 from the rest axial strain 1, so ``q = 0`` is the straight, unstretched robot
 lying along the +y axis of its base frame.  Poses are ``[x, y, theta]`` with

@@ -458,6 +458,8 @@ class _Decoder:
             return
         for key, value in kwargs.items():
             default = defaults.get(key)
+            if value is None:
+                continue  # an optional value (e.g. a camera's open base frame): the class's own checks decide
             if isinstance(default, bool):
                 if not isinstance(value, (bool, np.bool_)):
                     raise self.error(label, f"parameter {key} must be a boolean like its default; got {value!r}")

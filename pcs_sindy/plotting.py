@@ -8,7 +8,7 @@ accepts an ``ax``/``axes`` argument to draw into existing axes; none calls
 ``plt.show()``.  :func:`animate_rollout` writes a video file with OpenCV and
 uses its own Agg canvas, so it works without a display.
 
-Conventions (DESIGN.md §3): positions in metres, angles in radians, strains
+Conventions (docs/method.md, "Configuration"): positions in metres, angles in radians, strains
 ``[kappa_be 1/m, sigma_sh -, sigma_ax -]`` per segment.  Drawings of the robot
 follow the renderer: the base at the top and image-down = +y, so the y axis of
 robot drawings in metres is inverted.

@@ -1,6 +1,6 @@
 """Kinematic fusion: from marker poses to a few constant-strain segments.
 
-Implements the seed's Algorithm 1 (DESIGN.md §1 step 2) and, beyond the seed,
+Implements the seed's Algorithm 1 (docs/method.md, "Kinematic fusion") and, beyond the seed,
 a least-squares shape fit with continuously refined segment boundaries.
 
 Markers are the seed's equally spaced cross-sections: a recording holds the
@@ -28,16 +28,18 @@ The pieces, as plain functions on numpy arrays:
 
 from __future__ import annotations
 
-from typing import Any, NamedTuple, Sequence
+from collections.abc import Sequence
+from typing import Any, NamedTuple
 
 import numpy as np
-from numpy.typing import ArrayLike, NDArray
 from joblib import Parallel, delayed
+from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, TransformerMixin, clone
 from sklearn.utils.validation import check_is_fitted
 from tqdm.auto import tqdm
 
+from ._saving import PersistenceMixin
 from .kinematics import (
     forward_kinematics,
     forward_kinematics_jacobian,
@@ -47,7 +49,6 @@ from .kinematics import (
     segment_inverse_kinematics,
     wrap_angle,
 )
-from ._saving import PersistenceMixin
 from .metrics import distributed_errors
 from .trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
 
@@ -58,6 +59,7 @@ __all__ = [
     "chain_poses",
     "deformed_lengths",
     "estimate_total_length",
+    "jackknife_std",
     "segment_strains",
     "data_q_max",
     "strain_distances",
@@ -71,6 +73,8 @@ __all__ = [
 
 #: The seed's strain scales: bending 60 1/m, shear and axial 30 %.
 SEED_Q_MAX: tuple[float, float, float] = (60.0, 0.3, 0.3)
+#: default pose noise (position [m], angle [rad]) that weighs the least-squares shape fit
+_POSE_STD: tuple[float, float] = (5e-4, float(np.deg2rad(1.0)))
 
 
 # --------------------------------------------------------------------------
@@ -96,9 +100,7 @@ def _check_boundaries(boundaries: ArrayLike, n_markers: int) -> NDArray[np.intp]
     if b.ndim != 1 or b.size == 0 or not np.issubdtype(b.dtype, np.integer):
         raise ValueError(f"boundaries must be a non-empty 1-D array of marker indices; got {b!r}")
     if b[-1] != n_markers or b[0] < 1 or np.any(np.diff(b) <= 0):
-        raise ValueError(
-            f"boundaries must increase strictly from >= 1 to the tip marker {n_markers}; got {b.tolist()}"
-        )
+        raise ValueError(f"boundaries must increase strictly from >= 1 to the tip marker {n_markers}; got {b.tolist()}")
     return b.astype(np.intp)
 
 
@@ -159,7 +161,7 @@ def chain_poses(poses: ArrayLike, fixed_base: bool = True) -> tuple[NDArray[np.f
 def deformed_lengths(chain: ArrayLike) -> NDArray[np.float64]:
     """Deformed axial arc length ``l (1 + σ_ax)`` of every inter-marker segment, shape (T, N).
 
-    From the inverse kinematics (DESIGN.md §3), ``l (1 + σ_ax) = -(θ/2) x + y (θ/2)cot(θ/2)``
+    From the inverse kinematics (docs/method.md, "Closed forms"), ``l (1 + σ_ax) = -(θ/2) x + y (θ/2)cot(θ/2)``
     for the relative pose ``[x, y, θ]``: it does not depend on the rest length
     ``l``, so it measures the robot without knowing its length.
     """
@@ -170,13 +172,16 @@ def deformed_lengths(chain: ArrayLike) -> NDArray[np.float64]:
 
 
 def estimate_total_length(chains: Sequence[ArrayLike]) -> float:
-    """Rest length of the robot: median over all frames of the deformed axial length.
+    """Rest length of the robot from poses alone: the median over all frames of the deformed axial length.
 
     This is the length that makes the median axial strain of the whole robot
     zero.  It is exact for PCS robots whose axial strain is zero at the median
-    frame; a robot that is stretched on average (e.g. hanging under its
-    weight) reads longer by that mean stretch.  Give ``total_length`` when it
-    is known.
+    frame; a robot that is stretched on average (hanging under its weight,
+    pulled by its actuation or by its own swinging) reads longer by that mean
+    stretch, which no kinematic estimate can tell from length.  Give the
+    measured length, or correct this one with the axial rest strain identified
+    from the dynamics (:meth:`KinematicFusion.correct_rest_length`,
+    :func:`pcs_sindy.rest_length.estimate_rest_length`).
     """
     totals = np.concatenate([deformed_lengths(c).sum(axis=1) for c in chains])
     value = float(np.median(totals))
@@ -185,9 +190,15 @@ def estimate_total_length(chains: Sequence[ArrayLike]) -> float:
     return value
 
 
-def segment_strains(
-    chain: ArrayLike, arc_lengths: ArrayLike, boundaries: ArrayLike
-) -> NDArray[np.float64]:
+def jackknife_std(values: ArrayLike, full: float | None = None) -> float:
+    """Jackknife standard error from leave-one-out estimates ``values`` (NaN for fewer than two)."""
+    v = np.asarray(values, dtype=float)
+    if v.size < 2:
+        return float("nan")
+    return float(np.sqrt((v.size - 1) / v.size * np.sum((v - v.mean()) ** 2)))
+
+
+def segment_strains(chain: ArrayLike, arc_lengths: ArrayLike, boundaries: ArrayLike) -> NDArray[np.float64]:
     """Closed-form strains of a segmentation whose ends sit on markers.
 
     Parameters
@@ -384,7 +395,7 @@ def fit_strains_least_squares(
     segment_lengths: ArrayLike,
     arc_lengths: ArrayLike,
     q0: ArrayLike,
-    pose_std: ArrayLike = (5e-4, np.deg2rad(1.0)),
+    pose_std: ArrayLike = _POSE_STD,
     max_iter: int = 50,
     xtol: float = 1e-10,
     ftol: float = 1e-12,
@@ -472,7 +483,7 @@ def refine_boundaries(
     arc_lengths: ArrayLike,
     boundary_ends: ArrayLike,
     q0: ArrayLike,
-    pose_std: ArrayLike = (5e-4, np.deg2rad(1.0)),
+    pose_std: ArrayLike = _POSE_STD,
     window: float | None = None,
     xatol: float = 1e-5,
     max_sweeps: int = 4,
@@ -578,8 +589,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         ``"data"`` scales each strain type by the 99th percentile of its
         magnitude over the initial segments and all frames.
     total_length : float, optional
-        Rest length of the robot [m].  If None it is estimated as the median
-        deformed axial length of the marker chain (:func:`estimate_total_length`).
+        Rest length of the robot [m].  If None: the length the poses carry
+        (``metadata["rest_length"]``, set by ``MarkerPoseExtractor(robot_length=...)``),
+        else the median deformed axial length of the marker chain
+        (:func:`estimate_total_length`, long by any mean stretch; correct it
+        with :meth:`correct_rest_length` or use
+        :func:`pcs_sindy.rest_length.estimate_rest_length`).
     shape_fit : {"least_squares", "end_pose"}, default "least_squares"
         ``"end_pose"`` computes each segment's strains from its two end poses
         (the seed).  ``"least_squares"`` fits each frame's strains to all
@@ -615,6 +630,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     Attributes
     ----------
     total_length_ : float
+    total_length_source_ : str
+        Where the rest length came from (given, carried by the poses, estimated, corrected).
+    total_length_std_ : float
+        Its standard error: 0 when given; for the kinematic estimate the
+        jackknife over recordings (over blocks of frames for one recording),
+        which does not include the bias of a mean stretch.
     marker_arc_lengths_ : ndarray, shape (N + 1,)
         Rest arc lengths of the base and the markers.
     n_markers_ : int
@@ -629,6 +650,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     segment_lengths_ : ndarray, shape (m,)
         Segment rest lengths (off the marker grid after boundary refinement).
     n_segments_ : int
+    base_pose_ : ndarray, shape (3,)
+        Median base pose of the fitted recordings (the reference of :meth:`transform_frame`).
 
     Examples
     --------
@@ -715,7 +738,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         tags.input_tags.two_d_array = False  # X is a list of pose recordings
         return tags
 
-    def fit(self, X: Any, y: Any = None) -> "KinematicFusion":
+    def fit(self, X: Any, y: Any = None) -> KinematicFusion:
         """Find the segmentation from pose recordings.
 
         Parameters
@@ -724,9 +747,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         y : ignored
         """
         self._check_params()
-        _, chains, _ = self._chains(X)
+        _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
-        total = float(self.total_length) if self.total_length is not None else estimate_total_length(chains)
+        total, source, std = self._rest_length(X, chains)
         s = np.linspace(0.0, total, n_markers + 1)
 
         if self.scaling == "data":
@@ -739,6 +762,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             chains, s, float(self.threshold), q_max, int(self.min_segment_markers), self.merge
         )
         self.total_length_ = total
+        self.total_length_source_ = source
+        self.total_length_std_ = std
         self.marker_arc_lengths_ = s
         self.n_markers_ = n_markers
         self.q_max_ = q_max
@@ -755,6 +780,75 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             ends, _ = refine_boundaries(target, s[1:], ends, q0, self.pose_std)
         self.segment_lengths_ = _lengths_from_ends(ends)
         self.n_segments_ = int(boundaries.size)
+        all_bases = np.concatenate(bases)
+        self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
+        return self
+
+    def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
+        """(total rest length, where it comes from, its standard error) for :meth:`fit`."""
+        if self.total_length is not None:
+            return float(self.total_length), "given (total_length)", 0.0
+        trajs = as_pose_trajectories(X)
+        given = [tr.metadata.get("rest_length") for tr in trajs]
+        if any(g is not None for g in given):
+            values = {float(g) for g in given if g is not None}
+            if None in given or len(values) > 1:
+                raise ValueError(
+                    "X: the recordings carry different rest lengths in metadata['rest_length'] "
+                    f"({[None if g is None else float(g) for g in given]}); give total_length"
+                )
+            value = values.pop()
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"X: metadata['rest_length'] must be a length > 0 in metres; got {value!r}")
+            return value, "given with the poses (metadata['rest_length'])", 0.0
+        total = estimate_total_length(chains)
+        # leave one recording out (or, for one recording, one of 8 blocks of frames)
+        if len(chains) > 1:
+            parts = [estimate_total_length(chains[:k] + chains[k + 1 :]) for k in range(len(chains))]
+        else:
+            blocks = np.array_split(np.arange(chains[0].shape[0]), min(8, chains[0].shape[0]))
+            parts = [
+                estimate_total_length([np.delete(chains[0], b, axis=0)]) for b in blocks if b.size < chains[0].shape[0]
+            ]
+        return total, "estimated: median deformed length (biased by any mean stretch)", jackknife_std(parts)
+
+    def correct_rest_length(self, rest_strain: ArrayLike, rest_strain_std: float | None = None) -> KinematicFusion:
+        """Rescale the fitted rest lengths by identified axial rest strains; returns self.
+
+        A rest length read ``(1 + e)`` times too long makes an unloaded robot
+        look compressed: its identified axial rest strains (the constant force
+        per strain of ``EulerLagrangeRegressor(rest_strain=True)`` over the
+        stiffness) are ``-e / (1 + e)``.  Every length is scaled by
+        ``1 + q̄``, with ``q̄`` the length-weighted mean of the segments'
+        axial rest strains (one factor: markers stay equally spaced).
+
+        Parameters
+        ----------
+        rest_strain : array_like, shape (3m,)
+            ``regressor.rest_strain_`` of a model fitted to this fusion's strains.
+        rest_strain_std : float, optional
+            Standard error of ``q̄``, propagated to :attr:`total_length_std_`.
+        """
+        check_is_fitted(self, "segment_lengths_")
+        q = np.asarray(rest_strain, dtype=float)
+        if q.shape != (3 * self.n_segments_,) or not np.all(np.isfinite(q)):
+            raise ValueError(
+                f"rest_strain must be {3 * self.n_segments_} finite numbers (3 per segment); got shape {q.shape}"
+            )
+        mean = float(np.sum(self.segment_lengths_ * q[2::3]) / np.sum(self.segment_lengths_))
+        if not -0.5 < mean < 0.5:
+            raise ValueError(f"rest_strain: mean axial rest strain {mean:+.3f} is no length error; the fit went wrong")
+        factor = 1.0 + mean
+        self.total_length_ *= factor
+        self.marker_arc_lengths_ = self.marker_arc_lengths_ * factor
+        self.segment_lengths_ = self.segment_lengths_ * factor
+        self.total_length_source_ = (
+            f"{self.total_length_source_}, corrected by the identified axial rest strain {mean:+.5f}"
+        )
+        if rest_strain_std is not None:
+            self.total_length_std_ = float(
+                np.hypot(self.total_length_std_ * factor, self.total_length_ * rest_strain_std)
+            )
         return self
 
     def _end_pose_q(self, chains: list[NDArray]) -> NDArray[np.float64]:
@@ -803,6 +897,56 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             )
         return out
+
+    def transform_frame(self, poses: ArrayLike, q0: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Strains (3m,) of one frame of poses (N + 1, 3): state estimation at camera rate.
+
+        The same estimate as :meth:`transform` for that frame (the base is
+        :attr:`base_pose_`, the median of the fitted recordings', when
+        ``fixed_base``; the frame's own base otherwise), with the
+        least-squares shape fit compiled for one frame (tens of
+        microseconds; the first call compiles it, cached on disk).
+
+        Parameters
+        ----------
+        poses : array_like, shape (N + 1, 3)
+            Base and markers, as the extractor returns one frame.
+        q0 : array_like, shape (3m,), optional
+            Start of the least-squares fit, e.g. the previous frame's strains
+            (default: the closed-form strains from the segments' end poses;
+            ignored by ``shape_fit="end_pose"``).
+        """
+        check_is_fitted(self, "segment_lengths_")
+        P = np.array(poses, dtype=float)
+        if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
+            raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
+        P[:, 2] = np.unwrap(P[:, 2])
+        base = np.array(self.base_pose_ if self.fixed_base else P[0], dtype=float)
+        base[2] += 2.0 * np.pi * np.round((P[0, 2] - base[2]) / (2.0 * np.pi))  # the frame's branch of the base angle
+        rel = se2_relative(base, P)
+        if q0 is not None:
+            start = np.asarray(q0, dtype=float).reshape(-1)
+            if start.shape != (3 * self.n_segments_,) or not np.all(np.isfinite(start)):
+                raise ValueError(f"q0 must be {3 * self.n_segments_} finite strains; got shape {np.shape(q0)}")
+        if q0 is None or self.shape_fit == "end_pose":
+            q = segment_strains(rel[None], self.marker_arc_lengths_, self.boundaries_)[0].reshape(-1)
+        else:
+            q = start
+        if self.shape_fit == "least_squares":
+            from ._frame_fit import fit_frame
+
+            std = np.asarray(self.pose_std, dtype=float)
+            w = np.array([1.0 / std[0], 1.0 / std[0], 1.0 / std[1]])
+            q, _ = fit_frame(
+                np.ascontiguousarray(rel[1:]),
+                np.asarray(self.segment_lengths_, dtype=float),
+                np.ascontiguousarray(self.marker_arc_lengths_[1:]),
+                q.copy(),
+                w,
+                50,
+                1e-10,
+            )
+        return q
 
     def inverse_transform(self, X: Any) -> list[PoseTrajectory]:
         """Poses of the base and the markers, shape (T, N + 1, 3), from strain trajectories.

@@ -21,7 +21,7 @@ from pcs_sindy.cli import CLIError, build_parser, command_kwargs, main
 from pcs_sindy.commands import build_regressor, fit, pipeline_step, rollout
 from pcs_sindy.kinematics import PlanarPCS, wrap_angle
 
-COMMANDS = ["scenarios", "simulate", "render", "extract", "fuse", "fit", "rollout", "demo"]
+COMMANDS = ["scenarios", "simulate", "render", "calibrate", "extract", "fuse", "fit", "rollout", "demo"]
 
 
 @pytest.fixture(scope="module")
@@ -133,6 +133,29 @@ def test_render_then_extract_recovers_the_poses(work, capsys):
             assert err_p.max() < 5e-4 and np.sqrt(np.mean(err_p**2)) < 1e-4  # metres
             assert np.rad2deg(err_th.max()) < 5.0
             np.testing.assert_array_equal(par["poses"], got["poses"])
+
+
+def test_rest_length_travels_through_pose_files(work, tmp_path, capsys):
+    from pcs_sindy.datafiles import read_rest_length, write_poses
+
+    recs = [work / "data" / f"train_0{k}.npz" for k in range(2)]
+    files = []
+    for k, rec in enumerate(recs):
+        with np.load(rec) as data:
+            files.append(str(write_poses(tmp_path / f"p{k}.npz", data["t"], data["poses"], rest_length=0.1)))
+    assert read_rest_length(files[0]) == 0.1
+    capsys.readouterr()
+    assert main(["fuse", *files, "--out", str(tmp_path / "fused")]) == 0
+    printed = capsys.readouterr().out
+    assert "total 0.1000 m" in printed and "note:" not in printed  # given with the poses, not estimated
+    with np.load(tmp_path / "fused" / "p0.npz") as st:
+        assert np.sum(st["segment_lengths"]) == pytest.approx(0.1, rel=1e-12)
+    # without it the length is estimated, and the user is told so
+    with np.load(recs[0]) as data:
+        write_poses(tmp_path / "bare.npz", data["t"], data["poses"])
+    assert read_rest_length(tmp_path / "bare.npz") is None
+    assert main(["fuse", str(tmp_path / "bare.npz"), "--out", str(tmp_path / "bare")]) == 0
+    assert "note: the rest length was estimated" in capsys.readouterr().out
 
 
 def test_fuse_strains_reproduce_the_poses(work, capsys):

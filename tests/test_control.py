@@ -262,13 +262,12 @@ class _FakeFusion:
     def __init__(self, kin, s):
         self.kin, self.s = kin, s
 
-    def transform(self, X):
+    def transform_frame(self, poses, q0=None):
         from pcs_sindy.segmentation import fit_strains_least_squares
-        from pcs_sindy.trajectory import StrainTrajectory
 
-        P = X[0].poses
-        q, _ = fit_strains_least_squares(P[:, 1:], self.kin.segment_lengths, self.s[1:], np.zeros((1, 6)))
-        return [StrainTrajectory(q, X[0].t, segment_lengths=self.kin.segment_lengths)]
+        start = np.zeros((1, 6)) if q0 is None else np.asarray(q0)[None]
+        q, _ = fit_strains_least_squares(poses[None, 1:], self.kin.segment_lengths, self.s[1:], start)
+        return q[0]
 
 
 def test_pose_estimator_rates_follow_the_filtered_difference_closed_form():
@@ -362,7 +361,7 @@ def test_an_identified_model_regulates_the_true_robot_from_its_state_and_from_no
         res = closed_loop(
             robot,
             SetpointRegulator(model),
-            frame_strains(fusion, poses, 0.0),
+            frame_strains(fusion, poses),
             t,
             observe=observe,
             fusion=fusion,
@@ -375,7 +374,7 @@ def test_an_identified_model_regulates_the_true_robot_from_its_state_and_from_no
         closed_loop(
             robot,
             SetpointRegulator(model),
-            frame_strains(fusion, poses, 0.0),
+            frame_strains(fusion, poses),
             t,
             observe="poses",
             fusion=fusion,

@@ -18,7 +18,7 @@ Layers (what each may import besides itself):
 - simulation (the ground truth) and the identification side never import each
   other; the simulator may use the camera model to render synthetic videos;
 - vision (images → poses → strains) imports no dynamics;
-- ``pipeline`` composes vision and identification;
+- ``pipeline`` and ``rest_length`` compose vision and identification;
 - ``control`` runs identified models on observations from vision; the plant
   (the simulator) is passed in, never imported;
 - the top layer (CLI and its commands, data files, demo and report, plotting,
@@ -60,8 +60,21 @@ IDENTIFICATION = (
     "pcs_sindy.rollout",
     "pcs_sindy.actuation",
 )
-VISION = ("pcs_sindy.vision", "pcs_sindy.camera", "pcs_sindy.segmentation")
-COMPOSITION = ("pcs_sindy.pipeline",)
+VISION = (
+    "pcs_sindy.vision",
+    "pcs_sindy.camera",
+    "pcs_sindy.calibration",
+    "pcs_sindy.frame_source",
+    "pcs_sindy.binarisation",
+    "pcs_sindy.markers",
+    "pcs_sindy.marker_chain",
+    "pcs_sindy.frame_tracker",
+    "pcs_sindy.extraction",
+    "pcs_sindy.segmentation",
+    "pcs_sindy._frame_fit",
+)
+#: vision and identification together: the pipeline, and the rest length corrected through the dynamics
+COMPOSITION = ("pcs_sindy.pipeline", "pcs_sindy.rest_length")
 #: controllers and closed loops: identified models observed through vision; the plant (the simulator) is passed in
 CONTROL = ("pcs_sindy.control",)
 TOP = (

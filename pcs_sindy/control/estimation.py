@@ -28,20 +28,23 @@ from numpy.typing import ArrayLike, NDArray
 
 from pcs_sindy.kinematics import PlanarPCS
 from pcs_sindy.segmentation import SEED_Q_MAX
-from pcs_sindy.trajectory import PoseTrajectory
 
 from . import _kinematics
 
 __all__ = ["frame_strains", "same_segmentation", "StateMap", "PoseEstimator"]
 
 
-def frame_strains(fusion: Any, frame: NDArray[np.float64], t: float) -> NDArray[np.float64]:
+def frame_strains(
+    fusion: Any, frame: NDArray[np.float64], q0: NDArray[np.float64] | None = None
+) -> NDArray[np.float64]:
     """Strains (3m,) of the fusion's segmentation from the marker poses (N + 1, 3) of one frame.
 
-    The one place the closed loop turns a camera frame into strains, so a
-    faster single-frame path of the fusion can replace it here.
+    The one place the closed loop turns a camera frame into strains:
+    :meth:`~pcs_sindy.segmentation.KinematicFusion.transform_frame`, the
+    compiled single-frame fit, warm-started from ``q0`` (the previous frame's
+    strains) when given.
     """
-    return fusion.transform([PoseTrajectory(frame[None], t=[t])])[0].q[0]
+    return fusion.transform_frame(frame, q0)
 
 
 def same_segmentation(a: PlanarPCS, b: PlanarPCS, rtol: float = 1e-9) -> bool:
@@ -170,10 +173,12 @@ class PoseEstimator:
         self.q = None
         self.v = None
         self.t = None
+        self._strains = None  # all strains of the last frame: the next fit starts there
 
     def update(self, t: float, frame: NDArray[np.float64]) -> None:
         """Take the frame (N + 1, 3) captured at time ``t``."""
-        q = frame_strains(self.fusion, frame, t)[self.mask]
+        self._strains = frame_strains(self.fusion, frame, self._strains)
+        q = self._strains[self.mask]
         if self.q is None:
             self.v = np.zeros_like(q)
         else:
