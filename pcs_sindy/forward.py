@@ -60,11 +60,15 @@ class ForwardModel(ABC):
     methods : tuple of str
         Integration schemes :meth:`simulate` accepts (names of
         :data:`pcs_sindy.integration.METHODS`).
+    compiled_methods : tuple of str
+        Those of :attr:`methods` run by the model's own compiled loop for
+        tabulated inputs; every other one goes through ``solve_ivp``.
     default_method : str
         The scheme used when ``method`` is not given (the best measured one).
     """
 
     methods: tuple[str, ...] = tuple(SCIPY_METHODS)
+    compiled_methods: tuple[str, ...] = ()
     default_method: str = "radau"
 
     def __init__(self, kinematics: PlanarPCS, actuation: Any = None) -> None:
@@ -246,7 +250,7 @@ class ForwardModel(ABC):
             _check_step(step, t)
         names = self.kinematics.strain_names(active_only=True)
         state_names = names + [f"d{nm}/dt" for nm in names]
-        if method in COMPILED_METHODS and not callable(inputs):
+        if method in self.compiled_methods and not callable(inputs):
             y = self._rollout_compiled(
                 y0,
                 t,
@@ -297,7 +301,7 @@ class ForwardModel(ABC):
         )
 
     def _rollout_compiled(self, y0, t, u, method, **kwargs) -> NDArray[np.float64]:
-        raise ValueError(f"{type(self).__name__} has no compiled scheme; use one of {list(SCIPY_METHODS)}")
+        raise NotImplementedError(f"{type(self).__name__} declares no compiled scheme")
 
 
 def _check_step(step: float, t: NDArray[np.float64]) -> None:
@@ -382,6 +386,7 @@ class LumpedPCSModel(ForwardModel):
     """
 
     methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
+    compiled_methods = COMPILED_METHODS
     default_method = "rosenbrock"
 
     def __init__(

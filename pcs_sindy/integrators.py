@@ -193,14 +193,16 @@ def solve_held(
             f"rollout diverged at t = {tk:.6g} s ({msg}); state: {describe_state(yk, state_names)}", tk, yk
         )
 
-    def checked(sol: Any, t0: float) -> NDArray[np.float64]:
+    def checked(sol: Any, t0: float, y_start: NDArray[np.float64]) -> NDArray[np.float64]:
+        ts, ys = np.asarray(sol.t, dtype=float), np.asarray(sol.y, dtype=float).reshape(y_start.size, -1).T
         if not sol.success:
-            raise fail(f"solve_ivp {scipy_method}: {sol.message}", float(sol.t[-1]) if sol.t.size else t0, sol.y[:, -1])
-        ys = sol.y.T
+            # with t_eval the failed solution may hold no sample at all: report where the interval started
+            tk, yk = (float(ts[-1]), ys[-1]) if ts.size else (t0, y_start)
+            raise fail(f"solve_ivp {scipy_method}: {sol.message}", tk, yk)
         bad = ~np.all(np.isfinite(ys), axis=1) | (np.max(np.abs(ys), axis=1) > max_abs_state)
         if np.any(bad):
             k = int(np.argmax(bad))
-            raise fail(f"non-finite state or |state| > max_abs_state = {max_abs_state:g}", float(sol.t[k]), ys[k])
+            raise fail(f"non-finite state or |state| > max_abs_state = {max_abs_state:g}", float(ts[k]), ys[k])
         return ys
 
     out = np.empty((t.size, y.size))
@@ -215,7 +217,7 @@ def solve_held(
                 t_eval=t,
                 **opts,
             )
-            ys = checked(sol, t[0])
+            ys = checked(sol, t[0], y)
             if ys.shape[0] != t.size:
                 raise fail("solve_ivp stopped early", float(sol.t[-1]), ys[-1])
             return ys
@@ -226,10 +228,9 @@ def solve_held(
                 (t[k], t[k + 1]),
                 y,
                 method=scipy_method,
-                t_eval=(t[k + 1],),
                 **opts,
-            )
-            y = checked(sol, t[k])[-1]
+            )  # no t_eval: the steps' own times locate a failure inside the interval
+            y = checked(sol, t[k], y)[-1]
             out[k + 1] = y
     except np.linalg.LinAlgError as err:
         raise fail(f"right-hand side failed: {err}", float("nan"), y) from None

@@ -140,6 +140,7 @@ def _true_model(name, library="physical"):
         ("two_segment", "rosenbrock", "physical"),
         ("two_segment", "dopri5", "physical"),
         ("one_segment", "radau", "monomial"),
+        ("one_segment", "dopri5", "monomial"),  # a callable model takes solve_ivp's RK45 for dopri5
     ],
 )
 def test_true_parameters_follow_the_simulator(name, method, library):

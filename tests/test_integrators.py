@@ -186,3 +186,11 @@ def test_solve_held_on_a_plain_function():
         solve_held(lambda y, uk: 50.0 * y, [1.0, 1.0], t, u, method="radau", max_abs_state=1e3, state_names=["a", "b"])
     with pytest.raises(ValueError, match="for solve_ivp"):
         solve_held(lambda y, uk: y, [1.0], t, u, method="rosenbrock")
+
+
+def test_solve_held_reports_where_solve_ivp_gives_up_inside_a_sample():
+    # y' = y^2 from y(0) = 1 blows up at t = 1, inside the sample [0.5, 2]; solve_ivp fails there
+    with pytest.raises(SimulationError, match="solve_ivp") as err:
+        solve_held(lambda y, uk: y**2, [1.0], [0.0, 0.5, 2.0], np.zeros((3, 1)), method="dopri5", max_abs_state=1e300)
+    assert err.value.t == pytest.approx(1.0, abs=1e-3)  # the last step reached (numerically at the pole), not 0.5
+    assert err.value.y[0] > 1e6
