@@ -119,7 +119,7 @@ def fuse_segments(
     Parameters
     ----------
     chains : sequence of array_like, each (T_k, N + 1, 3)
-        Recordings with continuous angles (see :func:`chain_poses`).
+        Recordings with continuous angles (see :func:`pcs_sindy.chain_geometry.chain_poses`).
     arc_lengths : array_like, shape (N + 1,)
     threshold : float
         ``h`` (> 0).
