@@ -1,7 +1,7 @@
 """Compiled (numba) strain fit of one frame, for state estimation at camera rate.
 
 The same weighted least-squares problem as
-:func:`pcs_sindy.segmentation.fit_strains_least_squares` (marker poses of a
+:func:`pcs_sindy.shape_fit.fit_strains_least_squares` (marker poses of a
 PCS robot against measured ones, Levenberg-Marquardt with Marquardt scaling),
 for a single frame without numpy's per-call overhead: tens of microseconds
 instead of milliseconds.  The closed forms are those of docs/method.md,

@@ -154,8 +154,9 @@ def demo_report(
         plot_stills,
         plot_strain_distance_profile,
     )
-    from .segmentation import KinematicFusion, threshold_sweep
+    from .segmentation import KinematicFusion
     from .simulation.rendering import render_frames
+    from .threshold_selection import threshold_sweep
     from .trajectory import PoseTrajectory
     from .vision import MarkerPoseExtractor
 

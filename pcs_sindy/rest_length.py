@@ -3,7 +3,7 @@
 Poses alone cannot tell a robot's rest length from a constant stretch: a
 robot hanging under its weight, pulled by its actuation or stretched by its
 own swinging simply looks longer, and the median deformed length
-(:func:`pcs_sindy.segmentation.estimate_total_length`) reads long by that
+(:func:`pcs_sindy.chain_geometry.estimate_total_length`) reads long by that
 mean stretch (about 1 % on two_segment, 3.6 % on a soft robot hanging 3 %
 stretched).  The dynamics can: with gravity known and the mass fixed by the
 inertia, an Euler–Lagrange model with a constant force per strain
@@ -28,7 +28,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from sklearn.base import clone
 
-from .segmentation import KinematicFusion, jackknife_std
+from .chain_geometry import jackknife_std
+from .segmentation import KinematicFusion
 from .trajectory import PoseTrajectory, as_pose_trajectories
 
 __all__ = ["RestLengthEstimate", "estimate_rest_length"]

@@ -70,6 +70,10 @@ VISION = (
     "pcs_sindy.marker_chain",
     "pcs_sindy.frame_tracker",
     "pcs_sindy.extraction",
+    "pcs_sindy.chain_geometry",
+    "pcs_sindy.segment_merging",
+    "pcs_sindy.shape_fit",
+    "pcs_sindy.threshold_selection",
     "pcs_sindy.segmentation",
     "pcs_sindy._frame_fit",
 )
