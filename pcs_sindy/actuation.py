@@ -82,7 +82,15 @@ def _inside(value: NDArray, name: str, total: float, *, allow_zero: bool, tol: f
     bad = (value < 0) | (value > total * (1 + tol)) | ((value == 0) & (not allow_zero))
     if np.any(bad):
         k = int(np.argmax(bad))
-        raise ValueError(f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m)")
+        hint = ""
+        if value[k] > total:  # usually a rest length read from poses of a robot the actuators compress
+            hint = (
+                "; if that length was estimated from the poses, give the measured one "
+                "(KinematicFusion(total_length=...) or MarkerPoseExtractor(robot_length=...))"
+            )
+        raise ValueError(
+            f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m){hint}"
+        )
 
 
 class Actuation(BaseEstimator, ABC):

@@ -168,6 +168,7 @@ def build_parser() -> argparse.ArgumentParser:
     from .forward import CallableModel, LumpedPCSModel
     from .integration import METHODS
     from .library import PhysicalPCSLibrary
+    from .recordings import WEAK_WINDOW
     from .simulation import Scenario
     from .simulation.rendering import render_frames
 
@@ -269,7 +270,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--robot-length",
         type=_positive_float,
-        help="without a camera JSON: calibrate from the straight first frame and this length [m]",
+        help="the robot's measured rest length [m]: stored in the pose files for 'fuse', and without a camera "
+        "JSON the scale is calibrated from it and the straight first frame",
     )
     p.add_argument("--n-markers", type=_positive_int, help="markers besides the base (default: as found)")
     p.add_argument("--fps", type=_positive_float, help="frame rate (default: the video's or the camera JSON's)")
@@ -335,12 +337,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--weak-window",
         type=_positive_int,
-        help=f"weak form: window in sampling intervals (default {reg['weak_window']})",
+        help=f"weak form: window in sampling intervals (default {WEAK_WINDOW}, or half the shortest recording)",
     )
     p.add_argument(
         "--weak-stride",
         type=_positive_int,
-        help=f"weak form: step between windows in samples (default {reg['weak_stride']})",
+        help="weak form: step between windows in samples (default a quarter of the window)",
     )
     p.add_argument(
         "--exclude-force-jumps",

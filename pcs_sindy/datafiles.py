@@ -46,6 +46,7 @@ file formats (all .npz, read without pickle; extra keys are ignored):
   recording    t (T,), q, qd, tau (T, n), poses, poses_true (T, N+1, 3)  (written by 'simulate');
                actuated scenarios add u (T, p), the actuator inputs (tau is then A(q) u at the samples)
   pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
+               optional rest_length (): the robot's measured length in m (written by 'extract --robot-length')
   tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
   strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
                base_pose (3,), base_poses (T, 3), marker_arc_lengths (N+1,)  (written by 'fuse')
