@@ -50,8 +50,8 @@ with tempfile.TemporaryDirectory() as folder:
         extractor=MarkerPoseExtractor(progress=False),
         # sub-pixel extraction: a few hundredths of a millimetre, a few tenths of a degree
         fusion=KinematicFusion(threshold=0.2, total_length=total_length, pose_std=(2.5e-5, 6e-3)),
-        # the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window
-        regressor=EulerLagrangeRegressor(window_length=15),
+        # the defaults: physical library with a constant force per strain, weak form
+        regressor=EulerLagrangeRegressor(),
     )
     pipe.fit(videos, [rec.tau for rec in data.train])
 

@@ -38,8 +38,8 @@ print(
     f"(true {list(scenario.robot.kinematics.segment_lengths)})"
 )
 
-# the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window for the rates
-model = EulerLagrangeRegressor(window_length=15)
+# the defaults: physical library with a constant force per strain, weak form over windows of 160 samples
+model = EulerLagrangeRegressor()
 model.fit(strains, [rec.tau for rec in data.train])
 model.print(precision=3)
 print("stiffness, identified / true:", np.round(model.stiffness_ / scenario.robot.stiffness, 3))
