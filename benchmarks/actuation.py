@@ -51,8 +51,6 @@ import numpy as np
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory, make_pcs_pipeline  # noqa: E402
 from pcs_sindy.actuation import LinearActuation, PressureActuation, TendonActuation  # noqa: E402
 from pcs_sindy.camera import Camera  # noqa: E402
@@ -62,6 +60,8 @@ from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
 from pcs_sindy.pipeline import recording_groups  # noqa: E402
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 NOISE = (1e-4, float(np.deg2rad(0.5)))
 THRESHOLDS = [0.2, 0.1, 0.05]
@@ -76,7 +76,8 @@ def _video_poses(scenario, data) -> tuple[list[PoseTrajectory], float]:
             render_video(rec.poses_true, path, camera, fps=1.0 / rec.dt)
             paths.append(str(path))
         start = time.perf_counter()
-        trajs = MarkerPoseExtractor(n_markers=scenario.n_markers, on_missing="interpolate", progress=False).transform(paths)
+        extractor = MarkerPoseExtractor(n_markers=scenario.n_markers, on_missing="interpolate", progress=False)
+        trajs = extractor.transform(paths)
         return trajs, time.perf_counter() - start
 
 
@@ -148,7 +149,8 @@ def run(name: str, source: str) -> list[str]:
             e_p, e_th = end_effector_errors(sim.poses(np.array([fusion.total_length_])), truth_tip)
             cells = f"{1e3 * e_p:.3f} | {e_th:.4f}"
         except Exception as exc:  # noqa: BLE001 - a failed or diverged fit is a result
-            rows.append(f"| {name} | {source}{extraction} | {label} | {segmentation} | failed: {str(exc)[:80]} | – | – | – |")
+            rows.append(f"| {name} | {source}{extraction} | {label} | {segmentation} | failed: {str(exc)[:80]} "
+                        "| – | – | – |")
             continue
         fitted = model.actuation_
         if isinstance(act, TendonActuation) and act.offset is None:
@@ -174,7 +176,8 @@ def main() -> None:
     body = "\n".join([
         __doc__.split("Usage::")[0].strip().split("\n\n", 1)[1],
         "",
-        "| scenario | source | actuation model | fused segmentation | identified | e_p^EE [mm] | e_θ^EE [rad] | fit [s] |",
+        "| scenario | source | actuation model | fused segmentation | identified | e_p^EE [mm] | e_θ^EE [rad] "
+        "| fit [s] |",
         "|---|---|---|---|---|---|---|---|",
         *rows,
         "",

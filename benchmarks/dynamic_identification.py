@@ -33,6 +33,9 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+from _rollout import validation_rollout  # noqa: E402
+
 from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.metrics import end_effector_errors  # noqa: E402
@@ -101,11 +104,9 @@ CONFIGS = {
     # weak (bump-weighted window integral) form: no qdd; SG 7 only for qd, held forces integrated exactly
     "weak40-physical": lambda: EulerLagrangeRegressor(
         library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", window_length=7, weak_window=40, weak_stride=20),
-    # the package's defaults: weak40 with rest strains (a constant force per strain)
+    # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
 }
-# every row is rolled out alike (the validation rollout of the section before the refactor)
-ROLLOUT = dict(method="dopri5", rtol=1e-6, atol=1e-9)
 DEFAULT_CONFIGS = ["sg25", "sg7-jumpfree-physical", "weak40-physical", "default"]
 
 
@@ -157,7 +158,7 @@ def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=
     t0 = time.perf_counter()
     n = kin.n_q
     try:
-        sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau, **ROLLOUT)
+        sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
         row["rollout_time"] = time.perf_counter() - t0
         tip = sim.poses(np.array([kin.total_length]))
         e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
@@ -185,12 +186,14 @@ def render(rows):
         "inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of the monomial one; "
         "`weak40-physical` = the same library with `formulation=\"weak\"`: regression on bump-weighted integrals over "
         "windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, held forces integrated exactly; "
-        "`default` = `EulerLagrangeRegressor()` with no arguments (weak40 with `PhysicalPCSLibrary()`, which also "
-        "identifies a constant force per strain: 11 unknowns per segment); removal = "
+        "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "
+        "q̇ from Savitzky–Golay 7/3, and `PhysicalPCSLibrary()`, which also identifies a constant force per strain: "
+        "11 unknowns per segment); removal = "
         "`StiffnessThresholdOptimizer(threshold=1.0)` (seed bounds 12.6 N m², 168 N, 126 kN), no removal = "
         "`threshold=np.inf`; rollout of the 7 s validation from rest, `simulate(..., method=\"dopri5\", rtol=1e-6, "
-        "atol=1e-9)` for every row (compiled Dormand–Prince 5(4) for the physical library, scipy's RK45 per held "
-        "sample for the monomial one), tip pose vs. noise-free truth.",
+        "atol=1e-9)` for every row (compiled Dormand–Prince 5(4) for the physical library, scipy's RK45 restarted "
+        "at every held sample for the monomial one, run by benchmarks/_rollout.py because "
+        "`CallableModel.simulate(method=\"dopri5\")` fails), tip pose vs. noise-free truth.",
         "",
         "| case | noise | removal | configuration | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | "
         "seed e_θ^EE | coefficients (full → final) | fit [s] | rollout [s] (× real time) | M not PD | load |",

@@ -12,7 +12,8 @@ For each scenario (``three_segment``, ``five_segment``; ``generate(seed=0)``:
 4. ``EulerLagrangeRegressor`` fits the model on the fused segmentation: with
    ``library=PhysicalPCSLibrary(rest_strain=False)`` in the weak form
    (``formulation="weak"``, SG 15 for q̇) and in the strong form (SG 7/3,
-   ``exclude_force_jumps=True``), and with the defaults ``EulerLagrangeRegressor()``;
+   ``exclude_force_jumps=True``), and with the defaults ``EulerLagrangeRegressor()``
+   (windows of 160 samples);
 5. the model is rolled out from rest under the validation actuation and its
    tip pose compared with the simulator's noise-free truth (e_p^EE, e_θ^EE).
 
@@ -47,6 +48,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _rollout import validation_rollout  # noqa: E402
+
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
@@ -73,13 +76,11 @@ SOURCES = {
 # "default": EulerLagrangeRegressor() with no arguments
 CONFIGS = {
     "weak": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="weak",
-                                           window_length=15),
+                                           window_length=15, weak_window=40, weak_stride=20),
     "strong": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="strong",
                                              window_length=7, exclude_force_jumps=True),
     "default": lambda: EulerLagrangeRegressor(),
 }
-# every row is rolled out alike (the validation rollout of the section before the refactor)
-ROLLOUT = dict(method="dopri5", rtol=1e-6, atol=1e-9)
 SEED = 0
 # extraction accuracy on rendered 640x480 frames (benchmarks/kinematic_fusion.py: about 2e-5 m and
 # 6e-3 rad); only the ratio weights the least-squares shape fit
@@ -199,7 +200,7 @@ def _fit_rows(scenario, data, configs: list[str], base: dict, strains: list) -> 
         n = model.kinematics_.n_q
         t0, c0 = time.perf_counter(), time.process_time()
         try:
-            sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau, **ROLLOUT)
+            sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
             row["rollout_time"] = time.perf_counter() - t0
             row["rollout_cpu"] = time.process_time() - c0
             tip = sim.poses(np.array([float(np.sum(base["found_lengths"]))]))
@@ -236,8 +237,8 @@ def render(rows: list[dict]) -> str:
         "`EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), ...)` (8 unknowns per segment, "
         "bounded least squares, seed stiffness bounds) with `weak` = `formulation='weak'` (bump windows of 40 "
         "samples, stride 20, SG 15 for q̇) or `strong` = `formulation='strong'`, SG 7/3 with "
-        "`exclude_force_jumps=True`; `default` = `EulerLagrangeRegressor()` with no arguments (weak form, SG 7 for "
-        "q̇, `PhysicalPCSLibrary()` with a constant force per strain).",
+        "`exclude_force_jumps=True`; `default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows "
+        "of 160 samples, stride 40, SG 7 for q̇, `PhysicalPCSLibrary()` with a constant force per strain).",
         "",
         "| case | source | config | found lengths [m] (true) | fusion e_p^dist [m] | e_p^EE [mm] | e_θ^EE [rad] | "
         "removed | fusion [s] wall (CPU) | fit [s] wall (CPU) | rollout [s] wall (CPU) | M not PD | load |",

@@ -27,7 +27,8 @@ derivative errors scaled by 0.01-0.3 (how accurate must the derivatives be?);
 10 kHz data with SG 25 inside the holds; actuation ramped instead of held
 between the 10 ms random forces; the physical basis on the same SG 25 data; and
 the package's defaults (``EulerLagrangeRegressor()``: physical library with
-rest strains, weak form, q̇ from SG 7/3, no q̈) on the same recordings.
+rest strains, weak form over windows of 160 samples, q̇ from SG 7/3, no q̈) on
+the same recordings.
 A robot summary (inertial share of the forces, linearised time constants, the
 positive-definiteness margin of M) is written below the table.
 
@@ -57,6 +58,8 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _rollout import validation_rollout  # noqa: E402
+
 from pcs_sindy.formulations import jump_free as _jump_free  # noqa: E402
 from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
@@ -114,10 +117,9 @@ ROWS = {
     "sg25-ramped": ("SG 25/3, actuation ramped (not held) between the 10 ms random forces", {"ramped": True}),
     "sg25-ramped-physical": ("SG 25/3, ramped actuation, physical basis", {"ramped": True, "basis": "physical"}),
     # the package's defaults on the same recordings (their own derivatives: SG 7/3 for qd, no qdd)
-    "default": ("EulerLagrangeRegressor() (physical, rest strains, weak form, SG 7/3 for qd)", {"default": True}),
+    "default": ("EulerLagrangeRegressor() (physical, rest strains, weak form over 160 samples, SG 7/3 for qd)",
+                {"default": True}),
 }
-# every row is rolled out alike (the validation rollout of the section before the refactor)
-ROLLOUT = dict(method="dopri5", rtol=1e-6, atol=1e-9)
 
 
 def _regressor(opts, window, jump_free):
@@ -262,7 +264,7 @@ def run_row(name, rollout=True):
         n = robot.n_q
         t0 = time.perf_counter()
         try:
-            sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau, **ROLLOUT)
+            sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
             tip = sim.poses(np.array([robot.kinematics.total_length]))
             e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
             row.update(e_p=e_p, e_theta=e_th, diverged_at=None)
@@ -315,7 +317,8 @@ def render(rows):
         f"StiffnessThresholdOptimizer ({removed_text}); rows are computed by separate `--rows NAME` runs and cached, "
         "`--rows` alone re-renders them; rollout of the default scenario's 7 s validation from rest "
         "(`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)`: scipy's RK45 restarted at every held sample for "
-        "monomial models, the compiled Dormand–Prince 5(4) for physical ones). Derivative errors: relative RMS error "
+        "monomial models, run by benchmarks/_rollout.py because `CallableModel.simulate(method=\"dopri5\")` fails; "
+        "the compiled Dormand–Prince 5(4) for physical ones). Derivative errors: relative RMS error "
         "against the simulator's exact qd and qdd, worst strain (all six in the notes below). "
         "coef err: ‖π̂ − π‖/‖π‖ against the true coefficients. Residual: ‖τ − Ψπ‖/‖τ‖ of the regression solved, "
         "with the fitted and with the TRUE coefficients. M err val: median over the validation states of "

@@ -36,6 +36,7 @@ from types import SimpleNamespace
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _rollout import validation_rollout  # noqa: E402
 from dynamic_identification import estimate_strains  # noqa: E402
 
 from pcs_sindy.integration import SimulationError  # noqa: E402
@@ -69,11 +70,9 @@ CONFIGS = {
     # physical library, weak form: no qdd, held forces integrated exactly
     "physical weak40": lambda: EulerLagrangeRegressor(
         library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", weak_window=40, weak_stride=20, window_length=7),
-    # the package's defaults: physical weak40 with rest strains (a constant force per strain)
+    # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
 }
-# every row is rolled out alike (the validation rollout of the section before the refactor)
-ROLLOUT = dict(method="dopri5", rtol=1e-6, atol=1e-9)
 CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "noise_robustness_rows.json"
 CHUNK = 500  # samples per rollout chunk (0.5 s at 1 kHz)
 
@@ -105,7 +104,7 @@ def capped_rollout(model, tau, t, budget):
     while a < t.size - 1:
         b = min(a + CHUNK, t.size - 1)
         try:
-            sim = model.simulate(q0, qd0, t[a : b + 1], tau[a : b + 1], progress=False, **ROLLOUT)
+            sim = validation_rollout(model, q0, qd0, t[a : b + 1], tau[a : b + 1], progress=False)
         except SimulationError:
             return np.concatenate(qs), "diverged", float(t[a])
         qs.append(sim.q[1:])
@@ -187,10 +186,12 @@ def render(rows, configs):
         "window straddles a force jump left out (`exclude_force_jumps=True`, the actuation-aware option, the only "
         "derivative-light option of the monomial library); `weak40` = `formulation=\"weak\"` (bump-weighted window "
         "integrals over 40 samples, stride 20: no q̈, held forces integrated exactly, q̇ from Savitzky–Golay 7/3); "
-        "`default` = `EulerLagrangeRegressor()` with no arguments (physical weak40 with `PhysicalPCSLibrary()`, "
-        "which also identifies a constant force per strain).  Every model is rolled out with "
+        "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "
+        "q̇ from Savitzky–Golay 7/3, `PhysicalPCSLibrary()`, which also identifies a constant force per strain).  "
+        "Every model is rolled out with "
         "`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)` (the compiled Dormand–Prince 5(4) for the "
-        "physical library, scipy's RK45 per held sample for the monomial one).",
+        "physical library, scipy's RK45 restarted at every held sample for the monomial one, run by "
+        "benchmarks/_rollout.py because `CallableModel.simulate(method=\"dopri5\")` fails).",
         "",
         "Cells: median e_p^EE [mm] over the noise seeds that rolled out (min–max in brackets); "
         "`div k/3` = k seeds diverged, `t/o k/3` = k seeds hit the rollout budget (earliest time reached in brackets; "

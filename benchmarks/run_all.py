@@ -28,6 +28,7 @@ ORDER = [
     "monomial_divergence",
     "rest_length",
     "model_selection",
+    "actuation",
 ]
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
