@@ -34,11 +34,9 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from _rollout import validation_rollout  # noqa: E402
+from _rollout import validate  # noqa: E402
 
-from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.segmentation import fit_strains_least_squares  # noqa: E402
@@ -155,18 +153,7 @@ def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=
         "not_pd": model.mass_matrix_not_pd_fraction_,
         "warnings": [str(w.message)[:120] for w in caught],
     }
-    t0 = time.perf_counter()
-    n = kin.n_q
-    try:
-        sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
-        row["rollout_time"] = time.perf_counter() - t0
-        tip = sim.poses(np.array([kin.total_length]))
-        e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-        row.update(e_p=e_p, e_theta=e_th, diverged=None)
-    except SimulationError as err:
-        row["rollout_time"] = time.perf_counter() - t0
-        row.update(e_p=None, e_theta=None, diverged=str(err)[:160])
-    row["duration"] = float(val.t[-1] - val.t[0])
+    row.update(validate(model, val, kin.total_length))
     row["loadavg"] = os.getloadavg()[0]
     return row
 

@@ -48,12 +48,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _rollout import validation_rollout  # noqa: E402
+from _rollout import validate  # noqa: E402
 
 from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import distributed_errors, end_effector_errors  # noqa: E402
+from pcs_sindy.metrics import distributed_errors  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
@@ -196,20 +195,7 @@ def _fit_rows(scenario, data, configs: list[str], base: dict, strains: list) -> 
             not_pd=float(model.mass_matrix_not_pd_fraction_),
             warnings=[str(w.message)[:160] for w in caught],
         )
-        val = data.validation
-        n = model.kinematics_.n_q
-        t0, c0 = time.perf_counter(), time.process_time()
-        try:
-            sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
-            row["rollout_time"] = time.perf_counter() - t0
-            row["rollout_cpu"] = time.process_time() - c0
-            tip = sim.poses(np.array([float(np.sum(base["found_lengths"]))]))
-            e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-            row.update(e_p=e_p, e_theta=e_th, diverged=None)
-        except SimulationError as err:
-            row["rollout_time"] = time.perf_counter() - t0
-            row.update(e_p=None, e_theta=None, diverged=str(err)[:160])
-        row["duration"] = float(val.t[-1] - val.t[0])
+        row.update(validate(model, data.validation, float(np.sum(base["found_lengths"]))))
         row["loadavg"] = os.getloadavg()[0]
         print(json.dumps({k: v for k, v in row.items() if k not in ("k_true", "k_hat")}), flush=True)
     return rows

@@ -58,12 +58,10 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _rollout import validation_rollout  # noqa: E402
+from _rollout import validate  # noqa: E402
 
 from pcs_sindy.formulations import jump_free as _jump_free  # noqa: E402
-from pcs_sindy.integration import SimulationError  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
@@ -261,16 +259,7 @@ def run_row(name, rollout=True):
         "removed": list(model.removed_strains_),
     }
     if rollout:
-        n = robot.n_q
-        t0 = time.perf_counter()
-        try:
-            sim = validation_rollout(model, np.zeros(n), np.zeros(n), val.t, val.tau)
-            tip = sim.poses(np.array([robot.kinematics.total_length]))
-            e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-            row.update(e_p=e_p, e_theta=e_th, diverged_at=None)
-        except SimulationError as err:
-            row.update(e_p=None, e_theta=None, diverged_at=err.t)
-        row["rollout_time"] = time.perf_counter() - t0
+        row.update(validate(model, val, robot.kinematics.total_length))
     row["loadavg"] = os.getloadavg()[0]
     return row
 
