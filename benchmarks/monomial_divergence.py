@@ -346,7 +346,7 @@ Findings (numbers from the rows above):
 
 1. What diverges: the identified mass matrix. With SG 25/3 the fitted M(q) is indefinite on 25.8 % of the training
    and 44.2 % of the validation states and the rollout leaves at t = 0.189 s.  It is not the library: on the same 8
-   recordings with the simulator's exact q̇, q̈ the same regression recovers π to 4e-11 and the 7 s rollout matches
+   recordings with the simulator's exact q̇, q̈ the same regression recovers π to ~1e-11 and the 7 s rollout matches
    the simulator to ~1e-6 mm.
 2. Why: the Savitzky–Golay derivatives are wrong, not slightly but entirely.  On this robot SG 25/3 at 1 kHz misses
    86-100 % (relative RMS) of q̈ and 22-51 % of q̇: the robot has sub-millisecond time constants (0.095, 0.76 ms) and
@@ -382,10 +382,11 @@ Findings (numbers from the rows above):
      dynamic-identification benchmark (25.8 % indefinite, +1472 % on be_1, divergence at 0.19 s).
 5. What fixes it: a basis that keeps M positive definite.  The physical basis (16 bounded unknowns) on the very same
    SG 25 data is PD everywhere and rolls out (20.5 mm; 21.4 mm with ramped actuation), and with SG 7 jump-free or the
-   weak form reaches 8.29 / 0.024 mm (dynamic-identification section).  The monomial basis works only with
-   derivatives good to a few per cent (exact, or a PD constraint on M in the fit, not implemented); keep `sg25`
-   monomial as the seed-reproduction row (`EulerLagrangeRegressor.seed_method()`) and recommend the defaults
-   `EulerLagrangeRegressor()` (physical library, weak form).
+   weak form reaches 8.29 / 0.024 mm (dynamic-identification section); the defaults `EulerLagrangeRegressor()`
+   (physical, weak form over 160 samples) reach 0.032 mm on these recordings (last row).  The monomial basis
+   works only with derivatives good to a few per cent (exact, or a PD constraint on M in the fit, not implemented);
+   keep `sg25` monomial as the seed-reproduction row (`EulerLagrangeRegressor.seed_method()`) and recommend the
+   defaults `EulerLagrangeRegressor()` (physical library, weak form).
 """
 
 
