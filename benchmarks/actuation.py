@@ -76,8 +76,9 @@ def _video_poses(scenario, data) -> tuple[list[PoseTrajectory], float]:
             render_video(rec.poses_true, path, camera, fps=1.0 / rec.dt)
             paths.append(str(path))
         start = time.perf_counter()
-        extractor = MarkerPoseExtractor(n_markers=scenario.n_markers, on_missing="interpolate", progress=False)
-        trajs = extractor.transform(paths)
+        trajs = MarkerPoseExtractor(n_markers=scenario.n_markers, on_missing="interpolate", progress=False).transform(
+            paths
+        )
         return trajs, time.perf_counter() - start
 
 
@@ -122,8 +123,9 @@ def run(name: str, source: str) -> list[str]:
         poses = [PoseTrajectory(r.poses, t=r.t) for r in data.train]
     u = [r.u for r in data.train]
     mass = _mass(scenario)
-    reg = EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), optimizer=StiffnessThresholdOptimizer(),
-                                 actuation=scenario.actuation)
+    reg = EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(mass=mass), optimizer=StiffnessThresholdOptimizer(), actuation=scenario.actuation
+    )
     pipe = make_pcs_pipeline(start="poses", fusion=KinematicFusion(total_length=total), regressor=reg)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
@@ -149,18 +151,23 @@ def run(name: str, source: str) -> list[str]:
             e_p, e_th = end_effector_errors(sim.poses(np.array([fusion.total_length_])), truth_tip)
             cells = f"{1e3 * e_p:.3f} | {e_th:.4f}"
         except Exception as exc:  # noqa: BLE001 - a failed or diverged fit is a result
-            rows.append(f"| {name} | {source}{extraction} | {label} | {segmentation} | failed: {str(exc)[:80]} "
-                        "| – | – | – |")
+            rows.append(
+                f"| {name} | {source}{extraction} | {label} | {segmentation} | failed: {str(exc)[:80]} | – | – | – |"
+            )
             continue
         fitted = model.actuation_
         if isinstance(act, TendonActuation) and act.offset is None:
             true = np.asarray(scenario.robot.actuation.offset)
-            ident = (f"offsets [mm] {', '.join(f'{1e3 * v:+.2f}' for v in fitted.offsets_)}; max error "
-                     f"{100 * np.max(np.abs(fitted.offsets_ / true - 1)):.1f} %")
+            ident = (
+                f"offsets [mm] {', '.join(f'{1e3 * v:+.2f}' for v in fitted.offsets_)}; max error "
+                f"{100 * np.max(np.abs(fitted.offsets_ / true - 1)):.1f} %"
+            )
         elif isinstance(act, PressureActuation):
             true = np.r_[scenario.robot.actuation.bending_gain, scenario.robot.actuation.axial_gain]
-            ident = (f"gb {fitted.gains_[0]:.4g}, {fitted.gains_[1]:.4g} m^3; ga {fitted.gains_[2]:.4g}, "
-                     f"{fitted.gains_[3]:.4g} m^2; max error {100 * np.max(np.abs(fitted.gains_ / true - 1)):.2f} %")
+            ident = (
+                f"gb {fitted.gains_[0]:.4g}, {fitted.gains_[1]:.4g} m^3; ga {fitted.gains_[2]:.4g}, "
+                f"{fitted.gains_[3]:.4g} m^2; max error {100 * np.max(np.abs(fitted.gains_ / true - 1)):.2f} %"
+            )
         else:
             ident = "–"
         rows.append(f"| {name} | {source}{extraction} | {label} | {segmentation} | {ident} | {cells} | {fit_s} |")
@@ -173,19 +180,25 @@ def main() -> None:
     for name in ("two_segment_tendon", "one_segment_pneumatic"):
         for source in ("video", "noisy"):
             rows += run(name, source)
-    body = "\n".join([
-        __doc__.split("Usage::")[0].strip().split("\n\n", 1)[1],
-        "",
-        "| scenario | source | actuation model | fused segmentation | identified | e_p^EE [mm] | e_θ^EE [rad] "
-        "| fit [s] |",
-        "|---|---|---|---|---|---|---|---|",
-        *rows,
-        "",
-        "Targets (issue 11): tendons noise-free e_p^EE <= 0.5 mm, offsets within 2 %, with noise <= 3 mm; chambers "
-        "gains within 2 %, e_p^EE <= 0.5 mm; fit <= 10 s.",
-    ])
-    write_section("actuation", "Identification from actuator inputs (tendons, chambers)", body,
-                  "nice -n 10 .venv/bin/python benchmarks/actuation.py")
+    body = "\n".join(
+        [
+            __doc__.split("Usage::")[0].strip().split("\n\n", 1)[1],
+            "",
+            "| scenario | source | actuation model | fused segmentation | identified "
+            "| e_p^EE [mm] | e_θ^EE [rad] | fit [s] |",
+            "|---|---|---|---|---|---|---|---|",
+            *rows,
+            "",
+            "Targets (issue 11): tendons noise-free e_p^EE <= 0.5 mm, offsets within 2 %, with noise <= 3 mm; chambers "
+            "gains within 2 %, e_p^EE <= 0.5 mm; fit <= 10 s.",
+        ]
+    )
+    write_section(
+        "actuation",
+        "Identification from actuator inputs (tendons, chambers)",
+        body,
+        "nice -n 10 .venv/bin/python benchmarks/actuation.py",
+    )
 
 
 if __name__ == "__main__":

@@ -17,6 +17,9 @@ HERE = Path(__file__).resolve().parent
 ORDER = [
     "simulation_speed",
     "extraction_speed",
+    "degraded_footage",
+    "calibration_round_trip",
+    "streaming_state_estimation",
     "library_build",
     "physical_library",
     "physical_weak_form",
@@ -27,8 +30,10 @@ ORDER = [
     "end_to_end",
     "monomial_divergence",
     "rest_length",
+    "rest_length_estimate",
     "model_selection",
     "actuation",
+    "control",
 ]
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]

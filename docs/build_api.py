@@ -18,20 +18,56 @@ SECTIONS: list[tuple[str, str, list[str]]] = [
     ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline", "recording_groups"]),
     ("Vision: videos → poses", "pcs_sindy.vision", ["MarkerPoseExtractor"]),
     ("Camera", "pcs_sindy.camera", ["Camera"]),
-    ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion", "threshold_sweep", "select_threshold"]),
+    ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion"]),
+    ("Choosing the threshold", "pcs_sindy.threshold_selection", ["threshold_sweep", "select_threshold"]),
+    (
+        "Marker chain geometry",
+        "pcs_sindy.chain_geometry",
+        ["chain_poses", "segment_strains", "estimate_total_length", "deformed_lengths"],
+    ),
+    ("Segment merging (Algorithm 1)", "pcs_sindy.segment_merging", ["fuse_segments", "strain_distances", "merge_runs"]),
+    ("Least-squares shape fit", "pcs_sindy.shape_fit", ["fit_strains_least_squares", "refine_boundaries"]),
     ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary", "StackedEulerLagrangeLibrary"]),
     ("Optimizer", "pcs_sindy.optimizers", ["StiffnessThresholdOptimizer"]),
     ("Regressor: strains + τ → model", "pcs_sindy.regressor", ["EulerLagrangeRegressor"]),
+    (
+        "Actuation: inputs → generalised forces",
+        "pcs_sindy.actuation",
+        ["TendonActuation", "PressureActuation", "LinearActuation", "IdentityActuation", "actuation_from_layout"],
+    ),
+    ("Library contract", "pcs_sindy.library.base", ["LagrangianLibrary"]),
+    ("Formulations", "pcs_sindy.formulations", ["regression", "weak_rows", "integrate_forces", "sliding_windows"]),
+    ("Identifiability", "pcs_sindy.identifiability", ["identifiability", "report"]),
+    ("Forward models and rollouts", "pcs_sindy.forward", ["ForwardModel", "LumpedPCSModel", "CallableModel"]),
+    ("The simulate contract", "pcs_sindy.integration", ["SimulationError", "canonical_method"]),
+    (
+        "Control",
+        "pcs_sindy.control",
+        ["SetpointRegulator", "ComputedTorqueController", "TipRegulator", "closed_loop", "ClosedLoopResult"],
+    ),
     ("Model files", "pcs_sindy.persistence", ["save", "load"]),
     ("Kinematics", "pcs_sindy.kinematics", ["PlanarPCS", "forward_kinematics", "forward_kinematics_jacobian"]),
     ("Trajectories", "pcs_sindy.trajectory", ["PoseTrajectory", "StrainTrajectory"]),
-    ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors"]),
-    ("Simulation (ground truth)", "pcs_sindy.simulation",
-     ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"]),
-    ("Plotting", "pcs_sindy.plotting", [
-        "plot_strain_distance_profile", "plot_error_vs_segments", "plot_rollout", "plot_end_effector",
-        "plot_stills", "animate_rollout",
-    ]),
+    ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors", "rollout_scorer"]),
+    (
+        "Simulation (ground truth)",
+        "pcs_sindy.simulation",
+        ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"],
+    ),
+    ("Degraded footage", "pcs_sindy.simulation.nuisances", ["Nuisances"]),
+    ("Calibration boards", "pcs_sindy.simulation.checkerboard", ["render_checkerboard"]),
+    (
+        "Plotting",
+        "pcs_sindy.plotting",
+        [
+            "plot_strain_distance_profile",
+            "plot_error_vs_segments",
+            "plot_rollout",
+            "plot_end_effector",
+            "plot_stills",
+            "animate_rollout",
+        ],
+    ),
 ]
 
 
@@ -106,8 +142,16 @@ def render() -> str:
             lines += [f"### `{name}`", "", "```python", f"{kind} {_signature(obj, name)}", "```", "", _doc(obj), ""]
             if inspect.isclass(obj):
                 for meth_name, meth in _public_methods(obj):
-                    lines += [f"#### `{name}.{meth_name}`", "", "```python", _signature(meth, meth_name), "```", "",
-                              _doc(meth), ""]
+                    lines += [
+                        f"#### `{name}.{meth_name}`",
+                        "",
+                        "```python",
+                        _signature(meth, meth_name),
+                        "```",
+                        "",
+                        _doc(meth),
+                        "",
+                    ]
     return "\n".join(lines).rstrip() + "\n"
 
 

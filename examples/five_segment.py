@@ -41,8 +41,10 @@ poses = [rec.poses for rec in data.train]
 fusion = KinematicFusion(threshold=0.2, total_length=total_length, pose_std=data.noise, max_refine_frames=100)
 fusion.fit(poses)
 strains = fusion.transform(poses)
-print(f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.segment_lengths_, 4)} m "
-      f"(true {list(scenario.robot.kinematics.segment_lengths)})")
+print(
+    f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.segment_lengths_, 4)} m "
+    f"(true {list(scenario.robot.kinematics.segment_lengths)})"
+)
 
 # the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window for the rates
 model = EulerLagrangeRegressor(window_length=15)

@@ -41,8 +41,10 @@ with tempfile.TemporaryDirectory() as folder:
     for k, rec in enumerate(data.train):
         out = render_video(rec.poses_true, Path(folder) / f"train{k}.avi", camera, fps=1000.0)
         videos.append(str(out.video))
-    print(f"rendered {len(videos)} videos ({sum(r.t.size for r in data.train)} frames, "
-          f"{camera.pixels_per_metre:.0f} px/m) in {time.perf_counter() - start:.1f} s")
+    print(
+        f"rendered {len(videos)} videos ({sum(r.t.size for r in data.train)} frames, "
+        f"{camera.pixels_per_metre:.0f} px/m) in {time.perf_counter() - start:.1f} s"
+    )
 
     pipe = make_pcs_pipeline(
         extractor=MarkerPoseExtractor(progress=False),
@@ -62,6 +64,8 @@ n = pipe.model_.kinematics_.n_q
 poses = pipe.simulate_poses(np.zeros(n), np.zeros(n), val.t, val.tau).poses
 e_p, e_theta = end_effector_errors(poses[:, -1:], val.poses_true[:, -1:])
 d_p, d_theta = distributed_errors(poses[:, 1:], val.poses_true[:, 1:])
-print(f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad; "
-      f"all markers: e_p^dist = {1e3 * d_p:.2f} mm, e_theta^dist = {d_theta:.4f} rad")
+print(
+    f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad; "
+    f"all markers: e_p^dist = {1e3 * d_p:.2f} mm, e_theta^dist = {d_theta:.4f} rad"
+)
 print(f"total {time.perf_counter() - start:.1f} s")

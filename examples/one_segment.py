@@ -32,8 +32,10 @@ total_length = scenario.robot.kinematics.total_length  # the robot's rest length
 poses = [rec.poses for rec in data.train]
 fusion = KinematicFusion(threshold=0.2, total_length=total_length, pose_std=data.noise).fit(poses)
 strains = fusion.transform(poses)
-print(f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.segment_lengths_, 4)} m "
-      f"(true {list(scenario.robot.kinematics.segment_lengths)})")
+print(
+    f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.segment_lengths_, 4)} m "
+    f"(true {list(scenario.robot.kinematics.segment_lengths)})"
+)
 
 # the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window for the rates
 model = EulerLagrangeRegressor(window_length=15)
@@ -46,6 +48,8 @@ n = model.kinematics_.n_q
 sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau)
 tip = sim.poses(np.array([fusion.segment_lengths_.sum()]))
 e_p, e_theta = end_effector_errors(tip, val.poses_true[:, -1:, :])
-print(f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad "
-      f"(seed, noisy: 13.7 mm, 0.307 rad)")
+print(
+    f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad "
+    f"(seed, noisy: 13.7 mm, 0.307 rad)"
+)
 print(f"total {time.perf_counter() - start:.1f} s")

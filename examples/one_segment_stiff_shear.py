@@ -38,8 +38,10 @@ print(f"segmentation: {fusion.n_segments_} segment(s), lengths {np.round(fusion.
 model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), window_length=15)
 model.fit(strains, [rec.tau for rec in data.train])
 for k, rnd in enumerate(model.optimizer_.history_):
-    print(f"round {k + 1}: stiffness {np.array2string(rnd['stiffness'], precision=3)} "
-          f"(max {np.array2string(model.optimizer_.max_stiffness_, precision=3)}), removed {rnd['removed'] or 'none'}")
+    print(
+        f"round {k + 1}: stiffness {np.array2string(rnd['stiffness'], precision=3)} "
+        f"(max {np.array2string(model.optimizer_.max_stiffness_, precision=3)}), removed {rnd['removed'] or 'none'}"
+    )
 print("removed strains:", model.removed_strains_, "-> modelled:", model.kinematics_.strain_names(active_only=True))
 model.print(precision=3)
 
@@ -48,6 +50,8 @@ n = model.kinematics_.n_q
 sim = model.simulate(np.zeros(n), np.zeros(n), val.t, val.tau)
 tip = sim.poses(np.array([fusion.segment_lengths_.sum()]))
 e_p, e_theta = end_effector_errors(tip, val.poses_true[:, -1:, :])
-print(f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad "
-      f"(seed, noise-free, with removal: 4.57 mm, 0.099 rad)")
+print(
+    f"7 s validation rollout: e_p^EE = {1e3 * e_p:.2f} mm, e_theta^EE = {e_theta:.4f} rad "
+    f"(seed, noise-free, with removal: 4.57 mm, 0.099 rad)"
+)
 print(f"total {time.perf_counter() - start:.1f} s")

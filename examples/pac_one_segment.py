@@ -44,9 +44,12 @@ print(f"chosen: h = {chosen.h:g} ({chosen.n_segments} segments)")
 
 fusion = KinematicFusion(threshold=chosen.h, total_length=0.15, merge="closest_pair", pose_std=data.noise).fit(poses)
 recon = fusion.reconstruct(poses)
-e_p, e_theta = distributed_errors(np.concatenate([r.poses[:, 1:] for r in recon]),
-                                  np.concatenate([p[:, 1:] for p in truth]))
-print(f"least-squares shapes, refined boundaries: lengths {np.round(fusion.segment_lengths_, 4)} m, "
-      f"e_p^dist = {e_p:.2e} m, e_theta^dist = {e_theta:.2e} rad "
-      f"(seed, 3 segments [0.0075, 0.105, 0.0375]: 7.46e-04 m, 8.92e-02 rad)")
+e_p, e_theta = distributed_errors(
+    np.concatenate([r.poses[:, 1:] for r in recon]), np.concatenate([p[:, 1:] for p in truth])
+)
+print(
+    f"least-squares shapes, refined boundaries: lengths {np.round(fusion.segment_lengths_, 4)} m, "
+    f"e_p^dist = {e_p:.2e} m, e_theta^dist = {e_theta:.2e} rad "
+    f"(seed, 3 segments [0.0075, 0.105, 0.0375]: 7.46e-04 m, 8.92e-02 rad)"
+)
 print(f"total {time.perf_counter() - start:.1f} s")

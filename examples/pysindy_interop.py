@@ -34,8 +34,12 @@ def main() -> None:
     states = names + [f"d{n}" for n in names] + [f"dd{n}" for n in names]  # x = [q, qd, qdd]
     # pysindy: one output coordinate (tau), degrees of freedom on a spatial axis
     model = ps.SINDy(feature_library=StackedEulerLagrangeLibrary(lib), optimizer=ps.STLSQ(threshold=0.0, alpha=0.0))
-    model.fit([np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd)], t=[r.t for r in recs],
-              x_dot=[stack_forces(r.tau) for r in recs], feature_names=states)
+    model.fit(
+        [np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd, strict=True)],
+        t=[r.t for r in recs],
+        x_dot=[stack_forces(r.tau) for r in recs],
+        feature_names=states,
+    )
     print("pysindy.SINDy (stacked Euler-Lagrange form, tau = Psi(q, qd, qdd) pi):")
     model.print(lhs=["tau"], precision=6)
 
@@ -47,10 +51,11 @@ def main() -> None:
     reg.print(precision=6)
 
     coef = model.coefficients()[0]
-    truth = lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus,
-                                             robot.damping)
+    truth = lib.coefficients_from_parameters(
+        robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+    )
     print("\n" + "parameter".ljust(12) + "SINDy".rjust(14) + "regressor".rjust(14) + "true".rjust(14))
-    for name, a, b, c in zip(lib.euler_lagrange_names(), coef, reg.coef_, truth):
+    for name, a, b, c in zip(lib.euler_lagrange_names(), coef, reg.coef_, truth, strict=True):
         print(f"{name:<12}{a:14.6g}{b:14.6g}{c:14.6g}")
     print(f"max relative difference SINDy vs regressor: {np.max(np.abs(coef - reg.coef_) / np.abs(reg.coef_)):.1e}")
     tau_hat = unstack_forces(model.predict(np.hstack([recs[0].q, recs[0].qd, qdd[0]])), robot.n_q)

@@ -31,8 +31,10 @@ total_length = scenario.robot.kinematics.total_length
 poses = [rec.poses for rec in data.train]
 fusion = KinematicFusion(threshold=0.2, total_length=total_length).fit(poses)
 strains = fusion.transform(poses)
-print(f"segmentation: {fusion.n_segments_} segments, lengths {np.round(fusion.segment_lengths_, 4)} m "
-      f"(true {list(scenario.robot.kinematics.segment_lengths)})")
+print(
+    f"segmentation: {fusion.n_segments_} segments, lengths {np.round(fusion.segment_lengths_, 4)} m "
+    f"(true {list(scenario.robot.kinematics.segment_lengths)})"
+)
 
 # the defaults (physical library with rest strains, weak form) with a wider Savitzky-Golay window for the rates
 model = EulerLagrangeRegressor(window_length=15)
@@ -40,8 +42,9 @@ model.fit(strains, [rec.tau for rec in data.train])
 names = model.kinematics_.strain_names()
 print("removed strains:", model.removed_strains_)
 print("strain    true K        identified K   max K")
-for name, k_true, k_hat, k_max in zip(names, scenario.robot.stiffness, model.stiffness_,
-                                      model.optimizer_.max_stiffness_):
+for name, k_true, k_hat, k_max in zip(
+    names, scenario.robot.stiffness, model.stiffness_, model.optimizer_.max_stiffness_, strict=True
+):
     print(f"{name:6s} {k_true:12.4g} {k_hat:14.4g} {k_max:10.4g}")
 model.print(precision=3)
 

@@ -1,6 +1,6 @@
 """pcs_sindy: videos of a planar continuum soft robot to a Piecewise Constant Strain model.
 
-The public entry points (DESIGN.md §2) are importable from the package root;
+The public entry points are importable from the package root;
 they are loaded lazily so that importing the package stays cheap and a
 missing optional piece does not break the others.
 """

@@ -37,10 +37,13 @@ __all__ = ["moments", "moments_array", "dynamics", "input_forces", "rhs", "mass_
 _SERIES_RADIUS = 1.0
 _N_SERIES = 20  # 1 / 20! < 1e-18
 # Horner tables, highest power first: row j holds the coefficient of u^(2(J-1-j)) for n = 0, 1, 2
-_SER_RE = np.array([[(-1) ** j / (math.factorial(2 * j) * (n + 2 * j + 1)) for n in range(3)]
-                    for j in range(_N_SERIES // 2)])[::-1].copy()
-_SER_IM = np.array([[(-1) ** j / (math.factorial(2 * j + 1) * (n + 2 * j + 2)) for n in range(3)]
-                    for j in range(_N_SERIES // 2)])[::-1].copy()
+_SER_RE = np.array(
+    [[(-1) ** j / (math.factorial(2 * j) * (n + 2 * j + 1)) for n in range(3)] for j in range(_N_SERIES // 2)]
+)[::-1].copy()
+_SER_IM = np.array(
+    [[(-1) ** j / (math.factorial(2 * j + 1) * (n + 2 * j + 2)) for n in range(3)] for j in range(_N_SERIES // 2)]
+)[::-1].copy()
+
 
 @numba.njit(cache=True)
 def moments(u: float):
@@ -205,8 +208,7 @@ def workspace(P):
     """Work arrays ``(M, bias, J, v, acc, tau)`` for the parameters ``P``."""
     act, L, wts = P[0], P[1], P[3]
     n, m, K = act.size, L.size, wts.shape[1]
-    return (np.empty((n, n)), np.empty(n), np.zeros((2, 3 * m, m * K)), np.zeros((2, m * K)), np.empty(n),
-            np.empty(n))
+    return (np.empty((n, n)), np.empty(n), np.zeros((2, 3 * m, m * K)), np.zeros((2, m * K)), np.empty(n), np.empty(n))
 
 
 @numba.njit(cache=True)

@@ -168,7 +168,8 @@ def dopri_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs, A,
                     sc = atol + rtol * max(abs(y[j]), abs(y_new[j]))
                     err += (hk * s / sc) ** 2
                 accept, h, err_prev, rejected_last = _controller(
-                    math.sqrt(err / d), hk, expo, BETA, err_prev, rejected_last)
+                    math.sqrt(err / d), hk, expo, BETA, err_prev, rejected_last
+                )
                 if (not accept) and h < min_step:
                     return out, MIN_STEP, k, tc, y, n_steps, n_rej, n_eval
             if not accept:
@@ -307,7 +308,8 @@ def ros_loop(y0, t, u, fixed_step, rtol, atol, max_step, min_step, max_abs, RA, 
                     sc = atol + rtol * max(ymax[n + a], abs(y_new[n + a]))
                     err += (c * (c * x1[a] - kbuf[a]) / sc) ** 2
                 accept, h, err_prev, rejected_last = _controller(
-                    math.sqrt(err / d), hk, expo, 0.0, err_prev, rejected_last)
+                    math.sqrt(err / d), hk, expo, 0.0, err_prev, rejected_last
+                )
                 if (not accept) and h < min_step:
                     return out, MIN_STEP, k, tc, y, n_steps, n_rej, n_eval
             if not accept:

@@ -2,7 +2,7 @@
 
 The estimators inherit these methods, but the file-format code is imported only
 when a method is called: the core modules do not depend on the I/O layer at
-import time (DESIGN.md §2).
+import time.
 """
 
 from __future__ import annotations

@@ -82,7 +82,15 @@ def _inside(value: NDArray, name: str, total: float, *, allow_zero: bool, tol: f
     bad = (value < 0) | (value > total * (1 + tol)) | ((value == 0) & (not allow_zero))
     if np.any(bad):
         k = int(np.argmax(bad))
-        raise ValueError(f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m)")
+        hint = ""
+        if value[k] > total:  # usually a rest length read from poses of a robot the actuators compress
+            hint = (
+                "; if that length was estimated from the poses, give the measured one "
+                "(KinematicFusion(total_length=...) or MarkerPoseExtractor(robot_length=...))"
+            )
+        raise ValueError(
+            f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m){hint}"
+        )
 
 
 class Actuation(BaseEstimator, ABC):
@@ -96,7 +104,7 @@ class Actuation(BaseEstimator, ABC):
     #: lower bound of every identified gain (0: gains are positive by design)
     gain_lower_bound = 0.0
 
-    def fit(self, kinematics: PlanarPCS) -> "Actuation":
+    def fit(self, kinematics: PlanarPCS) -> Actuation:
         """Take the segmentation the inputs act on.
 
         Parameters
@@ -191,8 +199,9 @@ class Actuation(BaseEstimator, ABC):
         linear : ndarray, shape (B, n, n_gains)
         """
 
-    def forces(self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None,
-               offsets: ArrayLike | None = None) -> NDArray[np.float64]:
+    def forces(
+        self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
         """Generalised forces ``A(q) u`` (B, n) for gains (default: given or identified) and offsets."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         u = np.atleast_2d(np.asarray(u, dtype=float))
@@ -204,8 +213,10 @@ class Actuation(BaseEstimator, ABC):
         """``A(q)`` (B, n, p) on the modelled strains."""
         q = np.atleast_2d(np.asarray(q, dtype=float))
         eye = np.eye(self.n_inputs_)
-        cols = [self.forces(q, np.broadcast_to(eye[j], (q.shape[0], self.n_inputs_)), gains, offsets)
-                for j in range(self.n_inputs_)]
+        cols = [
+            self.forces(q, np.broadcast_to(eye[j], (q.shape[0], self.n_inputs_)), gains, offsets)
+            for j in range(self.n_inputs_)
+        ]
         return np.stack(cols, axis=-1)
 
     def _gains(self, gains: ArrayLike | None) -> NDArray[np.float64]:
@@ -220,7 +231,7 @@ class Actuation(BaseEstimator, ABC):
         """``(kind, offsets (p,), cover (p, m), matrix (n, p))`` for the compiled forward model."""
         raise NotImplementedError(f"{type(self).__name__} has no compiled form; roll out with a solve_ivp method")
 
-    def set_identified(self, gains: ArrayLike, offsets: ArrayLike) -> "Actuation":
+    def set_identified(self, gains: ArrayLike, offsets: ArrayLike) -> Actuation:
         """Store identified gains and offsets (``gains_``, ``offsets_``)."""
         self.gains_ = np.asarray(gains, dtype=float).reshape(-1)
         self.offsets_ = np.asarray(offsets, dtype=float).reshape(-1)
@@ -230,10 +241,28 @@ class Actuation(BaseEstimator, ABC):
     def describe(self, precision: int = 3) -> list[str]:
         """The map and its identified parameters as text."""
 
+    #: the constructor parameters that describe the design (what a user knows), in :meth:`design_layout`
+    _design_keys: tuple[str, ...] = ()
+
+    def design_layout(self) -> dict[str, Any]:
+        """The layout as the robot's design gives it (terminations and sides, spans), JSON-able."""
+        out: dict[str, Any] = {"type": self._kind}
+        for key in self._design_keys:
+            out[key] = np.asarray(getattr(self, key), dtype=float).tolist()
+            if key == "side":
+                out[key] = [int(v) for v in out[key]]
+        return out
+
+    def input_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Bounds (lower, upper) of the inputs, or None (unbounded)."""
+        return None
+
     def layout(self) -> dict[str, Any]:
         """The JSON-able layout (constructor parameters)."""
-        return {"type": self._kind, **{k: (np.asarray(v).tolist() if v is not None else None)
-                                       for k, v in self.get_params().items()}}
+        return {
+            "type": self._kind,
+            **{k: (np.asarray(v).tolist() if v is not None else None) for k, v in self.get_params().items()},
+        }
 
 
 class IdentityActuation(Actuation):
@@ -242,8 +271,13 @@ class IdentityActuation(Actuation):
     _kind = "identity"
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
-        return {"n_inputs": kinematics.n_q, "gain_names": [], "offset_names": [], "gains": np.zeros(0),
-                "offsets": np.zeros(0)}
+        return {
+            "n_inputs": kinematics.n_q,
+            "gain_names": [],
+            "offset_names": [],
+            "gains": np.zeros(0),
+            "offsets": np.zeros(0),
+        }
 
     def parts(self, q, u, offsets=None):
         mask = self.kinematics_.active_mask
@@ -294,10 +328,21 @@ class TendonActuation(Actuation):
     """
 
     _kind = "tendon"
+    _design_keys = ("end", "side")
     depends_on_q = True
 
-    def __init__(self, end: ArrayLike = (), side: ArrayLike = (), offset: ArrayLike | None = None,
-                 max_offset: float = 0.05, shared: bool = False) -> None:
+    def input_bounds(self):
+        """Tensions pull: ``[0, inf)``."""
+        return np.zeros(self.n_inputs_), np.full(self.n_inputs_, np.inf)
+
+    def __init__(
+        self,
+        end: ArrayLike = (),
+        side: ArrayLike = (),
+        offset: ArrayLike | None = None,
+        max_offset: float = 0.05,
+        shared: bool = False,
+    ) -> None:
         self.end = end
         self.side = side
         self.offset = offset
@@ -315,8 +360,13 @@ class TendonActuation(Actuation):
         lengths = np.asarray(kinematics.segment_lengths, dtype=float)
         total = float(lengths.sum())
         _inside(end, "end", total, allow_zero=False)
-        out = {"cover": _cover(np.zeros(p), np.minimum(end, total), lengths), "side": side, "n_inputs": p,
-               "gain_names": [], "gains": np.zeros(0)}
+        out = {
+            "cover": _cover(np.zeros(p), np.minimum(end, total), lengths),
+            "side": side,
+            "n_inputs": p,
+            "gain_names": [],
+            "gains": np.zeros(0),
+        }
         if not isinstance(self.shared, (bool, np.bool_)):
             raise ValueError(f"shared must be True or False; got {self.shared!r}")
         if self.offset is None:
@@ -346,8 +396,10 @@ class TendonActuation(Actuation):
         if np.any(arr < 0):
             idx = np.argwhere(arr < 0)[0]
             when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
-            raise ValueError(f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
-                             "tendon tensions must be >= 0")
+            raise ValueError(
+                f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
+                "tendon tensions must be >= 0"
+            )
         return arr
 
     def lengths(self, q: ArrayLike, offsets: ArrayLike | None = None) -> NDArray[np.float64]:
@@ -380,7 +432,12 @@ class TendonActuation(Actuation):
         return known, np.zeros(known.shape + (0,))
 
     def compiled(self, gains=None, offsets=None) -> tuple:
-        return ACT_TENDON, self._signed(offsets).copy(), self._arrays["cover"].copy(), np.zeros((self.kinematics_.n_active, 0))
+        return (
+            ACT_TENDON,
+            self._signed(offsets).copy(),
+            self._arrays["cover"].copy(),
+            np.zeros((self.kinematics_.n_active, 0)),
+        )
 
     def describe(self, precision: int = 3) -> list[str]:
         ends = ", ".join(f"{e:.{precision}g}" for e in np.atleast_1d(np.asarray(self.end, dtype=float)))
@@ -463,9 +520,16 @@ class PressureActuation(_ConstantActuation):
     """
 
     _kind = "pressure"
+    _design_keys = ("start", "end", "side")
 
-    def __init__(self, start: ArrayLike = (), end: ArrayLike = (), side: ArrayLike = (),
-                 bending_gain: ArrayLike | None = None, axial_gain: ArrayLike | None = None) -> None:
+    def __init__(
+        self,
+        start: ArrayLike = (),
+        end: ArrayLike = (),
+        side: ArrayLike = (),
+        bending_gain: ArrayLike | None = None,
+        axial_gain: ArrayLike | None = None,
+    ) -> None:
         self.start = start
         self.end = end
         self.side = side
@@ -510,8 +574,10 @@ class PressureActuation(_ConstantActuation):
         how = "identified" if self.n_gains else "given"
         return [
             "A = const: A[be_i, k] = side_k gb_k c_ki, A[ax_i, k] = ga_k c_ki (pressure chambers)",
-            f"gains ({how}): gb [m^3] = " + ", ".join(f"{v:.{precision}g}" for v in g[:p])
-            + "; ga [m^2] = " + ", ".join(f"{v:.{precision}g}" for v in g[p:]),
+            f"gains ({how}): gb [m^3] = "
+            + ", ".join(f"{v:.{precision}g}" for v in g[:p])
+            + "; ga [m^2] = "
+            + ", ".join(f"{v:.{precision}g}" for v in g[p:]),
         ]
 
 
@@ -549,8 +615,10 @@ class LinearActuation(_ConstantActuation):
         return out, pat.shape[1]
 
     def describe(self, precision: int = 3) -> list[str]:
-        return ["A = const (linear layout): " + ", ".join(f"{nm} = {v:.{precision}g}"
-                                                          for nm, v in zip(self.gain_names_, self.gains_))]
+        return [
+            "A = const (linear layout): "
+            + ", ".join(f"{nm} = {v:.{precision}g}" for nm, v in zip(self.gain_names_, self.gains_))
+        ]
 
 
 def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
@@ -564,12 +632,15 @@ def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
         raise ValueError(f"layout must be a dict with a 'type'; got {layout!r}")
     kind = layout["type"]
     kwargs = {k: v for k, v in layout.items() if k != "type"}
-    classes = {"identity": IdentityActuation, "tendon": TendonActuation, "pressure": PressureActuation,
-               "linear": LinearActuation}
+    classes = {
+        "identity": IdentityActuation,
+        "tendon": TendonActuation,
+        "pressure": PressureActuation,
+        "linear": LinearActuation,
+    }
     if kind not in classes:
         raise ValueError(f"layout type must be one of {sorted(classes)}; got {kind!r}")
     try:
         return classes[kind](**kwargs)
     except TypeError as err:
         raise ValueError(f"layout of type {kind!r} has unknown keys: {err}") from None
-

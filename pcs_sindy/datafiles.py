@@ -14,10 +14,10 @@ what is wrong with it, or ``FileNotFoundError``.
 from __future__ import annotations
 
 import json
-
 import zipfile
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,8 +25,19 @@ from numpy.typing import ArrayLike, NDArray
 from .trajectory import StrainTrajectory
 
 __all__ = [
-    "FILE_FORMATS", "DataFileError", "output_dir", "read_arrays", "read_poses", "write_poses", "read_tau",
-    "write_tau", "read_strains", "write_strains", "write_recording", "read_training_files", "read_model_file",
+    "FILE_FORMATS",
+    "DataFileError",
+    "output_dir",
+    "read_arrays",
+    "read_poses",
+    "write_poses",
+    "read_tau",
+    "write_tau",
+    "read_strains",
+    "write_strains",
+    "write_recording",
+    "read_training_files",
+    "read_model_file",
     "write_model_file",
 ]
 
@@ -35,6 +46,7 @@ file formats (all .npz, read without pickle; extra keys are ignored):
   recording    t (T,), q, qd, tau (T, n), poses, poses_true (T, N+1, 3)  (written by 'simulate');
                actuated scenarios add u (T, p), the actuator inputs (tau is then A(q) u at the samples)
   pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
+               optional rest_length (): the robot's measured length in m (written by 'extract --robot-length')
   tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
   strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
                base_pose (3,), base_poses (T, 3), marker_arc_lengths (N+1,)  (written by 'fuse')
@@ -135,13 +147,26 @@ def read_poses(path: str | Path, key: str = "poses") -> tuple[NDArray[np.float64
     return (None if t is None else t.astype(float)), poses
 
 
-def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike) -> Path:
-    """Write a pose file (``t``, ``poses``); returns its path."""
+def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike, rest_length: float | None = None) -> Path:
+    """Write a pose file (``t``, ``poses`` and, when known, the robot's ``rest_length``); returns its path."""
     t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float)
     if poses.ndim != 3 or poses.shape[-1] != 3 or t.shape != (poses.shape[0],):
         raise ValueError(f"need t (T,) and poses (T, N + 1, 3); got {t.shape} and {poses.shape}")
-    np.savez(path, t=t, poses=poses)
+    extra = {} if rest_length is None else {"rest_length": np.float64(rest_length)}
+    np.savez(path, t=t, poses=poses, **extra)
     return Path(path)
+
+
+def read_rest_length(path: str | Path) -> float | None:
+    """The robot's rest length in metres stored in a pose file, or None."""
+    data = read_arrays(path, [], "pose file", optional=["rest_length"])
+    value = data.get("rest_length")
+    if value is None:
+        return None
+    value = float(np.asarray(value))
+    if not np.isfinite(value) or value <= 0:
+        raise DataFileError(f"pose file {str(path)!r}: 'rest_length' must be a length > 0 in metres; got {value!r}")
+    return value
 
 
 def read_tau(path: str | Path, key: str = "tau") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -191,14 +216,18 @@ def read_strains(path: str | Path) -> StrainTrajectory:
     go to ``metadata`` (with ``source``, the path).
     """
     data = read_arrays(
-        path, ["t", "q", "segment_lengths"], "strain file",
+        path,
+        ["t", "q", "segment_lengths"],
+        "strain file",
         optional=["active_strains", "base_pose", *_STRAIN_METADATA],
     )
     meta: dict[str, Any] = {"source": str(path)}
     meta.update({key: data[key] for key in _STRAIN_METADATA if key in data})
     try:
         return StrainTrajectory(
-            data["q"], data["t"], segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
+            data["q"],
+            data["t"],
+            segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
             active_strains=data.get("active_strains"),
             base_pose=tuple(data["base_pose"]) if "base_pose" in data else (0.0, 0.0, 0.0),
             metadata=meta,

@@ -32,8 +32,15 @@ model.simulate(np.zeros(6), np.zeros(6), np.arange(3) * 1e-3, np.zeros((3, 6)))
 """
 
 
-def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None = None, quick: bool = False,
-         n_jobs: int = 2, quiet: bool = False) -> Path:
+def demo(
+    out: str | Path = "out/demo",
+    *,
+    seed: int = 0,
+    threshold: float | None = None,
+    quick: bool = False,
+    n_jobs: int = 2,
+    quiet: bool = False,
+) -> Path:
     """The whole pipeline on two_segment from rendered videos, with a report in ``out/report``.
 
     Every estimator has its default settings (:func:`~pcs_sindy.pipeline.make_pcs_pipeline`)
@@ -60,8 +67,9 @@ def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None
         ``report.md``.
     """
     try:
-        warmup = subprocess.Popen([sys.executable, "-c", _ROLLOUT_WARMUP], stdout=subprocess.DEVNULL,
-                                  stderr=subprocess.DEVNULL)
+        warmup = subprocess.Popen(
+            [sys.executable, "-c", _ROLLOUT_WARMUP], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL
+        )
     except OSError:  # an optimisation only
         warmup = None
     out = files.output_dir(out)
@@ -75,23 +83,31 @@ def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None
         _say(quiet, f"[demo] {name}: {clock[name]} s")
 
     try:
-        paths = simulate("two_segment", out / "data", seed=seed, n_train=2 if quick else None,
-                         train_duration=0.2 if quick else None, validation_duration=1.0 if quick else None, quiet=quiet)
+        paths = simulate(
+            "two_segment",
+            out / "data",
+            seed=seed,
+            n_train=2 if quick else None,
+            train_duration=0.2 if quick else None,
+            validation_duration=1.0 if quick else None,
+            quiet=quiet,
+        )
         train, val = paths[:-1], paths[-1]
         tick("simulate")
-        videos = render(train, out / "videos", size=DEMO_SIZE, marker_size=DEMO_MARKER_SIZE, n_jobs=n_jobs,
-                        quiet=quiet)
+        videos = render(train, out / "videos", size=DEMO_SIZE, marker_size=DEMO_MARKER_SIZE, n_jobs=n_jobs, quiet=quiet)
         tick("render")
         pose_files = extract(videos, out / "poses", n_jobs=n_jobs, quiet=quiet)
         tick("extract")
         # The rest length is what a user measures with a ruler; estimated from the videos of a robot hanging
         # under its weight it reads ~1 % long (gravity stretch), which biases the fused lengths and the model.
         rest_length = float(sum(json.loads((out / "data" / "scenario.json").read_text())["segment_lengths"]))
-        fusion, _, pose_trajs = fuse(pose_files, out / "strains", threshold=threshold, total_length=rest_length,
-                                     quiet=quiet)
+        fusion, _, pose_trajs = fuse(
+            pose_files, out / "strains", threshold=threshold, total_length=rest_length, quiet=quiet
+        )
         tick("fuse")
-        model = fit([out / "strains" / (p.stem + ".npz") for p in pose_files], train, out / "model" / "model.json",
-                    quiet=quiet)
+        model = fit(
+            [out / "strains" / (p.stem + ".npz") for p in pose_files], train, out / "model" / "model.json", quiet=quiet
+        )
         tick("fit")
         if warmup is not None:
             try:  # never write numba's cache from two processes at once
@@ -101,9 +117,18 @@ def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None
         roll = rollout(model, val, out / "rollout", truth=val, plot=False, quiet=quiet)
         tick("rollout")
         start = marks[-1]
-        report = demo_report(out / "report", fusion=fusion, model=model, sim=roll.sim, poses=roll.poses,
-                             train_files=train, validation_file=val, pose_trajectories=pose_trajs,
-                             progress=not quiet, tick=tick)
+        report = demo_report(
+            out / "report",
+            fusion=fusion,
+            model=model,
+            sim=roll.sim,
+            poses=roll.poses,
+            train_files=train,
+            validation_file=val,
+            pose_trajectories=pose_trajs,
+            progress=not quiet,
+            tick=tick,
+        )
         clock["report"] = round(time.perf_counter() - start, 1)
     finally:
         if warmup is not None and warmup.poll() is None:
@@ -112,12 +137,17 @@ def demo(out: str | Path = "out/demo", *, seed: int = 0, threshold: float | None
     clock["total"] = round(time.perf_counter() - marks[0], 1)
     load_end = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     p = model.get_params()
-    identification = (f"identification with EulerLagrangeRegressor()'s defaults ({type(model.library_).__name__}, "
-                      f"{p['formulation']} form, Savitzky-Golay {p['window_length']}/{p['polyorder']})")
+    identification = (
+        f"identification with EulerLagrangeRegressor()'s defaults ({type(model.library_).__name__}, "
+        f"{p['formulation']} form, Savitzky-Golay {p['window_length']}/{p['polyorder']})"
+    )
     integration = f"{roll.metrics['method']}, rtol {p['rtol']:g}, atol {p['atol']:g}"
-    machine = (f"{os.cpu_count()} cores; 1-minute load average {load_start:.1f} at the start, {load_end:.1f} at the "
-               "end (other jobs slow every stage)")
-    path = write_report_md(report, clock, seed=seed, quick=quick, identification=identification,
-                           integration=integration, machine=machine)
+    machine = (
+        f"{os.cpu_count()} cores; 1-minute load average {load_start:.1f} at the start, {load_end:.1f} at the "
+        "end (other jobs slow every stage)"
+    )
+    path = write_report_md(
+        report, clock, seed=seed, quick=quick, identification=identification, integration=integration, machine=machine
+    )
     print(f"demo report: {path} (total {clock['total']} s)")
     return path

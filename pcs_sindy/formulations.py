@@ -19,8 +19,9 @@ library of fewer strains.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.polynomial import Polynomial
@@ -416,8 +417,14 @@ def _check(recordings: Sequence[Recording], formulation: str) -> list[Recording]
     return recs
 
 
-def library_rows(library: Any, recordings: Sequence[Recording], formulation: str,
-                 kept: NDArray[np.bool_] | None = None, *, test_function: str | None = "bump") -> NDArray[np.float64]:
+def library_rows(
+    library: Any,
+    recordings: Sequence[Recording],
+    formulation: str,
+    kept: NDArray[np.bool_] | None = None,
+    *,
+    test_function: str | None = "bump",
+) -> NDArray[np.float64]:
     """Rows of the Lagrangian library (n_rows, n_kept, n_coefficients_) on the strains ``kept`` (default all)."""
     recs = _check(recordings, formulation)
     kept = np.ones(recs[0].q.shape[1], dtype=bool) if kept is None else kept
@@ -425,8 +432,12 @@ def library_rows(library: Any, recordings: Sequence[Recording], formulation: str
     for r in recs:
         if formulation == "strong":
             sel = slice(None) if r.rows is None else r.rows
-            parts.append(np.asarray(library.euler_lagrange_matrix(r.q[sel][:, kept], r.qd[sel][:, kept],
-                                                                  r.qdd[sel][:, kept]), dtype=float))
+            parts.append(
+                np.asarray(
+                    library.euler_lagrange_matrix(r.q[sel][:, kept], r.qd[sel][:, kept], r.qdd[sel][:, kept]),
+                    dtype=float,
+                )
+            )
         else:
             parts.append(weak_rows(library, r.t, r.q[:, kept], r.qd[:, kept], r.windows, test_function=test_function))
     return np.concatenate(parts)

@@ -19,7 +19,8 @@ Both take other scipy schemes and callable inputs through
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -59,11 +60,15 @@ class ForwardModel(ABC):
     methods : tuple of str
         Integration schemes :meth:`simulate` accepts (names of
         :data:`pcs_sindy.integration.METHODS`).
+    compiled_methods : tuple of str
+        Those of :attr:`methods` run by the model's own compiled loop for
+        tabulated inputs; every other one goes through ``solve_ivp``.
     default_method : str
         The scheme used when ``method`` is not given (the best measured one).
     """
 
     methods: tuple[str, ...] = tuple(SCIPY_METHODS)
+    compiled_methods: tuple[str, ...] = ()
     default_method: str = "radau"
 
     def __init__(self, kinematics: PlanarPCS, actuation: Any = None) -> None:
@@ -94,6 +99,16 @@ class ForwardModel(ABC):
     def n_inputs(self) -> int:
         """Columns of the input ``u``: the actuators', or one generalised force per strain (3m)."""
         return int(self.kinematics.n_q) if self.actuation is None else int(self.actuation.n_inputs_)
+
+    @property
+    def input_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Bounds (lower, upper) of the inputs (e.g. tendon tensions >= 0), or None."""
+        return None if self.actuation is None else self.actuation.input_bounds()
+
+    @property
+    def actuation_layout(self) -> dict | None:
+        """The actuator layout as the design gives it, or None for generalised-force inputs."""
+        return None if self.actuation is None else self.actuation.design_layout()
 
     def input_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
         """``A(q)`` mapping the input ``u`` (p,) to generalised forces on the modelled strains, shape (..., n, p).
@@ -136,7 +151,9 @@ class ForwardModel(ABC):
                 fn = u
 
                 def checked(time: float) -> NDArray[np.float64]:
-                    return act.check_inputs(np.asarray(fn(time), dtype=float).reshape(1, -1), "u(t)", np.array([time]))[0]
+                    return act.check_inputs(np.asarray(fn(time), dtype=float).reshape(1, -1), "u(t)", np.array([time]))[
+                        0
+                    ]
 
                 return checked
             return np.ascontiguousarray(act.check_inputs(u, "u", t))
@@ -146,7 +163,9 @@ class ForwardModel(ABC):
             def reduced(time: float) -> NDArray[np.float64]:
                 val = np.asarray(fn(time), dtype=float).reshape(-1)
                 if val.size not in (mask.size, self.n):
-                    raise ValueError(f"u(t) must return {mask.size} (or {self.n}) forces; got {val.size} at t = {time!r}")
+                    raise ValueError(
+                        f"u(t) must return {mask.size} (or {self.n}) forces; got {val.size} at t = {time!r}"
+                    )
                 return val[mask] if val.size == mask.size and mask.size != self.n else val
 
             return reduced
@@ -212,8 +231,11 @@ class ForwardModel(ABC):
         SimulationError
             When the state becomes non-finite or unbounded, ``M`` singular or the step collapses.
         """
-        method = self.default_method if method is None else canonical_method(method, self.methods,
-                                                                              owner=f"{type(self).__name__}.simulate")
+        method = (
+            self.default_method
+            if method is None
+            else canonical_method(method, self.methods, owner=f"{type(self).__name__}.simulate")
+        )
         t = check_time(t, np.size(t), name="t")
         if t.size < 2:
             raise ValueError(f"t must hold at least 2 times; got {t.size}")
@@ -228,26 +250,58 @@ class ForwardModel(ABC):
             _check_step(step, t)
         names = self.kinematics.strain_names(active_only=True)
         state_names = names + [f"d{nm}/dt" for nm in names]
-        if method in COMPILED_METHODS and not callable(inputs):
-            y = self._rollout_compiled(y0, t, inputs, method, step=step, rtol=rtol, atol=atol, max_step=max_step,
-                                       max_abs_state=max_abs_state, state_names=state_names, stats=stats)
+        if method in self.compiled_methods and not callable(inputs):
+            y = self._rollout_compiled(
+                y0,
+                t,
+                inputs,
+                method,
+                step=step,
+                rtol=rtol,
+                atol=atol,
+                max_step=max_step,
+                max_abs_state=max_abs_state,
+                state_names=state_names,
+                stats=stats,
+            )
         else:
             if step is not None:
-                raise ValueError(f"step (fixed steps) is only available for the compiled schemes {COMPILED_METHODS} "
-                                 f"with tabulated inputs; got method={method!r}")
+                raise ValueError(
+                    f"step (fixed steps) is only available for the compiled schemes {COMPILED_METHODS} "
+                    f"with tabulated inputs; got method={method!r}"
+                )
             if method not in SCIPY_METHODS:
-                raise ValueError(f"method={method!r} needs tabulated inputs (an array u); use one of {list(SCIPY_METHODS)} "
-                                 "with a callable u")
-            y = solve_held(self._state_derivative, y0, t, inputs, method=method, rtol=rtol, atol=atol,
-                           max_step=max_step, max_abs_state=max_abs_state, state_names=state_names, progress=progress)
+                raise ValueError(
+                    f"method={method!r} needs tabulated inputs (an array u); use one of {list(SCIPY_METHODS)} "
+                    "with a callable u"
+                )
+            y = solve_held(
+                self._state_derivative,
+                y0,
+                t,
+                inputs,
+                method=method,
+                rtol=rtol,
+                atol=atol,
+                max_step=max_step,
+                max_abs_state=max_abs_state,
+                state_names=state_names,
+                progress=progress,
+            )
         kin = self.kinematics
         n = self.n
-        return StrainTrajectory(kin.to_full(y[:, :n]), t, segment_lengths=kin.segment_lengths,
-                                active_strains=kin.active_strains, qd=kin.to_full(y[:, n:]), base_pose=kin.base_pose,
-                                metadata={"source": f"{type(self).__name__}.simulate", "method": method})
+        return StrainTrajectory(
+            kin.to_full(y[:, :n]),
+            t,
+            segment_lengths=kin.segment_lengths,
+            active_strains=kin.active_strains,
+            qd=kin.to_full(y[:, n:]),
+            base_pose=kin.base_pose,
+            metadata={"source": f"{type(self).__name__}.simulate", "method": method},
+        )
 
     def _rollout_compiled(self, y0, t, u, method, **kwargs) -> NDArray[np.float64]:
-        raise ValueError(f"{type(self).__name__} has no compiled scheme; use one of {list(SCIPY_METHODS)}")
+        raise NotImplementedError(f"{type(self).__name__} declares no compiled scheme")
 
 
 def _check_step(step: float, t: NDArray[np.float64]) -> None:
@@ -276,8 +330,9 @@ class CallableModel(ForwardModel):
     methods = tuple(SCIPY_METHODS)
     default_method = "radau"
 
-    def __init__(self, kinematics: PlanarPCS, dynamics: Callable, batch: Callable | None = None,
-                 actuation: Any = None) -> None:
+    def __init__(
+        self, kinematics: PlanarPCS, dynamics: Callable, batch: Callable | None = None, actuation: Any = None
+    ) -> None:
         super().__init__(kinematics, actuation)
         self._dynamics = dynamics
         self._batch = batch
@@ -331,6 +386,7 @@ class LumpedPCSModel(ForwardModel):
     """
 
     methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
+    compiled_methods = COMPILED_METHODS
     default_method = "rosenbrock"
 
     def __init__(
@@ -382,19 +438,49 @@ class LumpedPCSModel(ForwardModel):
             inputs = (np.zeros(1, dtype=np.int64), np.zeros(0), np.zeros((0, m)), np.zeros((n, 0)))
         else:
             kind, aoff, acover, amat = self.actuation.compiled()
-            inputs = (np.array([kind], dtype=np.int64), np.ascontiguousarray(aoff, dtype=float),
-                      np.ascontiguousarray(acover, dtype=float), np.ascontiguousarray(amat, dtype=float))
+            inputs = (
+                np.array([kind], dtype=np.int64),
+                np.ascontiguousarray(aoff, dtype=float),
+                np.ascontiguousarray(acover, dtype=float),
+                np.ascontiguousarray(amat, dtype=float),
+            )
 
         def params(nodes: int) -> tuple:
             quad = make_quadrature(L, nodes)
-            return (act, L, np.ascontiguousarray(quad.ell), np.ascontiguousarray(quad.weights), self.rhoA, g,
-                    np.ascontiguousarray(M_rot), self.stiffness, self.damping, self.rest_force, *inputs)
+            return (
+                act,
+                L,
+                np.ascontiguousarray(quad.ell),
+                np.ascontiguousarray(quad.weights),
+                self.rhoA,
+                g,
+                np.ascontiguousarray(M_rot),
+                self.stiffness,
+                self.damping,
+                self.rest_force,
+                *inputs,
+            )
 
         self._params = params(self.n_quadrature)
         self._fast = None
         if fast_quadrature is not None and fast_quadrature < self.n_quadrature:
             self._fast = params(int(fast_quadrature))
         self._work = _jit_dynamics.workspace(self._params)
+
+    @classmethod
+    def from_lumped(cls, kinematics: PlanarPCS, lumped: dict, actuation: Any = None) -> LumpedPCSModel:
+        """The model of a library's ``lumped_from_coef`` dictionary (``rest_force`` optional)."""
+        return cls(
+            kinematics,
+            lumped["rhoA"],
+            lumped["rhoI"],
+            lumped["rhoAg"],
+            lumped["stiffness"],
+            lumped["damping"],
+            lumped.get("rest_force"),
+            n_quadrature=lumped["n_quadrature"],
+            actuation=actuation,
+        )
 
     def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")))
@@ -410,19 +496,22 @@ class LumpedPCSModel(ForwardModel):
 
     def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         tau = np.empty(self.n)
-        self._jit.input_forces(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float),
-                               self._params, tau)
+        self._jit.input_forces(
+            np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
+        )
         return tau
 
     def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.empty(y.size)
-        if not self._jit.rhs(np.ascontiguousarray(y), np.ascontiguousarray(u, dtype=float), self._params,
-                             self._work, out):
+        if not self._jit.rhs(
+            np.ascontiguousarray(y), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
+        ):
             raise np.linalg.LinAlgError("singular mass matrix")
         return out
 
-    def _rollout_compiled(self, y0, t, u, method, *, step, rtol, atol, max_step, max_abs_state, state_names,
-                          stats) -> NDArray[np.float64]:
+    def _rollout_compiled(
+        self, y0, t, u, method, *, step, rtol, atol, max_step, max_abs_state, state_names, stats
+    ) -> NDArray[np.float64]:
         if self._fast is not None:
             y = self._loop(self._fast, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats)
             bend = self.kinematics.to_full(y[:, : self.n])[:, 0::3] * np.asarray(self.kinematics.segment_lengths)
@@ -434,13 +523,28 @@ class LumpedPCSModel(ForwardModel):
         from . import _jit_rollout as loops
 
         W = self._jit.workspace(P)
-        common = (np.ascontiguousarray(y0), np.ascontiguousarray(t), u, -1.0 if step is None else float(step),
-                  float(rtol), float(atol), -1.0 if max_step is None else float(max_step), 1e-12, float(max_abs_state))
+        common = (
+            np.ascontiguousarray(y0),
+            np.ascontiguousarray(t),
+            u,
+            -1.0 if step is None else float(step),
+            float(rtol),
+            float(atol),
+            -1.0 if max_step is None else float(max_step),
+            1e-12,
+            float(max_abs_state),
+        )
         if method == "rosenbrock":
             res = loops.ros_loop(*common, ROS34PW2.at, ROS34PW2.ct, ROS34PW2.mt, ROS34PW2.et, ROS34PW2.gamma, P, W)
         else:
-            res = loops.dopri_loop(*common, np.ascontiguousarray(DOPRI5.a), np.ascontiguousarray(DOPRI5.c),
-                                   np.ascontiguousarray(DOPRI5.e), P, W)
+            res = loops.dopri_loop(
+                *common,
+                np.ascontiguousarray(DOPRI5.a),
+                np.ascontiguousarray(DOPRI5.c),
+                np.ascontiguousarray(DOPRI5.e),
+                P,
+                W,
+            )
         out, status, _k, t_fail, y_fail, n_steps, n_rej, n_eval = res
         if stats is not None:
             stats.update({"n_steps": int(n_steps), "n_rejected": int(n_rej), "n_evaluations": int(n_eval)})
@@ -449,6 +553,7 @@ class LumpedPCSModel(ForwardModel):
             y_fail = np.array(y_fail)
             raise SimulationError(
                 f"rollout diverged at t = {t_fail:.6g} s ({msg}); state: {describe_state(y_fail, state_names)}",
-                t_fail, y_fail)
+                t_fail,
+                y_fail,
+            )
         return out
-

@@ -8,7 +8,7 @@ so they are optimistic for overlapping weak-form windows.
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike

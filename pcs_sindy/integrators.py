@@ -20,7 +20,8 @@ the input would lose its order), or run once over a callable input.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -38,7 +39,9 @@ COMPILED_METHODS = ("rosenbrock", "dopri5")
 class _Tableau:
     """Butcher tableau of an explicit embedded pair (``b`` propagates, ``e = b - b_hat``)."""
 
-    def __init__(self, c: Sequence[float], a: Sequence[Sequence[float]], b: Sequence[float], b_hat: Sequence[float], order: int) -> None:
+    def __init__(
+        self, c: Sequence[float], a: Sequence[Sequence[float]], b: Sequence[float], b_hat: Sequence[float], order: int
+    ) -> None:
         s = len(c)
         self.c = np.asarray(c, dtype=float)
         self.a = np.zeros((s, s))
@@ -186,34 +189,48 @@ def solve_held(
         opts["max_step"] = max_step
 
     def fail(msg: str, tk: float, yk: NDArray[np.float64]) -> SimulationError:
-        return SimulationError(f"rollout diverged at t = {tk:.6g} s ({msg}); state: {describe_state(yk, state_names)}", tk, yk)
+        return SimulationError(
+            f"rollout diverged at t = {tk:.6g} s ({msg}); state: {describe_state(yk, state_names)}", tk, yk
+        )
 
-    def checked(sol: Any, t0: float) -> NDArray[np.float64]:
+    def checked(sol: Any, t0: float, y_start: NDArray[np.float64]) -> NDArray[np.float64]:
+        ts, ys = np.asarray(sol.t, dtype=float), np.asarray(sol.y, dtype=float).reshape(y_start.size, -1).T
         if not sol.success:
-            raise fail(f"solve_ivp {scipy_method}: {sol.message}", float(sol.t[-1]) if sol.t.size else t0, sol.y[:, -1])
-        ys = sol.y.T
+            # with t_eval the failed solution may hold no sample at all: report where the interval started
+            tk, yk = (float(ts[-1]), ys[-1]) if ts.size else (t0, y_start)
+            raise fail(f"solve_ivp {scipy_method}: {sol.message}", tk, yk)
         bad = ~np.all(np.isfinite(ys), axis=1) | (np.max(np.abs(ys), axis=1) > max_abs_state)
         if np.any(bad):
             k = int(np.argmax(bad))
-            raise fail(f"non-finite state or |state| > max_abs_state = {max_abs_state:g}", float(sol.t[k]), ys[k])
+            raise fail(f"non-finite state or |state| > max_abs_state = {max_abs_state:g}", float(ts[k]), ys[k])
         return ys
 
     out = np.empty((t.size, y.size))
     out[0] = y
     try:
         if callable(u):
-            sol = solve_ivp(lambda tk, yk: fun(yk, np.asarray(u(tk), dtype=float)), (t[0], t[-1]), y,
-                            method=scipy_method, t_eval=t, **opts)
-            ys = checked(sol, t[0])
+            sol = solve_ivp(
+                lambda tk, yk: fun(yk, np.asarray(u(tk), dtype=float)),
+                (t[0], t[-1]),
+                y,
+                method=scipy_method,
+                t_eval=t,
+                **opts,
+            )
+            ys = checked(sol, t[0], y)
             if ys.shape[0] != t.size:
                 raise fail("solve_ivp stopped early", float(sol.t[-1]), ys[-1])
             return ys
         u_arr = np.asarray(u, dtype=float)
         for k in tqdm(range(t.size - 1), disable=not progress, desc="rollout", unit="sample", leave=False):
-            uk = u_arr[k]
-            sol = solve_ivp(lambda tk, yk: fun(yk, uk), (t[k], t[k + 1]), y, method=scipy_method,
-                            t_eval=(t[k + 1],), **opts)
-            y = checked(sol, t[k])[-1]
+            sol = solve_ivp(
+                lambda tk, yk, uk=u_arr[k]: fun(yk, uk),
+                (t[k], t[k + 1]),
+                y,
+                method=scipy_method,
+                **opts,
+            )  # no t_eval: the steps' own times locate a failure inside the interval
+            y = checked(sol, t[k], y)[-1]
             out[k + 1] = y
     except np.linalg.LinAlgError as err:
         raise fail(f"right-hand side failed: {err}", float("nan"), y) from None

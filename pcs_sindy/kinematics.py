@@ -1,6 +1,6 @@
 """Planar Piecewise Constant Strain (PCS) kinematics and SE(2) pose algebra.
 
-Conventions (DESIGN.md §3): the configuration of segment ``i`` is
+Conventions (docs/method.md, "Configuration"): the configuration of segment ``i`` is
 ``q_i = [kappa_be, sigma_sh, sigma_ax]`` where ``sigma_ax`` is the deviation
 from the rest axial strain 1, so ``q = 0`` is the straight, unstretched robot
 lying along the +y axis of its base frame.  Poses are ``[x, y, theta]`` with
@@ -18,7 +18,6 @@ This module is the ground floor of the package and imports nothing else of it.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -242,9 +241,7 @@ def _check_lengths(segment_lengths: ArrayLike) -> NDArray[np.float64]:
 def _check_q(q: ArrayLike, n_segments: int) -> NDArray[np.float64]:
     q = np.asarray(q, dtype=float)
     if q.ndim == 0 or q.shape[-1] != 3 * n_segments:
-        raise ValueError(
-            f"q must have a last axis of length 3 * n_segments = {3 * n_segments}; got shape {q.shape}"
-        )
+        raise ValueError(f"q must have a last axis of length 3 * n_segments = {3 * n_segments}; got shape {q.shape}")
     if not np.all(np.isfinite(q)):
         raise ValueError("q contains NaN or inf")
     return q

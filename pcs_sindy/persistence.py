@@ -37,8 +37,9 @@ import math
 import os
 import re
 import secrets
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 
@@ -55,8 +56,20 @@ _MAX_JSON_BYTES = 64 * 2**20
 _MAX_ARRAY_BYTES = 2**30
 _ALLOWED_DTYPE_KINDS = "biufcU"
 _SCALAR_DTYPES = (
-    "bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64",
-    "float16", "float32", "float64", "complex64", "complex128",
+    "bool",
+    "int8",
+    "int16",
+    "int32",
+    "int64",
+    "uint8",
+    "uint16",
+    "uint32",
+    "uint64",
+    "float16",
+    "float32",
+    "float64",
+    "complex64",
+    "complex128",
 )
 _STATE_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*_$")
 _TAGS = ("$float", "$tuple", "$dict", "$array", "$scalar", "$complex", "$object", "$ref")
@@ -125,10 +138,14 @@ REGISTRY: dict[str, ClassSpec] = {
     ),
     # Theta_ is the training regression matrix (can be 100 MB); prediction does not use it
     "StiffnessThresholdOptimizer": ClassSpec(
-        "pcs_sindy.optimizers", "StiffnessThresholdOptimizer", skip_state=frozenset({"Theta_"}),
+        "pcs_sindy.optimizers",
+        "StiffnessThresholdOptimizer",
+        skip_state=frozenset({"Theta_"}),
         validate=lambda o: o._check_params(),
     ),
-    "PCSLagrangianLibrary": ClassSpec("pcs_sindy.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library),
+    "PCSLagrangianLibrary": ClassSpec(
+        "pcs_sindy.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library
+    ),
     "PhysicalPCSLibrary": ClassSpec("pcs_sindy.library.physical", "PhysicalPCSLibrary", validate=_validate_library),
     # actuation terms: parameters (the layout) and the identified offsets and gains
     "IdentityActuation": ClassSpec("pcs_sindy.actuation", "IdentityActuation"),
@@ -140,9 +157,13 @@ REGISTRY: dict[str, ClassSpec] = {
     ),
     "Camera": ClassSpec("pcs_sindy.camera", "Camera", kind="dataclass"),
     "PlanarPCS": ClassSpec("pcs_sindy.kinematics", "PlanarPCS", kind="dataclass"),
-    "PoseTrajectory": ClassSpec("pcs_sindy.trajectory", "PoseTrajectory", kind="init", fields=("poses", "t", "metadata")),
+    "PoseTrajectory": ClassSpec(
+        "pcs_sindy.trajectory", "PoseTrajectory", kind="init", fields=("poses", "t", "metadata")
+    ),
     "StrainTrajectory": ClassSpec(
-        "pcs_sindy.trajectory", "StrainTrajectory", kind="init",
+        "pcs_sindy.trajectory",
+        "StrainTrajectory",
+        kind="init",
         fields=("q", "t", "segment_lengths", "active_strains", "qd", "base_pose", "metadata"),
     ),
     "Pipeline": ClassSpec("sklearn.pipeline", "Pipeline", validate=_validate_pipeline),
@@ -205,7 +226,9 @@ class _Encoder:
         if type(value) is list:
             return [self.encode(v, f"{where}[{k}]") for k, v in enumerate(value)]
         if type(value) is dict:
-            return {"$dict": [[self.encode(k, f"{where} key"), self.encode(v, f"{where}[{k!r}]")] for k, v in value.items()]}
+            return {
+                "$dict": [[self.encode(k, f"{where} key"), self.encode(v, f"{where}[{k!r}]")] for k, v in value.items()]
+            }
         name = _name_of(value)
         if name is not None:
             return self._object(value, name, where)
@@ -298,7 +321,9 @@ class _Decoder:
             raise self.error(where, f"unexpected JSON value of type {type(data).__name__}")
         tags = [t for t in _TAGS if t in data]
         if len(tags) != 1:
-            raise self.error(where, f"a JSON object must carry exactly one of the tags {_TAGS}; got keys {sorted(data)[:8]}")
+            raise self.error(
+                where, f"a JSON object must carry exactly one of the tags {_TAGS}; got keys {sorted(data)[:8]}"
+            )
         tag = tags[0]
         if tag == "$float":
             self._keys(data, {"$float"}, where)
@@ -408,7 +433,9 @@ class _Decoder:
                 raise self.error(label, f"attribute {key!r} is not a learned attribute of {name}")
             static = inspect.getattr_static(cls, key, None)
             if key in spec.skip_state or callable(static) or hasattr(static, "__set__") or hasattr(static, "__get__"):
-                raise self.error(label, f"attribute {key!r} cannot be set on {name} (a method, property or skipped attribute)")
+                raise self.error(
+                    label, f"attribute {key!r} cannot be set on {name} (a method, property or skipped attribute)"
+                )
             value = self.decode(raw, f"{label}.{key}")
             try:
                 setattr(obj, key, value)
@@ -431,14 +458,20 @@ class _Decoder:
             return
         for key, value in kwargs.items():
             default = defaults.get(key)
+            if value is None:
+                continue  # an optional value (e.g. a camera's open base frame): the class's own checks decide
             if isinstance(default, bool):
                 if not isinstance(value, (bool, np.bool_)):
                     raise self.error(label, f"parameter {key} must be a boolean like its default; got {value!r}")
             elif isinstance(default, (int, float)):
-                number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_))
+                number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+                    value, (bool, np.bool_)
+                )
                 # several numeric parameters also take one value per segment
                 if not (number or isinstance(value, (list, tuple, np.ndarray))):
-                    raise self.error(label, f"parameter {key} must be a number like its default {default!r}; got {value!r}")
+                    raise self.error(
+                        label, f"parameter {key} must be a number like its default {default!r}; got {value!r}"
+                    )
 
     @staticmethod
     def _param_names(cls: type, spec: ClassSpec) -> set[str]:
@@ -649,7 +682,11 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
     if missing:
         raise ValueError(f"model file {source} lacks {missing}")
     meta = doc["arrays"]
-    if not isinstance(meta, dict) or not isinstance(meta.get("entries"), dict) or not isinstance(meta.get("sha256"), str):
+    if (
+        not isinstance(meta, dict)
+        or not isinstance(meta.get("entries"), dict)
+        or not isinstance(meta.get("sha256"), str)
+    ):
         raise ValueError(f"model file {source}: 'arrays' must hold 'sha256' and 'entries'")
     data = _read_npz_bytes(npz_path, source)
     if hashlib.sha256(data).hexdigest() != meta["sha256"]:
@@ -680,7 +717,10 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
         if unpacked > _MAX_ARRAY_BYTES:
             raise ValueError(f"model file {source}: the npz unpacks to {unpacked} bytes (at most {_MAX_ARRAY_BYTES})")
         if sorted(npz.files) != sorted(entries):
-            raise ValueError(f"model file {source}: the npz holds arrays {sorted(npz.files)[:10]}, the JSON lists {sorted(entries)[:10]}")
+            raise ValueError(
+                f"model file {source}: the npz holds arrays {sorted(npz.files)[:10]}, "
+                f"the JSON lists {sorted(entries)[:10]}"
+            )
         for key, info in entries.items():
             try:
                 arr = npz[key]
@@ -689,7 +729,9 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
             if arr.dtype.kind not in _ALLOWED_DTYPE_KINDS or arr.dtype.fields is not None:
                 raise ValueError(f"model file {source}: array {key!r} has unsupported dtype {arr.dtype}")
             if not isinstance(info, dict) or info.get("dtype") != arr.dtype.str or info.get("shape") != list(arr.shape):
-                raise ValueError(f"model file {source}: array {key!r} is {arr.dtype.str} {list(arr.shape)}, the JSON says {info!r}")
+                raise ValueError(
+                    f"model file {source}: array {key!r} is {arr.dtype.str} {list(arr.shape)}, the JSON says {info!r}"
+                )
             arrays[key] = arr
     return arrays
 

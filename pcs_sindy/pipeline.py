@@ -22,7 +22,8 @@ physical recording).  See :func:`recording_groups` and the example in
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -45,9 +46,7 @@ def _holds_poses(X: Any) -> bool:
     def is_pose(item: Any) -> bool:
         if isinstance(item, PoseTrajectory):
             return True
-        return (
-            isinstance(item, np.ndarray) and item.dtype.kind == "f" and item.ndim == 3 and item.shape[-1] == 3
-        )
+        return isinstance(item, np.ndarray) and item.dtype.kind == "f" and item.ndim == 3 and item.shape[-1] == 3
 
     return len(items) > 0 and all(is_pose(item) for item in items)
 
@@ -74,7 +73,7 @@ class PCSPipeline(PersistenceMixin, Pipeline):
     """
 
     # -- fitting ---------------------------------------------------------------
-    def fit(self, X: Any, y: Any = None, **params: Any) -> "PCSPipeline":
+    def fit(self, X: Any, y: Any = None, **params: Any) -> PCSPipeline:
         """Fit every step; ``X`` a list of recordings, ``y`` the list of their forces.
 
         Raises
@@ -171,7 +170,9 @@ class PCSPipeline(PersistenceMixin, Pipeline):
             return self.named_steps["segments"].transform(X)
         return self[:-1].transform(X)
 
-    def initial_state(self, X: Any, recording: int = 0, sample: int = 0) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def initial_state(
+        self, X: Any, recording: int = 0, sample: int = 0
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Strains and strain rates of one sample of a recording, to start a rollout from.
 
         The rates are the dynamics step's Savitzky–Golay derivative
@@ -195,7 +196,9 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         reg = self.model_
         wl, po = int(reg.window_length), int(reg.polyorder)
         if st.n_frames < wl:
-            raise ValueError(f"the recording has {st.n_frames} frames, fewer than the window_length {wl} of the dynamics step")
+            raise ValueError(
+                f"the recording has {st.n_frames} frames, fewer than the window_length {wl} of the dynamics step"
+            )
         dt = float(np.median(np.diff(st.t)))
         rate = savgol_filter(st.q, wl, po, deriv=1, delta=dt, axis=0)
         return st.q[sample].copy(), rate[sample].copy()
@@ -386,8 +389,9 @@ def make_pcs_pipeline(
     if regressor is None:
         regressor = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer(), actuation=actuation)
     elif actuation is not None:
-        raise ValueError("actuation was given with regressor; set it on the regressor: "
-                         "EulerLagrangeRegressor(actuation=...)")
+        raise ValueError(
+            "actuation was given with regressor; set it on the regressor: EulerLagrangeRegressor(actuation=...)"
+        )
     steps: list[tuple[str, Any]] = []
     if start == "videos":
         steps.append(("poses", MarkerPoseExtractor() if extractor is None else extractor))

@@ -21,7 +21,8 @@ from __future__ import annotations
 
 import time
 import warnings
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -31,34 +32,25 @@ from sklearn.utils.validation import check_is_fitted
 
 from . import formulations as _form
 from . import identifiability as _ident
+from . import recordings as _rec
 from ._saving import PersistenceMixin
 from .actuation import Actuation, IdentityActuation, actuation_from_layout
+from .forward import reduce_strains
 from .integration import DivergenceError
 from .kinematics import PlanarPCS
-from .forward import reduce_strains
 from .library._with_gains import WithGains
 from .library.base import LagrangianLibrary, segmentation_of
 from .optimizers import StiffnessThresholdOptimizer
+from .recordings import WEAK_WINDOW
 from .trajectory import StrainTrajectory, as_strain_trajectories
+from .variable_projection import fit_offsets
 
 __all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
 
-#: default weak-form window in sampling intervals (shorter for recordings shorter than twice it)
-WEAK_WINDOW = 160
 #: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
 SCORE_DERIVATIVES = (7, 3)
 _LIBRARIES = ("physical", "monomial")
-
-
-def _check_list(y: Any, n: int, name: str) -> list:
-    if isinstance(y, np.ndarray) and y.ndim == 2 and n == 1:
-        return [y]
-    if not isinstance(y, (list, tuple)):
-        raise ValueError(f"{name} must be a list with one array per recording; got {type(y).__name__}")
-    if len(y) != n:
-        raise ValueError(f"{name} must hold one array per recording of X ({n}); got {len(y)}")
-    return list(y)
 
 
 def _is_int(value: Any) -> bool:
@@ -154,6 +146,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         None when the regression has no more rows than coefficients.
     mass_matrix_not_pd_fraction_ : float
         Fraction of training samples where ``M(q)`` is not positive definite.
+    strain_range_ : ndarray, shape (2, n)
+        Smallest and largest value of each modelled strain in the training
+        data: where the model was identified (controllers stay inside it).
     n_regression_samples_ : int
         Rows of the regression per strain (samples, or windows in the weak form).
     actuation_ : Actuation
@@ -199,7 +194,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.actuation = actuation
 
     @classmethod
-    def seed_method(cls, **overrides: Any) -> "EulerLagrangeRegressor":
+    def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
         """The seed's method: monomial Lagrangian basis, strong form, Savitzky–Golay 25/3.
 
         Parameters
@@ -225,7 +220,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if self.formulation not in _form.FORMULATIONS:
             raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
         if self.weak_window is not None and (not _is_int(self.weak_window) or self.weak_window < 2):
-            raise ValueError(f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}")
+            raise ValueError(
+                f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}"
+            )
         if self.weak_stride is not None and (not _is_int(self.weak_stride) or self.weak_stride < 1):
             raise ValueError(f"weak_stride must be None or an integer >= 1 (samples); got {self.weak_stride!r}")
         if self.weak_hold not in ("zoh", "trapezoid"):
@@ -250,7 +247,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
         for name in ("rtol", "atol"):
             val = getattr(self, name)
-            if isinstance(val, bool) or not isinstance(val, (int, float, np.floating)) or not (np.isfinite(val) and val > 0):
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float, np.floating))
+                or not (np.isfinite(val) and val > 0)
+            ):
                 raise ValueError(f"{name} must be a finite number > 0; got {val!r}")
 
     def _new_library(self) -> LagrangianLibrary:
@@ -264,14 +265,6 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             return PCSLagrangianLibrary()
         return clone(self.library)
 
-    def _weak_windows(self, shortest: int) -> tuple[int, int]:
-        """Weak-form window and stride: the given ones, or the defaults fitted to the shortest recording."""
-        width = self.weak_window
-        if width is None:
-            width = max(2, min(WEAK_WINDOW, (shortest - 1) // 2))
-        stride = self.weak_stride if self.weak_stride is not None else max(1, int(width) // 4)
-        return int(width), int(stride)
-
     def _new_actuation(self, kin: PlanarPCS) -> Actuation:
         act = self.actuation
         if act is None or isinstance(act, dict):
@@ -283,36 +276,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def _derivatives(
         self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None, *, fixed: bool = False
     ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
-        """Rates and accelerations of one recording: given, by ``differentiation_method`` or Savitzky–Golay.
-
-        ``fixed``: Savitzky–Golay of :data:`SCORE_DERIVATIVES` whatever the
-        estimator's settings (scores).
-        """
-        q, t = rec.q, rec.t
-        if qd is not None:
-            out = []
-            for name, arr in (("qd", qd), ("qdd", qdd)):
-                if arr is None:
-                    out.append(None)
-                    continue
-                arr = np.asarray(arr, dtype=float)
-                if arr.shape != q.shape:
-                    raise ValueError(f"{name}[{k}] must have the shape of X[{k}].q {q.shape}; got {arr.shape}")
-                if not np.all(np.isfinite(arr)):
-                    raise ValueError(f"{name}[{k}] contains NaN or inf")
-                out.append(arr)
-            return out[0], out[1]
-        if self.differentiation_method is not None and not fixed:
-            rate = np.asarray(self.differentiation_method(q, t), dtype=float)
-            acc = np.asarray(self.differentiation_method(rate, t), dtype=float)
-            if rate.shape != q.shape or acc.shape != q.shape or not (np.all(np.isfinite(rate)) and np.all(np.isfinite(acc))):
-                raise ValueError(
-                    f"differentiation_method returned derivatives of shape {rate.shape}/{acc.shape} or with NaN for "
-                    f"X[{k}] (q has shape {q.shape}); NaN edges are not accepted"
-                )
-            return rate, acc
+        """Rates (and accelerations) of one recording; ``fixed``: Savitzky–Golay :data:`SCORE_DERIVATIVES`."""
         wl, po = SCORE_DERIVATIVES if fixed else (self.window_length, self.polyorder)
-        return _form.savgol_derivatives(q, t, wl, po, name=f"X[{k}]")
+        return _rec.derivatives(
+            rec, k, qd, qdd, method=None if fixed else self.differentiation_method, window_length=wl, polyorder=po
+        )
 
     def _recordings(
         self,
@@ -324,66 +292,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         kin: PlanarPCS | None,
         formulation: str,
         actuation: Actuation | None = None,
-    ) -> tuple[PlanarPCS, list[StrainTrajectory], list[_form.Recording]]:
-        """Validated recordings of the strains ``kin`` models (default: the data's), ready for a formulation.
-
-        ``actuation`` (fitted) validates non-force inputs; default: ``y`` are generalised forces (T, 3m).
-        """
-        X = as_strain_trajectories(X)
-        data_kin = segmentation_of(X)
-        if kin is not None and not np.allclose(data_kin.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0):
-            raise ValueError(
-                f"X has segment_lengths {list(data_kin.segment_lengths)}, the model {list(kin.segment_lengths)}; "
-                "transform the poses with the model's segmentation"
-            )
-        kin = data_kin if kin is None else kin
-        mask = kin.active_mask
-        if not mask.any():
-            raise ValueError("the data model no strain (active_strains all False)")
-        ys = _check_list(y, len(X), "y")
-        qds = None if qd is None else _check_list(qd, len(X), "qd")
-        qdds = None if qdd is None else _check_list(qdd, len(X), "qdd")
-        if (qds is None) != (qdds is None) and formulation == "strong":
-            raise ValueError("give both qd and qdd (known derivatives) or neither")
-        taus = []
-        forces = actuation is None or isinstance(actuation, IdentityActuation)
-        for k, rec in enumerate(X):
-            tau = np.asarray(ys[k], dtype=float)
-            if not forces:
-                tau = actuation.check_inputs(tau, f"y[{k}]", rec.t if tau.shape[:1] == rec.t.shape else None)
-                if tau.shape[0] != rec.n_frames:
-                    raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
-                taus.append(tau)
-                continue
-            if tau.ndim != 2 or tau.shape[1] != kin.n_q:
-                raise ValueError(f"y[{k}] must have shape (T, {kin.n_q}) (one force per strain); got {tau.shape}")
-            if tau.shape[0] != rec.n_frames:
-                raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
-            if not np.all(np.isfinite(tau)):
-                raise ValueError(f"y[{k}] contains NaN or inf (first at sample {np.argwhere(~np.isfinite(tau))[0][0]})")
-            taus.append(tau)
-        width, stride = self._weak_windows(min(rec.n_frames for rec in X))
-        recs = []
-        for k, (rec, tau) in enumerate(zip(X, taus)):
-            rate, acc = self._derivatives(rec, k, None if qds is None else qds[k], None if qdds is None else qdds[k])
-            r = _form.Recording(rec.t, rec.q[:, mask], rate[:, mask], None if acc is None else acc[:, mask], tau)
-            if formulation == "weak":
-                if rec.n_frames <= width:
-                    raise ValueError(
-                        f"X[{k}] has {rec.n_frames} samples, too few for weak_window = {width} sampling intervals "
-                        f"(needs at least {width + 1}); use a shorter weak_window"
-                    )
-                r.windows = _form.sliding_windows(rec.n_frames, width, stride)
-            elif self.exclude_force_jumps:
-                r.rows = _form.jump_free(tau, self.window_length)
-            recs.append(r)
-        if formulation == "strong" and self.exclude_force_jumps and not any(r.rows.any() for r in recs):
-            raise ValueError(
-                f"exclude_force_jumps left no sample: every window of {self.window_length} samples contains a jump "
-                "of the actuation; use a window shorter than the actuation hold (or smooth actuation without "
-                "exclude_force_jumps)"
-            )
-        return kin, X, recs
+    ) -> tuple[PlanarPCS, list[StrainTrajectory], list]:
+        """:func:`pcs_sindy.recordings.prepare` with this estimator's settings."""
+        return _rec.prepare(
+            X,
+            y,
+            qd,
+            qdd,
+            kin=kin,
+            formulation=formulation,
+            actuation=actuation,
+            differentiation_method=self.differentiation_method,
+            window_length=self.window_length,
+            polyorder=self.polyorder,
+            weak_window=self.weak_window,
+            weak_stride=self.weak_stride,
+            exclude_force_jumps=self.exclude_force_jumps,
+        )
 
     # ------------------------------------------------------------------ fit
     def fit(
@@ -393,7 +318,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         *,
         qd: Sequence[ArrayLike] | None = None,
         qdd: Sequence[ArrayLike] | None = None,
-    ) -> "EulerLagrangeRegressor":
+    ) -> EulerLagrangeRegressor:
         """Identify the model.
 
         Parameters
@@ -416,12 +341,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         act = self._new_actuation(segmentation_of(X))
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
         if not any(np.any(r.u) for r in recs):
-            raise ValueError("y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
-                             "identified; record with actuation")
+            raise ValueError(
+                "y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
+                "identified; record with actuation"
+            )
         lib = self._new_library().fit(X)
         offsets, offset_info = (None, None)
         if act.n_offsets:
-            offsets, offset_info = self._fit_offsets(lib, act, recs)
+            offsets, offset_info = fit_offsets(lib, act, recs, self.formulation, self.weak_hold)
         x, target, design = _form.regression(lib, recs, self.formulation, act, offsets=offsets, hold=self.weak_hold)
         self.n_regression_samples_ = int(x.shape[0])
         columns: Any = WithGains(lib, act.gain_names_, act.gain_lower_bound) if act.n_gains else lib
@@ -443,18 +370,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             active, removed = opt.active_strains_, list(opt.removed_strains_)
         else:
             if equality is not None:
-                raise ValueError(f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
-                                 "use StiffnessThresholdOptimizer")
+                raise ValueError(
+                    f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
+                    "use StiffnessThresholdOptimizer"
+                )
             opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
             coef_all = np.asarray(opt.coef_, dtype=float).reshape(-1)
             if coef_all.shape != (x.shape[-1],) or not np.all(np.isfinite(coef_all)):
-                raise ValueError(f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
-                                 f"expected ({x.shape[-1]},) finite values")
+                raise ValueError(
+                    f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
+                    f"expected ({x.shape[-1]},) finite values"
+                )
             lib_r, column_map = lib, np.arange(p_lib)
             active, removed = kin.active_strains.copy(), []
         coef, library_ = coef_all[:p_lib], lib_r
-        self.actuation_ = act.set_identified(coef_all[p_lib:] if act.n_gains else act.gains_,
-                                             act.offsets_ if offsets is None else act._signed(offsets))
+        self.actuation_ = act.set_identified(
+            coef_all[p_lib:] if act.n_gains else act.gains_, act.offsets_ if offsets is None else act._signed(offsets)
+        )
         self.optimizer_ = opt
         self.full_library_ = lib
         self.library_ = library_
@@ -470,11 +402,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         x_final = x if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
         final_cols = np.r_[column_map, p_lib + np.arange(act.n_gains)]
         eq = None if equality is None else (equality[0][final_cols], equality[1])
-        self.identifiability_ = self._identifiability(x_final, np.asarray(target)[:, kept], coef_all[final_cols],
-                                                      eq, offset_info)
+        self.identifiability_ = self._identifiability(
+            x_final, np.asarray(target)[:, kept], coef_all[final_cols], eq, offset_info
+        )
+        q_kept = np.concatenate([r.q[:, kept] for r in recs])
+        self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix:
-            self._check_mass_matrix(np.concatenate([r.q[:, kept] for r in recs]))
+            self._check_mass_matrix(q_kept)
         self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
@@ -493,8 +428,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             rest[final] = np.where(f0 == 0.0, 0.0, f0 / stiff[final])
         self.stiffness_, self.damping_, self.rest_strain_ = stiff, damping, rest
 
-    def _identifiability(self, x: NDArray[np.float64], target: NDArray[np.float64], coef: NDArray[np.float64],
-                         equality: tuple | None, offset_info: dict | None) -> dict | None:
+    def _identifiability(
+        self,
+        x: NDArray[np.float64],
+        target: NDArray[np.float64],
+        coef: NDArray[np.float64],
+        equality: tuple | None,
+        offset_info: dict | None,
+    ) -> dict | None:
         x2 = x.reshape(-1, x.shape[-1])
         y2 = target.reshape(-1)
         if equality is not None:  # the scale row, as weighted in the fit
@@ -513,59 +454,22 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         names = lib.coefficient_names() + list(self.actuation_.gain_names_)
         info = _ident.identifiability(x2, y2, coef, names, tol=self.identifiability_tol)
         info["poorly_excited_strains"] = _ident.strain_excitation(
-            info, self.kinematics_.strain_names(active_only=True), lib.stiffness_index_, lib.damping_index_,
-            self.identifiability_tol)
+            info,
+            self.kinematics_.strain_names(active_only=True),
+            lib.stiffness_index_,
+            lib.damping_index_,
+            self.identifiability_tol,
+        )
         info["coef"] = np.asarray(coef, dtype=float).copy()
         info["formulation"] = self.formulation
         if offset_info is not None:
             info.update(offset_info)
-            info["poorly_determined"] += [nm for nm, r in zip(offset_info["offset_names"],
-                                                              offset_info["offset_relative_standard_errors"])
-                                          if not r <= self.identifiability_tol]
+            info["poorly_determined"] += [
+                nm
+                for nm, r in zip(offset_info["offset_names"], offset_info["offset_relative_standard_errors"])
+                if not r <= self.identifiability_tol
+            ]
         return info
-
-    def _fit_offsets(self, lib: LagrangianLibrary, act: Actuation,
-                     recs: list[_form.Recording]) -> tuple[NDArray[np.float64], dict]:
-        """Nonlinear actuation parameters (tendon offsets) by variable projection.
-
-        For given offsets the model is linear: the Lagrangian coefficients (and
-        gains) are the least-squares solution, so the residual is a function of
-        the offsets alone, minimised by :func:`scipy.optimize.least_squares`
-        within the actuation's bounds.  Standard errors from its Jacobian.
-        """
-        from scipy.optimize import least_squares
-
-        rows = _form.library_rows(lib, recs, self.formulation)
-        x = rows.reshape(-1, rows.shape[-1])
-        norms = np.linalg.norm(x, axis=0)
-        norms = np.where(norms > 0, norms, 1.0)
-        u_, sv, vt = np.linalg.svd(x / norms, full_matrices=False)
-        keep = sv > 1e-10 * sv[0]
-        u_, sv, vt = u_[:, keep], sv[keep], vt[keep]
-
-        def residual(d: NDArray[np.float64]) -> NDArray[np.float64]:
-            y, linear = _form.input_rows(act, recs, self.formulation, offsets=d, hold=self.weak_hold)
-            y = y.reshape(-1)
-            if linear.shape[-1]:  # gains with offsets: a joint linear solve (rare)
-                xa = np.concatenate([rows, -linear], axis=2).reshape(-1, rows.shape[-1] + linear.shape[-1])
-                return xa @ np.linalg.lstsq(xa, y, rcond=None)[0] - y
-            return u_ @ (u_.T @ y) - y
-
-        lo, hi = act.offset_bounds()
-        d0 = np.clip(act.initial_offsets(), lo, hi)
-        sol = least_squares(residual, d0, bounds=(lo, hi), x_scale=np.maximum(np.abs(d0), 1e-3), xtol=1e-12,
-                            ftol=1e-12, gtol=1e-12, max_nfev=200)
-        r, jac = sol.fun, sol.jac
-        dof = max(r.size - jac.shape[1] - rows.shape[-1], 1)
-        s2 = float(r @ r) / dof
-        try:
-            se = np.sqrt(np.maximum(np.diag(s2 * np.linalg.pinv(jac.T @ jac)), 0.0))
-        except np.linalg.LinAlgError:
-            se = np.full(sol.x.size, np.inf)
-        names = list(act.offset_names_)
-        info = {"offset_names": names, "offsets": sol.x.copy(), "offset_standard_errors": se,
-                "offset_relative_standard_errors": se / np.abs(sol.x), "offset_fit_success": bool(sol.success)}
-        return sol.x, info
 
     def _check_mass_matrix(self, q: NDArray[np.float64]) -> None:
         eig = np.linalg.eigvalsh(self.library_.mass_matrix(q, self.model_coef_))
@@ -605,8 +509,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         fm = self.__dict__.get("_forward")
         if fm is None:
             act = getattr(self, "actuation_", None)
-            fm = self.library_.forward_model(self.model_coef_, actuation=None if isinstance(act, IdentityActuation)
-                                             else act)
+            fm = self.library_.forward_model(
+                self.model_coef_, actuation=None if isinstance(act, IdentityActuation) else act
+            )
             self.__dict__["_forward"] = fm
         return fm
 
@@ -701,7 +606,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         """Per recording: the rolled-out and the recorded tip positions (T', 2); None for a diverged rollout."""
         check_is_fitted(self, "coef_")
         X = as_strain_trajectories(X)
-        ys = _check_list(y, len(X), "y")
+        ys = _rec.check_list(y, len(X), "y")
         out = []
         for k, rec in enumerate(X):
             tau = np.asarray(ys[k], dtype=float)
@@ -790,9 +695,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         t, u = _simulate_inputs(t, u, tau)
         return self.forward_model().simulate(
-            q0, qd0, t, u, method=method, rtol=self.rtol if rtol is None else rtol,
-            atol=self.atol if atol is None else atol, step=step, max_step=max_step, max_abs_state=max_abs_state,
-            progress=self.progress if progress is None else progress, stats=stats)
+            q0,
+            qd0,
+            t,
+            u,
+            method=method,
+            rtol=self.rtol if rtol is None else rtol,
+            atol=self.atol if atol is None else atol,
+            step=step,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            progress=self.progress if progress is None else progress,
+            stats=stats,
+        )
 
     def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
         """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.
@@ -806,8 +721,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         ndarray, shape (n_recordings,)
         """
         pairs = self._rollout_tips(X, y, **simulate_kwargs)
-        return np.array([np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean())
-                         for sim, true in pairs])
+        return np.array(
+            [np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean()) for sim, true in pairs]
+        )
 
     # ------------------------------------------------------------------ text and pysindy
     def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
@@ -837,7 +753,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             print(line)
 
     @classmethod
-    def from_sindy(cls, model: Any) -> "EulerLagrangeRegressor":
+    def from_sindy(cls, model: Any) -> EulerLagrangeRegressor:
         """A fitted regressor from a ``pysindy.SINDy`` fit of the stacked Euler–Lagrange form.
 
         Parameters
@@ -897,15 +813,19 @@ def _simulate_inputs(t: Any, u: Any, tau: Any) -> tuple[Any, Any]:
     if tau is not None:
         if u is not None:
             raise ValueError("give the input as u (tau is its former name), not both")
-        warnings.warn("simulate(..., tau=...) is deprecated; pass the input as u (simulate(q0, qd0, t, u))",
-                      FutureWarning, stacklevel=3)
+        warnings.warn(
+            "simulate(..., tau=...) is deprecated; pass the input as u (simulate(q0, qd0, t, u))",
+            FutureWarning,
+            stacklevel=3,
+        )
         u = tau
     if t is None or u is None:
         raise ValueError("simulate needs the times t and the input u: simulate(q0, qd0, t, u)")
     t_arr = None if callable(t) else np.asarray(t)
     u_arr = None if callable(u) else np.asarray(u)
     if callable(t) or (t_arr is not None and t_arr.ndim == 2 and u_arr is not None and u_arr.ndim == 1):
-        warnings.warn("simulate(q0, qd0, tau, t) is deprecated; the order is simulate(q0, qd0, t, u)",
-                      FutureWarning, stacklevel=3)
+        warnings.warn(
+            "simulate(q0, qd0, tau, t) is deprecated; the order is simulate(q0, qd0, t, u)", FutureWarning, stacklevel=3
+        )
         t, u = u, t
     return t, u

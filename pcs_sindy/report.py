@@ -10,8 +10,9 @@ seed's two_segment numbers beside this run's; :func:`write_report_md` writes
 from __future__ import annotations
 
 import json
+from collections.abc import Callable, Sequence
 from pathlib import Path
-from typing import Any, Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -91,11 +92,18 @@ def _stills_camera(xy: NDArray) -> Any:
 
     lo, hi = xy.min(axis=0), xy.max(axis=0)
     margin = 25.0
-    ppm = float(min((DEMO_SIZE[0] - 2 * margin) / max(hi[0] - lo[0], 1e-6),
-                    (DEMO_SIZE[1] - 2 * margin) / max(hi[1] - lo[1], 1e-6)))
+    ppm = float(
+        min(
+            (DEMO_SIZE[0] - 2 * margin) / max(hi[0] - lo[0], 1e-6),
+            (DEMO_SIZE[1] - 2 * margin) / max(hi[1] - lo[1], 1e-6),
+        )
+    )
     centre = 0.5 * (lo + hi)
-    return Camera(pixels_per_metre=ppm, image_size=DEMO_SIZE,
-                  origin=(0.5 * (DEMO_SIZE[0] - 1) - ppm * centre[0], 0.5 * (DEMO_SIZE[1] - 1) - ppm * centre[1]))
+    return Camera(
+        pixels_per_metre=ppm,
+        image_size=DEMO_SIZE,
+        origin=(0.5 * (DEMO_SIZE[0] - 1) - ppm * centre[0], 0.5 * (DEMO_SIZE[1] - 1) - ppm * centre[1]),
+    )
 
 
 def demo_report(
@@ -138,10 +146,17 @@ def demo_report(
         ``dir``, ``files`` (figure names by key), ``metrics`` (this run) and ``equations``.
     """
     from .metrics import distributed_errors, end_effector_errors
-    from .plotting import (animate_rollout, plot_end_effector, plot_error_vs_segments, plot_rollout, plot_stills,
-                           plot_strain_distance_profile)
-    from .segmentation import KinematicFusion, threshold_sweep
+    from .plotting import (
+        animate_rollout,
+        plot_end_effector,
+        plot_error_vs_segments,
+        plot_rollout,
+        plot_stills,
+        plot_strain_distance_profile,
+    )
+    from .segmentation import KinematicFusion
     from .simulation.rendering import render_frames
+    from .threshold_selection import threshold_sweep
     from .trajectory import PoseTrajectory
     from .vision import MarkerPoseExtractor
 
@@ -158,13 +173,21 @@ def demo_report(
     # kinematic fusion on the training videos against the noise-free simulated poses
     truths = [read_poses(p, "poses_true")[1] for p in train_files]
     rec = fusion.reconstruct(pose_trajectories)
-    fd_p, fd_th = distributed_errors(np.concatenate([r.poses[:, 1:] for r in rec]),
-                                     np.concatenate([p[:, 1:] for p in truths]))
+    fd_p, fd_th = distributed_errors(
+        np.concatenate([r.poses[:, 1:] for r in rec]), np.concatenate([p[:, 1:] for p in truths])
+    )
     h = fusion.threshold
-    save(plot_strain_distance_profile(fusion.distance_profile_, h, marker_arc_lengths=fusion.marker_arc_lengths_,
-                                      segment_lengths=fusion.segment_lengths_,
-                                      title=f"strain distance of adjacent segments (h = {h:g})"),
-         "fig6_strain_distance.png", "fig6")
+    save(
+        plot_strain_distance_profile(
+            fusion.distance_profile_,
+            h,
+            marker_arc_lengths=fusion.marker_arc_lengths_,
+            segment_lengths=fusion.segment_lengths_,
+            title=f"strain distance of adjacent segments (h = {h:g})",
+        ),
+        "fig6_strain_distance.png",
+        "fig6",
+    )
 
     # Fig. 8: the seed's Algorithm 1 with end-pose strains, one merge per iteration (every model size
     # appears as h grows), swept on every 10th frame against the noise-free poses
@@ -173,21 +196,32 @@ def demo_report(
     sub_truth = [PoseTrajectory(p[::step], tr.t[::step]) for p, tr in zip(truths, pose_trajectories)]
     d = np.asarray(fusion.distance_profile_, dtype=float)
     hs = np.unique(np.r_[np.geomspace(0.01, 1.0, 12), 1.0001 * np.quantile(d, np.linspace(0.0, 1.0, 9))])
-    template = KinematicFusion(min_segment_markers=1, merge="closest_pair", shape_fit="end_pose",
-                               total_length=fusion.total_length_)
+    template = KinematicFusion(
+        min_segment_markers=1, merge="closest_pair", shape_fit="end_pose", total_length=fusion.total_length_
+    )
     rows = threshold_sweep(sub, hs[hs > 0], truth=sub_truth, fusion=template)
     tick("report: sweep")
-    save(plot_error_vs_segments(rows, selected=int(fusion.n_segments_), logy=True,
-                                title="fusion error against the number of segments"), "fig8_error_vs_segments.png",
-         "fig8")
+    save(
+        plot_error_vs_segments(
+            rows, selected=int(fusion.n_segments_), logy=True, title="fusion error against the number of segments"
+        ),
+        "fig8_error_vs_segments.png",
+        "fig8",
+    )
 
     # Fig. 9: rollout of the validation actuation against the simulated truth
     val = read_arrays(validation_file, ["t", "q", "poses_true"], "recording")
     t, truth = val["t"], val["poses_true"]
-    save(plot_rollout(t, val["q"], sim.q, labels=["model"], title="configuration: model vs truth"),
-         "fig9_strains.png", "fig9_strains")
-    save(plot_end_effector(t, truth[:, -1], poses[:, -1], labels=["model"], title="end effector: model vs truth"),
-         "fig9_end_effector.png", "fig9_ee")
+    save(
+        plot_rollout(t, val["q"], sim.q, labels=["model"], title="configuration: model vs truth"),
+        "fig9_strains.png",
+        "fig9_strains",
+    )
+    save(
+        plot_end_effector(t, truth[:, -1], poses[:, -1], labels=["model"], title="end effector: model vs truth"),
+        "fig9_end_effector.png",
+        "fig9_ee",
+    )
 
     # Fig. 10: validation stills rendered as the videos are, markers detected, model backbone overlaid;
     # the camera frames the stills (a robot curled over its base can leave the training cameras' view)
@@ -200,16 +234,38 @@ def demo_report(
     det = []
     for frame in frames:
         try:
-            det.append(MarkerPoseExtractor(truth.shape[1] - 1, camera=camera, dt=1e-3, progress=False)
-                       .fit_transform([frame[None]])[0].poses[0])
+            det.append(
+                MarkerPoseExtractor(truth.shape[1] - 1, camera=camera, dt=1e-3, progress=False)
+                .fit_transform([frame[None]])[0]
+                .poses[0]
+            )
         except ValueError:
             det.append(np.empty((0, 3)))
-    save(plot_stills(frames, detected=det, backbone=backbone[picks], times=list(t[picks]), camera=camera,
-                     title="validation stills: detected markers and the model's backbone"), "fig10_stills.png", "fig10")
+    save(
+        plot_stills(
+            frames,
+            detected=det,
+            backbone=backbone[picks],
+            times=list(t[picks]),
+            camera=camera,
+            title="validation stills: detected markers and the model's backbone",
+        ),
+        "fig10_stills.png",
+        "fig10",
+    )
     tick("report: figures")
 
-    animate_rollout(rep / "rollout.mp4", t, truth, backbone, truth[:, 1:], fps=15.0, labels=("truth", "model"),
-                    size=(400, 400), progress=progress)
+    animate_rollout(
+        rep / "rollout.mp4",
+        t,
+        truth,
+        backbone,
+        truth[:, 1:],
+        fps=15.0,
+        labels=("truth", "model"),
+        size=(400, 400),
+        progress=progress,
+    )
     files["animation"] = "rollout.mp4"
     tick("report: animation")
     equations = model.equations(precision=4)
@@ -220,20 +276,40 @@ def demo_report(
     d_p, d_th = distributed_errors(poses[:, 1:], truth[:, 1:])
     metrics = {
         "segment_lengths": [float(v) for v in fusion.segment_lengths_],
-        "e_p_dist_fusion": fd_p, "e_theta_dist_fusion": fd_th,
-        "e_p_ee": e_p, "e_theta_ee": e_th, "e_p_dist_rollout": d_p, "e_theta_dist_rollout": d_th,
-        "stiffness": [float(v) for v in model.stiffness_], "damping": [float(v) for v in model.damping_],
+        "e_p_dist_fusion": fd_p,
+        "e_theta_dist_fusion": fd_th,
+        "e_p_ee": e_p,
+        "e_theta_ee": e_th,
+        "e_p_dist_rollout": d_p,
+        "e_theta_dist_rollout": d_th,
+        "stiffness": [float(v) for v in model.stiffness_],
+        "damping": [float(v) for v in model.damping_],
         "removed_strains": list(model.removed_strains_),
         "sweep": [list(map(float, r)) for r in rows],
     }
     (rep / "metrics.json").write_text(json.dumps({"this_run": metrics, "seed": SEED_TWO_SEGMENT}, indent=2) + "\n")
     files["metrics"] = "metrics.json"
-    return {"dir": rep, "files": files, "metrics": metrics, "equations": equations, "threshold": h,
-            "duration": float(t[-1] - t[0]), "n_train": len(train_files)}
+    return {
+        "dir": rep,
+        "files": files,
+        "metrics": metrics,
+        "equations": equations,
+        "threshold": h,
+        "duration": float(t[-1] - t[0]),
+        "n_train": len(train_files),
+    }
 
 
-def write_report_md(report: dict[str, Any], clock: dict[str, float], *, seed: int, quick: bool,
-                    machine: str = "unknown", identification: str = "identification", integration: str = "") -> Path:
+def write_report_md(
+    report: dict[str, Any],
+    clock: dict[str, float],
+    *,
+    seed: int,
+    quick: bool,
+    machine: str = "unknown",
+    identification: str = "identification",
+    integration: str = "",
+) -> Path:
     """Write ``report.md`` of a demo run: the metrics table next to the seed's, equations, figures, wall times.
 
     Parameters

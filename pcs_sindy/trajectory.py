@@ -9,7 +9,8 @@ Ground floor: imports only :mod:`pcs_sindy.kinematics`.
 
 from __future__ import annotations
 
-from typing import Any, Mapping, Sequence
+from collections.abc import Mapping, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -46,7 +47,9 @@ def check_time(t: ArrayLike | None, n_samples: int, *, dt: float | None = None, 
         raise ValueError(f"{name} contains NaN or inf")
     if n_samples > 1 and np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
-        raise ValueError(f"{name} must be strictly increasing; {name}[{k + 1}] = {t[k + 1]!r} <= {name}[{k}] = {t[k]!r}")
+        raise ValueError(
+            f"{name} must be strictly increasing; {name}[{k + 1}] = {t[k + 1]!r} <= {name}[{k}] = {t[k]!r}"
+        )
     return t
 
 

@@ -19,8 +19,13 @@ from pcs_sindy.kinematics import forward_kinematics
 from pcs_sindy.simulation import PressureActuation, TendonActuation, get_scenario
 from pcs_sindy.simulation.dynamics import PCSRobot
 
-TWO = dict(segment_lengths=[0.07, 0.1], density=[1070, 1049], youngs_modulus=[1e4, 9e3], shear_modulus=[1e3, 3e3],
-           damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
+TWO = dict(
+    segment_lengths=[0.07, 0.1],
+    density=[1070, 1049],
+    youngs_modulus=[1e4, 9e3],
+    shear_modulus=[1e3, 3e3],
+    damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
+)
 TENDONS = TendonActuation(end=[0.05, 0.07, 0.12, 0.17], offset=[0.015, -0.015, 0.01, -0.02])
 
 
@@ -34,12 +39,14 @@ def polyline_length(q, lengths, end, d, base_pose=(0.0, 0.0, 0.0), per_segment=2
     Segment boundaries are nodes, so the polyline error is O(h²) on each smooth piece.
     """
     bounds = np.concatenate([[0.0], np.cumsum(lengths)])
+
     def length(k):
-        pieces = [np.linspace(a, min(b, end), k + 1) for a, b in zip(bounds[:-1], bounds[1:]) if a < end]
+        pieces = [np.linspace(a, min(b, end), k + 1) for a, b in zip(bounds[:-1], bounds[1:], strict=True) if a < end]
         s = np.unique(np.concatenate(pieces))
         pose = forward_kinematics(q, lengths, s, base_pose)
         pts = pose[:, :2] + d * np.stack([np.cos(pose[:, 2]), np.sin(pose[:, 2])], axis=1)
         return np.linalg.norm(np.diff(pts, axis=0), axis=1).sum()
+
     return (4 * length(2 * per_segment) - length(per_segment)) / 3
 
 
@@ -61,7 +68,7 @@ def test_tendon_lengths_match_numerical_integration_of_the_offset_curve(case):
         if case == "straight_robot":
             q[[0, 3]] = 0.0
         lengths = robot.tendon_lengths(q)
-        for k, (end, d) in enumerate(zip(TENDONS.end, TENDONS.offset)):
+        for k, (end, d) in enumerate(zip(TENDONS.end, TENDONS.offset, strict=True)):
             ref = polyline_length(q, robot.segment_lengths, end, d, robot.base_pose)
             assert lengths[k] == pytest.approx(ref, rel=1e-9), (case, k)
 
@@ -75,8 +82,9 @@ def test_tendon_columns_are_minus_the_length_gradient():
             q[[0, 3]] = 0.0
         A = robot.actuation_matrix(q)
         eps = 1e-6
-        grad = np.array([(robot.tendon_lengths(q + eps * e) - robot.tendon_lengths(q - eps * e)) / (2 * eps)
-                         for e in np.eye(6)])  # (n, p)
+        grad = np.array(
+            [(robot.tendon_lengths(q + eps * e) - robot.tendon_lengths(q - eps * e)) / (2 * eps) for e in np.eye(6)]
+        )  # (n, p)
         np.testing.assert_allclose(A, -grad, rtol=0, atol=1e-8 * np.abs(grad).max())
 
 
@@ -92,9 +100,11 @@ def test_tendon_virtual_work_against_numerically_integrated_lengths():
         dq = random_q(rng, 2) / 40.0
         eps = 1e-4
         work = 0.0
-        for k, (end, d) in enumerate(zip(TENDONS.end, TENDONS.offset)):
-            dl = (polyline_length(q + eps * dq, robot.segment_lengths, end, d)
-                  - polyline_length(q - eps * dq, robot.segment_lengths, end, d)) / (2 * eps)
+        for k, (end, d) in enumerate(zip(TENDONS.end, TENDONS.offset, strict=True)):
+            dl = (
+                polyline_length(q + eps * dq, robot.segment_lengths, end, d)
+                - polyline_length(q - eps * dq, robot.segment_lengths, end, d)
+            ) / (2 * eps)
             work -= f[k] * dl
         assert tau @ dq == pytest.approx(work, rel=1e-6)
 
@@ -163,10 +173,16 @@ def test_actuation_shapes_and_bad_layouts():
 # --------------------------------------------------------------------------
 # pressure chambers
 # --------------------------------------------------------------------------
-CHAMBERS = PressureActuation(start=[0.0, 0.02, 0.09], end=[0.21, 0.13, 0.2], side=[1, -1, 1],
-                             bending_gain=[2e-6, 3e-6, 1.5e-6], axial_gain=[2e-4, 1e-4, 3e-4])
-THREE = dict(segment_lengths=[0.05, 0.1, 0.06], density=1070, youngs_modulus=1e4, shear_modulus=1e3,
-             damping=np.full(9, 0.05))
+CHAMBERS = PressureActuation(
+    start=[0.0, 0.02, 0.09],
+    end=[0.21, 0.13, 0.2],
+    side=[1, -1, 1],
+    bending_gain=[2e-6, 3e-6, 1.5e-6],
+    axial_gain=[2e-4, 1e-4, 3e-4],
+)
+THREE = dict(
+    segment_lengths=[0.05, 0.1, 0.06], density=1070, youngs_modulus=1e4, shear_modulus=1e3, damping=np.full(9, 0.05)
+)
 
 
 def chamber_work(q, lengths, p):
@@ -178,8 +194,9 @@ def chamber_work(q, lengths, p):
         a, b = CHAMBERS.start[j], CHAMBERS.end[j]
         theta = forward_kinematics(q, lengths, [a, b])[:, 2]
         integral = quad(axial, a, b, points=bounds[1:-1], limit=200, epsabs=1e-14)[0]
-        total += p[j] * (CHAMBERS.side[j] * CHAMBERS.bending_gain[j] * (theta[1] - theta[0])
-                         + CHAMBERS.axial_gain[j] * integral)
+        total += p[j] * (
+            CHAMBERS.side[j] * CHAMBERS.bending_gain[j] * (theta[1] - theta[0]) + CHAMBERS.axial_gain[j] * integral
+        )
     return total
 
 
@@ -189,8 +206,16 @@ def test_chamber_columns_by_virtual_work_for_any_segmentation():
     p = np.array([4e4, 2e4, 6e4])
     for _ in range(2):
         q = random_q(rng, 3)
-        grad = np.array([(chamber_work(q + 1e-4 * e, robot.segment_lengths, p)
-                          - chamber_work(q - 1e-4 * e, robot.segment_lengths, p)) / 2e-4 for e in np.eye(9)])
+        grad = np.array(
+            [
+                (
+                    chamber_work(q + 1e-4 * e, robot.segment_lengths, p)
+                    - chamber_work(q - 1e-4 * e, robot.segment_lengths, p)
+                )
+                / 2e-4
+                for e in np.eye(9)
+            ]
+        )
         tau = robot.actuation_forces(q, p)
         np.testing.assert_allclose(tau, grad, rtol=0, atol=1e-9 * np.abs(grad).max())
         np.testing.assert_allclose(tau, robot.actuation_matrix(q) @ p, rtol=1e-14, atol=1e-18)
@@ -283,8 +308,9 @@ def test_one_segment_pneumatic_scenario():
     for rec in data.train + [data.validation]:
         assert rec.u.shape == (rec.t.size, 2) and rec.tau.shape == (rec.t.size, 3)
         assert np.all(rec.u >= 0)
-        np.testing.assert_allclose(rec.tau, rec.u @ sc.robot.actuation_matrix(np.zeros(3)).T, rtol=0,
-                                   atol=1e-14 * np.abs(rec.tau).max())
+        np.testing.assert_allclose(
+            rec.tau, rec.u @ sc.robot.actuation_matrix(np.zeros(3)).T, rtol=0, atol=1e-14 * np.abs(rec.tau).max()
+        )
         assert np.all(np.abs(rec.q) <= [60.0, 0.3, 0.3])
     # directly driven scenarios: no layout, and u is τ
     plain = get_scenario("one_segment")

@@ -18,10 +18,10 @@ import numpy as np
 import pytest
 
 from pcs_sindy.cli import CLIError, build_parser, command_kwargs, main
-from pcs_sindy.commands import build_regressor, extract, fit, fuse, pipeline_step, rollout
+from pcs_sindy.commands import build_regressor, fit, pipeline_step, rollout
 from pcs_sindy.kinematics import PlanarPCS, wrap_angle
 
-COMMANDS = ["scenarios", "simulate", "render", "extract", "fuse", "fit", "rollout", "demo"]
+COMMANDS = ["scenarios", "simulate", "render", "calibrate", "extract", "fuse", "fit", "rollout", "demo"]
 
 
 @pytest.fixture(scope="module")
@@ -30,8 +30,20 @@ def work(tmp_path_factory):
     root = tmp_path_factory.mktemp("cli")
     with pytest.MonkeyPatch.context() as mp:
         mp.setenv("PCS_SINDY_CACHE", str(root / "cache"))  # keep the user's cache out of the tests
-        code = main(["simulate", "one_segment", "--out", str(root / "data"), "--n-train", "2",
-                     "--train-duration", "0.1", "--no-validation", "--quiet"])
+        code = main(
+            [
+                "simulate",
+                "one_segment",
+                "--out",
+                str(root / "data"),
+                "--n-train",
+                "2",
+                "--train-duration",
+                "0.1",
+                "--no-validation",
+                "--quiet",
+            ]
+        )
         assert code == 0
         yield root
 
@@ -85,26 +97,65 @@ def test_simulate_writes_recordings_with_true_poses(work):
 def test_render_then_extract_recovers_the_poses(work, capsys):
     recs = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
     videos = work / "videos"
-    assert main(["render", *recs, "--out", str(videos), "--size", "320x240", "--marker-size", "0.010,0.0025",
-                 "--quiet"]) == 0
+    assert (
+        main(["render", *recs, "--out", str(videos), "--size", "320x240", "--marker-size", "0.010,0.0025", "--quiet"])
+        == 0
+    )
     for k in range(2):
         assert (videos / f"train_0{k}.avi").is_file()
         cam = json.loads((videos / f"train_0{k}.avi.camera.json").read_text())
         assert cam["image_size"] == [320, 240] and cam["fps"] == pytest.approx(1000.0)
     serial, parallel = work / "poses", work / "poses_par"
-    assert main(["extract", *[str(videos / f"train_0{k}.avi") for k in range(2)], "--out", str(serial),
-                 "--quiet"]) == 0
-    assert main(["extract", *[str(videos / f"train_0{k}.avi") for k in range(2)], "--out", str(parallel),
-                 "--n-jobs", "2", "--quiet"]) == 0
+    assert main(["extract", *[str(videos / f"train_0{k}.avi") for k in range(2)], "--out", str(serial), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "extract",
+                *[str(videos / f"train_0{k}.avi") for k in range(2)],
+                "--out",
+                str(parallel),
+                "--n-jobs",
+                "2",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     for k in range(2):
-        with np.load(recs[k]) as rec, np.load(serial / f"train_0{k}.npz") as got, \
-                np.load(parallel / f"train_0{k}.npz") as par:
+        with (
+            np.load(recs[k]) as rec,
+            np.load(serial / f"train_0{k}.npz") as got,
+            np.load(parallel / f"train_0{k}.npz") as par,
+        ):
             np.testing.assert_allclose(got["t"], rec["t"], atol=1e-9)
             err_p = np.linalg.norm(got["poses"][..., :2] - rec["poses"][..., :2], axis=-1)
             err_th = np.abs(wrap_angle(got["poses"][..., 2] - rec["poses"][..., 2]))
             assert err_p.max() < 5e-4 and np.sqrt(np.mean(err_p**2)) < 1e-4  # metres
             assert np.rad2deg(err_th.max()) < 5.0
             np.testing.assert_array_equal(par["poses"], got["poses"])
+
+
+def test_rest_length_travels_through_pose_files(work, tmp_path, capsys):
+    from pcs_sindy.datafiles import read_rest_length, write_poses
+
+    recs = [work / "data" / f"train_0{k}.npz" for k in range(2)]
+    files = []
+    for k, rec in enumerate(recs):
+        with np.load(rec) as data:
+            files.append(str(write_poses(tmp_path / f"p{k}.npz", data["t"], data["poses"], rest_length=0.1)))
+    assert read_rest_length(files[0]) == 0.1
+    capsys.readouterr()
+    assert main(["fuse", *files, "--out", str(tmp_path / "fused")]) == 0
+    printed = capsys.readouterr().out
+    assert "total 0.1000 m" in printed and "note:" not in printed  # given with the poses, not estimated
+    with np.load(tmp_path / "fused" / "p0.npz") as st:
+        assert np.sum(st["segment_lengths"]) == pytest.approx(0.1, rel=1e-12)
+    # without it the length is estimated, and the user is told so
+    with np.load(recs[0]) as data:
+        write_poses(tmp_path / "bare.npz", data["t"], data["poses"])
+    assert read_rest_length(tmp_path / "bare.npz") is None
+    assert main(["fuse", str(tmp_path / "bare.npz"), "--out", str(tmp_path / "bare")]) == 0
+    assert "note: the rest length was estimated" in capsys.readouterr().out
 
 
 def test_fuse_strains_reproduce_the_poses(work, capsys):
@@ -149,8 +200,26 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
     assert stiffness == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
 
     out = work / "rollout"
-    assert main(["rollout", str(model), "--tau", recs[0], "--truth", recs[0], "--initial", strains[0],
-                 "--segmentation", str(work / "strains" / "segmentation.json"), "--out", str(out), "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "rollout",
+                str(model),
+                "--tau",
+                recs[0],
+                "--truth",
+                recs[0],
+                "--initial",
+                strains[0],
+                "--segmentation",
+                str(work / "strains" / "segmentation.json"),
+                "--out",
+                str(out),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     metrics = json.loads((out / "metrics.json").read_text())
     with np.load(out / "rollout.npz") as roll, np.load(recs[0]) as rec:
         truth = rec["poses_true"][:, 1:]
@@ -162,8 +231,11 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
         assert metrics["e_p_dist"] == pytest.approx(ep.mean(), rel=1e-12)
         assert metrics["e_theta_dist"] == pytest.approx(eth.mean(), rel=1e-12)
         assert ep[:, -1].mean() < 2e-3  # the identified model tracks the recording it was fitted on
-        np.testing.assert_allclose(roll["poses"], PlanarPCS(tuple(roll["segment_lengths"])).forward_kinematics(
-            roll["q"], roll["marker_arc_lengths"]), atol=1e-12)
+        np.testing.assert_allclose(
+            roll["poses"],
+            PlanarPCS(tuple(roll["segment_lengths"])).forward_kinematics(roll["q"], roll["marker_arc_lengths"]),
+            atol=1e-12,
+        )
     assert (out / "rollout.png").is_file()
 
     # rest strains are identified by default; --no-rest-strain leaves them out, with the same bending stiffness
@@ -227,11 +299,14 @@ def test_fit_without_options_builds_the_default_regressor():
     assert got == want
 
 
-@pytest.mark.parametrize("argv, step, estimator", [
-    (["fuse", "p.npz", "--out", "o"], "segments", "pcs_sindy.segmentation.KinematicFusion"),
-    (["extract", "v.avi", "--out", "o"], "poses", "pcs_sindy.vision.MarkerPoseExtractor"),
-    (["fit", "s.npz", "--tau", "t.npz", "--out", "m"], "dynamics", "pcs_sindy.regressor.EulerLagrangeRegressor"),
-])
+@pytest.mark.parametrize(
+    "argv, step, estimator",
+    [
+        (["fuse", "p.npz", "--out", "o"], "segments", "pcs_sindy.segmentation.KinematicFusion"),
+        (["extract", "v.avi", "--out", "o"], "poses", "pcs_sindy.vision.MarkerPoseExtractor"),
+        (["fit", "s.npz", "--tau", "t.npz", "--out", "m"], "dynamics", "pcs_sindy.regressor.EulerLagrangeRegressor"),
+    ],
+)
 def test_options_left_out_are_the_estimators_defaults(argv, step, estimator):
     import importlib
 
@@ -243,15 +318,34 @@ def test_options_left_out_are_the_estimators_defaults(argv, step, estimator):
     assert shared, "the command has options of the estimator"
     assert all(v is None for v in shared.values()), shared  # never a re-typed default
     built = pipeline_step(step, **shared).get_params(deep=False)
-    assert {k: v for k, v in built.items() if k != "optimizer"} == {k: v for k, v in default.items() if k != "optimizer"}
+    assert {k: v for k, v in built.items() if k != "optimizer"} == {
+        k: v for k, v in default.items() if k != "optimizer"
+    }
 
 
 def test_fit_options_reach_the_regressor_library_and_optimizer():
     from pcs_sindy.library import PhysicalPCSLibrary
 
-    args = build_parser().parse_args([
-        "fit", "s.npz", "--tau", "t.npz", "--out", "m", "--formulation", "strong", "--window-length", "15",
-        "--exclude-force-jumps", "--no-rest-strain", "--rotary-inertia", "tied", "--stiffness-threshold", "inf"])
+    args = build_parser().parse_args(
+        [
+            "fit",
+            "s.npz",
+            "--tau",
+            "t.npz",
+            "--out",
+            "m",
+            "--formulation",
+            "strong",
+            "--window-length",
+            "15",
+            "--exclude-force-jumps",
+            "--no-rest-strain",
+            "--rotary-inertia",
+            "tied",
+            "--stiffness-threshold",
+            "inf",
+        ]
+    )
     reg = build_regressor(**command_kwargs(build_regressor, args))
     assert (reg.formulation, reg.window_length, reg.exclude_force_jumps) == ("strong", 15, True)
     assert reg.library.get_params() == PhysicalPCSLibrary(rest_strain=False, rotary_inertia="tied").get_params()
@@ -277,14 +371,48 @@ def test_rollout_method_and_tolerances_default_to_the_models(work, tmp_path, mon
 
     recs, strains, model_file = _fitted(work)
     out = tmp_path / "default"
-    assert main(["rollout", str(model_file), "--tau", recs[0], "--initial", strains[0], "--out", str(out),
-                 "--no-plot", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "rollout",
+                str(model_file),
+                "--tau",
+                recs[0],
+                "--initial",
+                strains[0],
+                "--out",
+                str(out),
+                "--no-plot",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     model = load(model_file)
     with np.load(recs[0]) as rec, np.load(strains[0]) as st, np.load(out / "rollout.npz") as roll:
         direct = model.simulate(st["q"][0], np.zeros(3), rec["t"], rec["tau"])  # the model's own defaults
         np.testing.assert_array_equal(roll["q"], direct.q)
-    assert main(["rollout", str(model_file), "--tau", recs[0], "--truth", recs[0], "--out", str(tmp_path / "d5"),
-                 "--method", "dopri5", "--rtol", "1e-6", "--no-plot", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "rollout",
+                str(model_file),
+                "--tau",
+                recs[0],
+                "--truth",
+                recs[0],
+                "--out",
+                str(tmp_path / "d5"),
+                "--method",
+                "dopri5",
+                "--rtol",
+                "1e-6",
+                "--no-plot",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     metrics = json.loads((tmp_path / "d5" / "metrics.json").read_text())
     assert metrics["method"] == "dopri5"
     with np.load(tmp_path / "d5" / "rollout.npz") as roll, np.load(recs[0]) as rec:
@@ -317,19 +445,35 @@ def test_failures_are_one_line_without_traceback(work, tmp_path, capsys):
     assert "unknown" in _fail(capsys, ["simulate", "no_such_robot", "--out", out]).lower()
     strain = str(work / "strains" / "train_00.npz")
     if not Path(strain).exists():
-        assert main(["fuse", rec, str(work / "data" / "train_01.npz"), "--out", str(work / "strains"),
-                     "--total-length", "0.1", "--quiet"]) == 0
+        assert (
+            main(
+                [
+                    "fuse",
+                    rec,
+                    str(work / "data" / "train_01.npz"),
+                    "--out",
+                    str(work / "strains"),
+                    "--total-length",
+                    "0.1",
+                    "--quiet",
+                ]
+            )
+            == 0
+        )
     assert "4 force columns" in _fail(capsys, ["fit", strain, "--tau", str(tmp_path / "tau4.npz"), "--out", out])
     assert "tau file" in _fail(capsys, ["fit", strain, "--tau", rec, rec, "--out", out])
     assert "model file" in _fail(capsys, ["rollout", str(tmp_path / "text.npz"), "--tau", rec, "--out", out])
 
 
-@pytest.mark.parametrize("argv, option", [
-    (["render", "x.npz", "--out", "o", "--n-jobs", "0"], "--n-jobs"),
-    (["fuse", "x.npz", "--out", "o", "--threshold", "-1"], "--threshold"),
-    (["fit", "x.npz", "--tau", "t.npz", "--out", "m", "--window-length", "two"], "--window-length"),
-    (["rollout", "m.json", "--tau", "t.npz", "--out", "o", "--method", "euler"], "--method"),
-])
+@pytest.mark.parametrize(
+    "argv, option",
+    [
+        (["render", "x.npz", "--out", "o", "--n-jobs", "0"], "--n-jobs"),
+        (["fuse", "x.npz", "--out", "o", "--threshold", "-1"], "--threshold"),
+        (["fit", "x.npz", "--tau", "t.npz", "--out", "m", "--window-length", "two"], "--window-length"),
+        (["rollout", "m.json", "--tau", "t.npz", "--out", "o", "--method", "euler"], "--method"),
+    ],
+)
 def test_usage_errors_are_one_line(argv, option, capsys):
     with pytest.raises(SystemExit) as exc:
         main(argv)
@@ -343,7 +487,6 @@ def test_debug_reraises(tmp_path):
         main(["--debug", "fuse", str(tmp_path / "nope.npz"), "--out", str(tmp_path)])
 
 
-
 @pytest.mark.slow
 def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
     import cv2
@@ -353,8 +496,16 @@ def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
     assert main(["demo", "--quick", "--n-jobs", "1", "--quiet", "--out", str(tmp_path / "demo")]) == 0
     rep = tmp_path / "demo" / "report"
     assert capsys.readouterr().out.strip().startswith(f"demo report: {rep / 'report.md'}")
-    for name in ("report.md", "equations.txt", "metrics.json", "fig6_strain_distance.png",
-                 "fig8_error_vs_segments.png", "fig9_strains.png", "fig9_end_effector.png", "fig10_stills.png"):
+    for name in (
+        "report.md",
+        "equations.txt",
+        "metrics.json",
+        "fig6_strain_distance.png",
+        "fig8_error_vs_segments.png",
+        "fig9_strains.png",
+        "fig9_end_effector.png",
+        "fig10_stills.png",
+    ):
         assert (rep / name).stat().st_size > 0, name
     video = cv2.VideoCapture(str(rep / "rollout.mp4"))
     assert video.isOpened() and video.get(cv2.CAP_PROP_FRAME_COUNT) > 1
@@ -371,25 +522,73 @@ def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
 def test_fit_and_rollout_from_actuator_inputs(tmp_path):
     """An actuated robot through the CLI: inputs u and a layout file instead of tau."""
     root = str(tmp_path)
-    assert main(["simulate", "two_segment_tendon", "--out", f"{root}/data", "--n-train", "2", "--train-duration", "0.3",
-                 "--validation-duration", "0.3", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "simulate",
+                "two_segment_tendon",
+                "--out",
+                f"{root}/data",
+                "--n-train",
+                "2",
+                "--train-duration",
+                "0.3",
+                "--validation-duration",
+                "0.3",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     layout = json.loads((tmp_path / "data" / "scenario.json").read_text())["actuation"]
     assert layout == {"type": "tendon", "end": [0.07, 0.07, 0.17, 0.17], "side": [1, -1, 1, -1]}
     train = sorted(str(p) for p in (tmp_path / "data").glob("train_*.npz"))
-    assert main(["fuse", *train, "--out", f"{root}/strains", "--total-length", "0.17", "--threshold", "0.05",
-                 "--quiet"]) == 0
+    assert (
+        main(["fuse", *train, "--out", f"{root}/strains", "--total-length", "0.17", "--threshold", "0.05", "--quiet"])
+        == 0
+    )
     strains = sorted(str(p) for p in (tmp_path / "strains").glob("train_*.npz"))
     model = f"{root}/model/model.json"
-    assert main(["fit", *strains, "--inputs", *train, "--actuation", f"{root}/data/scenario.json", "--out", model,
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                *strains,
+                "--inputs",
+                *train,
+                "--actuation",
+                f"{root}/data/scenario.json",
+                "--out",
+                model,
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     from pcs_sindy.persistence import load
 
     fitted = load(model)
     # the true offsets of the scenario (+-15 mm), which the layout file does not hold
     np.testing.assert_allclose(fitted.actuation_.offsets_, [0.015, -0.015, 0.015, -0.015], rtol=0.02)
-    assert main(["rollout", model, "--tau", f"{root}/data/validation.npz", "--truth", f"{root}/data/validation.npz",
-                 "--segmentation", f"{root}/strains/segmentation.json", "--out", f"{root}/roll", "--no-plot",
-                 "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "rollout",
+                model,
+                "--tau",
+                f"{root}/data/validation.npz",
+                "--truth",
+                f"{root}/data/validation.npz",
+                "--segmentation",
+                f"{root}/strains/segmentation.json",
+                "--out",
+                f"{root}/roll",
+                "--no-plot",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     metrics = json.loads((tmp_path / "roll" / "metrics.json").read_text())
     assert metrics["e_p_ee"] < 1e-3
     assert main(["fit", *strains, "--inputs", *train, "--out", model, "--quiet"]) == 2  # no layout

@@ -33,8 +33,17 @@ def reference():
 
 def one_segment_robot() -> PCSRobot:
     # one_segment of DESIGN.md §4 with the jsrm conventions (c_sh = 4/3, f_L = 1, g = [0, 9.81])
-    return PCSRobot([0.1], density=1070, youngs_modulus=1e4, shear_modulus=1e3, damping=[1e-5, 0.15, 0.15],
-                    radius=0.02, gravity=(0.0, 9.81), shear_factor=4 / 3, stiffness_scaling="seed")
+    return PCSRobot(
+        [0.1],
+        density=1070,
+        youngs_modulus=1e4,
+        shear_modulus=1e3,
+        damping=[1e-5, 0.15, 0.15],
+        radius=0.02,
+        gravity=(0.0, 9.81),
+        shear_factor=4 / 3,
+        stiffness_scaling="seed",
+    )
 
 
 def test_one_step_predictions_match_jsrm(reference):
@@ -44,8 +53,9 @@ def test_one_step_predictions_match_jsrm(reference):
     tau = Tau[:, :-1:STRIDE].reshape(-1, 3)
     robot = one_segment_robot()
     # all steps at once as a batch of robots; tight explicit integration for the one-step check
-    runs = robot.simulate(x0[:, :3], x0[:, 3:], [0.0, 1e-3], np.stack([tau, tau]), method="dop853",
-                          rtol=1e-12, atol=1e-14)
+    runs = robot.simulate(
+        x0[:, :3], x0[:, 3:], [0.0, 1e-3], np.stack([tau, tau]), method="dop853", rtol=1e-12, atol=1e-14
+    )
     pred = np.array([np.concatenate([r.q[-1], r.qd[-1]]) for r in runs])
     ratio = np.linalg.norm(pred - x1, axis=1) / np.linalg.norm(x1 - x0, axis=1)
     bent = (np.abs(x0[:, 0]) > 1.0) & (np.abs(x1[:, 0]) > 1.0)

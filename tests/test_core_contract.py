@@ -52,7 +52,10 @@ def test_monomial_equations_exactly():
         "L = 0.00125 IEE(u1) dax_1^2 - 3.25 ax_1^2 - 0.5 be_1^2 - 2 sh_1^2",
         "D = diag(be_1: 1e-05, sh_1: 0.15, ax_1: 0.15)",
     ]
-    assert lib.equations(coef, threshold=1.0) == ["L = -3.25 ax_1^2 - 2 sh_1^2", "D = diag(be_1: 1e-05, sh_1: 0.15, ax_1: 0.15)"]
+    assert lib.equations(coef, threshold=1.0) == [
+        "L = -3.25 ax_1^2 - 2 sh_1^2",
+        "D = diag(be_1: 1e-05, sh_1: 0.15, ax_1: 0.15)",
+    ]
 
 
 def test_regressor_prints_what_its_library_prints():

@@ -9,9 +9,22 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy.datafiles import (FILE_FORMATS, DataFileError, output_dir, read_arrays, read_model_file, read_poses,
-                                 read_strains, read_tau, read_training_files, write_model_file, write_poses,
-                                 write_recording, write_strains, write_tau)
+from pcs_sindy.datafiles import (
+    FILE_FORMATS,
+    DataFileError,
+    output_dir,
+    read_arrays,
+    read_model_file,
+    read_poses,
+    read_strains,
+    read_tau,
+    read_training_files,
+    write_model_file,
+    write_poses,
+    write_recording,
+    write_strains,
+    write_tau,
+)
 from pcs_sindy.kinematics import PlanarPCS
 from pcs_sindy.segmentation import KinematicFusion
 from pcs_sindy.trajectory import StrainTrajectory
@@ -24,10 +37,14 @@ def _strains(n_frames: int = 30) -> StrainTrajectory:
     q = RNG.normal(size=(n_frames, 6)) * [5.0, 0.05, 0.02, 5.0, 0.05, 0.02]
     active = np.array([[True, True, False], [True, False, True]])
     q[:, ~active.reshape(-1)] = 0.0
-    meta = {"base_poses": RNG.normal(size=(n_frames, 3)), "marker_arc_lengths": np.linspace(0, 0.17, 6),
-            "boundaries": np.array([0, 2, 5])}
-    return StrainTrajectory(q, t, segment_lengths=(0.07, 0.1), active_strains=active, base_pose=(0.01, -0.02, 0.3),
-                            metadata=meta)
+    meta = {
+        "base_poses": RNG.normal(size=(n_frames, 3)),
+        "marker_arc_lengths": np.linspace(0, 0.17, 6),
+        "boundaries": np.array([0, 2, 5]),
+    }
+    return StrainTrajectory(
+        q, t, segment_lengths=(0.07, 0.1), active_strains=active, base_pose=(0.01, -0.02, 0.3), metadata=meta
+    )
 
 
 def test_strain_file_round_trip(tmp_path):
@@ -43,8 +60,11 @@ def test_strain_file_round_trip(tmp_path):
     assert back.metadata["source"] == str(tmp_path / "s.npz")
     # the poses the file describes are the trajectory's (closed-form forward kinematics of both)
     s = np.array([0.0, 0.05, 0.17])
-    np.testing.assert_allclose(back.poses(s), PlanarPCS((0.07, 0.1), st.active_strains, (0.01, -0.02, 0.3))
-                               .forward_kinematics(st.q, s), atol=1e-12)
+    np.testing.assert_allclose(
+        back.poses(s),
+        PlanarPCS((0.07, 0.1), st.active_strains, (0.01, -0.02, 0.3)).forward_kinematics(st.q, s),
+        atol=1e-12,
+    )
 
 
 def test_minimal_older_strain_file_loads(tmp_path):
@@ -93,13 +113,17 @@ def test_training_files_pair_by_stem_then_by_order(tmp_path):
     names = [write_strains(tmp_path / f"rec{k}.npz", s) for k, s in enumerate(st)]
     taus = [RNG.normal(size=(30, 6)) for _ in st]
     (tmp_path / "tau").mkdir()
-    by_stem = [write_tau(tmp_path / "tau" / f"rec{k}.npz", s.t, u) for k, (s, u) in enumerate(zip(st, taus))]
+    by_stem = [
+        write_tau(tmp_path / "tau" / f"rec{k}.npz", s.t, u) for k, (s, u) in enumerate(zip(st, taus, strict=True))
+    ]
     _, got = read_training_files(names, by_stem[::-1])  # reversed, matched by name
-    for a, b in zip(got, taus):
+    for a, b in zip(got, taus, strict=True):
         np.testing.assert_array_equal(a, b)
-    by_order = [write_tau(tmp_path / "tau" / f"other{k}.npz", s.t, u) for k, (s, u) in enumerate(zip(st, taus))]
+    by_order = [
+        write_tau(tmp_path / "tau" / f"other{k}.npz", s.t, u) for k, (s, u) in enumerate(zip(st, taus, strict=True))
+    ]
     _, got = read_training_files(names, by_order)
-    for a, b in zip(got, taus):
+    for a, b in zip(got, taus, strict=True):
         np.testing.assert_array_equal(a, b)
 
 

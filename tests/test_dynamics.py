@@ -22,15 +22,21 @@ SCALES = np.array([30.0, 0.2, 0.2])
 
 
 def one_segment(**kw) -> PCSRobot:
-    params = dict(segment_lengths=[0.1], density=1070, youngs_modulus=1e4, shear_modulus=1e3,
-                  damping=[1e-5, 0.15, 0.15])
+    params = dict(
+        segment_lengths=[0.1], density=1070, youngs_modulus=1e4, shear_modulus=1e3, damping=[1e-5, 0.15, 0.15]
+    )
     params.update(kw)
     return PCSRobot(**params)
 
 
 def two_segment(**kw) -> PCSRobot:
-    params = dict(segment_lengths=[0.07, 0.1], density=[1070, 1049], youngs_modulus=[1e4, 9e3],
-                  shear_modulus=[1e3, 3e3], damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
+    params = dict(
+        segment_lengths=[0.07, 0.1],
+        density=[1070, 1049],
+        youngs_modulus=[1e4, 9e3],
+        shear_modulus=[1e3, 3e3],
+        damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
+    )
     params.update(kw)
     return PCSRobot(**params)
 
@@ -108,9 +114,11 @@ def test_continuous_through_zero_curvature():
     qd = np.array([3.0, 0.5, -0.2, -4.0, 0.1, 0.3])
     for d in (1e-7, -1e-7):
         qe = q + d * np.array([1, 0, 0, 1, 0, 0])
-        for a, b in [(robot.mass_matrix(qe), robot.mass_matrix(q)),
-                     (robot.gravity_forces(qe), robot.gravity_forces(q)),
-                     (robot.coriolis_forces(qe, qd), robot.coriolis_forces(q, qd))]:
+        for a, b in [
+            (robot.mass_matrix(qe), robot.mass_matrix(q)),
+            (robot.gravity_forces(qe), robot.gravity_forces(q)),
+            (robot.coriolis_forces(qe, qd), robot.coriolis_forces(q, qd)),
+        ]:
             assert np.abs(a - b).max() <= 1e-5 * np.abs(b).max()
 
 
@@ -124,8 +132,9 @@ def test_gravity_is_gradient_of_potential(make):
         np.testing.assert_allclose(robot.gravity_forces(q), G_fd, rtol=1e-7, atol=1e-9 * np.abs(G_fd).max())
         # potential energy adds the elastic part 1/2 q^T K q, whose gradient is K q
         P_fd = fd_gradient(robot.potential_energy, q)
-        np.testing.assert_allclose(robot.gravity_forces(q) + robot.elastic_forces(q), P_fd, rtol=1e-7,
-                                   atol=1e-9 * np.abs(P_fd).max())
+        np.testing.assert_allclose(
+            robot.gravity_forces(q) + robot.elastic_forces(q), P_fd, rtol=1e-7, atol=1e-9 * np.abs(P_fd).max()
+        )
 
 
 def test_coriolis_consistent_with_mass_matrix():
@@ -156,8 +165,13 @@ def test_inverse_and_forward_dynamics_round_trip():
     tau = robot.inverse_dynamics(q, qd, qdd)
     # assembled from the documented pieces
     M = robot.mass_matrix(q)
-    tau_ref = (np.einsum("bij,bj->bi", M, qdd) + robot.coriolis_forces(q, qd) + robot.gravity_forces(q)
-               + robot.elastic_forces(q) + robot.damping * qd)
+    tau_ref = (
+        np.einsum("bij,bj->bi", M, qdd)
+        + robot.coriolis_forces(q, qd)
+        + robot.gravity_forces(q)
+        + robot.elastic_forces(q)
+        + robot.damping * qd
+    )
     np.testing.assert_allclose(tau, tau_ref, rtol=1e-12, atol=1e-14)
     np.testing.assert_allclose(robot.forward_dynamics(q, qd, tau), qdd, rtol=1e-7, atol=1e-7 * np.abs(qdd).max())
 
@@ -198,8 +212,11 @@ def test_undamped_energy_conserved(make):
 def test_damped_energy_never_increases():
     robot = two_segment()
     t = np.linspace(0.0, 0.3, 301)
-    q, qd = states(robot.simulate([20.0, 0.05, 0.1, -30.0, -0.1, 0.05], np.zeros(6), t, np.zeros((t.size, 6)),
-                                  rtol=1e-9, atol=1e-12))
+    q, qd = states(
+        robot.simulate(
+            [20.0, 0.05, 0.1, -30.0, -0.1, 0.05], np.zeros(6), t, np.zeros((t.size, 6)), rtol=1e-9, atol=1e-12
+        )
+    )
     energy = robot.total_energy(q, qd)
     assert energy[0] - energy[-1] > 0.1 * (energy[0] - energy.min() + 1e-300)  # damping removes energy
     assert np.all(np.diff(energy) <= 1e-9 * np.abs(energy).max())
@@ -231,6 +248,7 @@ def test_batched_simulation_matches_single_and_callable():
     for b in range(2):
         qs, qds = states(robot.simulate(q0[b], np.zeros(3), t, tau_rows[:, b], rtol=1e-8, atol=1e-11))
         np.testing.assert_allclose(qs, qb[:, b], rtol=0, atol=1e-6 * np.abs(qs).max())
+
         # zero-order hold expressed as a callable (scipy's Radau over the whole span) gives the same trajectory
         def hold(time, b=b):
             k = min(int(np.floor(time / 1e-3 + 1e-9)), t.size - 1)
@@ -243,8 +261,9 @@ def test_batched_simulation_matches_single_and_callable():
 def test_fixed_step_and_explicit_agree_with_adaptive():
     robot = two_segment()
     t = np.linspace(0.0, 0.04, 41)
-    tau = np.repeat(np.random.default_rng(7).normal(size=(5, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10,
-                    axis=0)[: t.size]
+    tau = np.repeat(np.random.default_rng(7).normal(size=(5, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10, axis=0)[
+        : t.size
+    ]
     q_ref = robot.simulate(np.zeros(6), np.zeros(6), t, tau, method="radau", rtol=1e-9, atol=1e-12).q
     q_rk = robot.simulate(np.zeros(6), np.zeros(6), t, tau, method="dop853", rtol=1e-9, atol=1e-12).q
     q_fx = robot.simulate(np.zeros(6), np.zeros(6), t, tau, step=2.5e-4).q
@@ -289,8 +308,9 @@ def test_integration_failure_raises_with_time(method):
     ],
 )
 def test_bad_constructor_arguments(kwargs, name):
-    params = dict(segment_lengths=[0.07, 0.1], density=1070, youngs_modulus=1e4, shear_modulus=1e3,
-                  damping=np.full(6, 0.1))
+    params = dict(
+        segment_lengths=[0.07, 0.1], density=1070, youngs_modulus=1e4, shear_modulus=1e3, damping=np.full(6, 0.1)
+    )
     params.update(kwargs)
     with pytest.raises(ValueError, match=name):
         PCSRobot(**params)
@@ -340,8 +360,13 @@ def test_sample_grids_with_round_off_are_stepped_cleanly():
 # compiled (numba) path
 # --------------------------------------------------------------------------
 def three_segment(**kw) -> PCSRobot:
-    params = dict(segment_lengths=[0.05, 0.1, 0.06], density=[1240, 1049, 1070], youngs_modulus=[1e4, 6e4, 8e4],
-                  shear_modulus=[1e3, 3e3, 5e3], damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2])
+    params = dict(
+        segment_lengths=[0.05, 0.1, 0.06],
+        density=[1240, 1049, 1070],
+        youngs_modulus=[1e4, 6e4, 8e4],
+        shear_modulus=[1e3, 3e3, 5e3],
+        damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
+    )
     params.update(kw)
     return PCSRobot(**params)
 
@@ -365,8 +390,9 @@ def test_compiled_terms_equal_numpy_terms(make):
     tau = random_q(rng, m, (6,)) * 0.01
     M, bias = _kernels.mass_and_bias_batch(q, qd, robot._jit_geometry())
     M_ref = robot.mass_matrix(q)
-    bias_ref = (robot.coriolis_forces(q, qd) + robot.gravity_forces(q) + robot.elastic_forces(q)
-                + robot.damping_forces(qd))
+    bias_ref = (
+        robot.coriolis_forces(q, qd) + robot.gravity_forces(q) + robot.elastic_forces(q) + robot.damping_forces(qd)
+    )
     np.testing.assert_allclose(M, M_ref, rtol=0, atol=1e-12 * np.abs(M_ref).max())
     np.testing.assert_allclose(bias, bias_ref, rtol=0, atol=1e-12 * np.abs(bias_ref).max())
     y = np.concatenate([q, qd], axis=1)
@@ -403,8 +429,9 @@ def test_compiled_radau_agrees_with_scipy_radau(kw):
     # scipy's Radau (an independent implementation of the same method) on the callable path, tightly
     robot = two_segment()
     t = np.linspace(0.0, 0.06, 61)
-    tau = np.repeat(np.random.default_rng(10).normal(size=(7, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10,
-                    axis=0)[: t.size]
+    tau = np.repeat(np.random.default_rng(10).normal(size=(7, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10, axis=0)[
+        : t.size
+    ]
     q0 = np.array([5.0, 0.02, -0.01, -8.0, 0.03, 0.02])
     sim = robot.simulate(q0, np.zeros(6), t, tau, **kw)
     hold = lambda time: tau[min(int(np.floor(time / 1e-3 + 1e-9)), t.size - 1)]  # noqa: E731

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from truth import simulate_truth as _simulate_truth
 
 from pcs_sindy._jit_dynamics import moments
 from pcs_sindy.forward import CallableModel, LumpedPCSModel
@@ -19,7 +20,6 @@ from pcs_sindy.library._pcs_numeric import moments as moments_array
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import StrainTrajectory
-from truth import simulate_truth as _simulate_truth
 
 MAT = dict(density=1000.0, youngs_modulus=1e5, shear_modulus=3e4)
 
@@ -94,8 +94,16 @@ def test_eight_nodes_agree_with_sixteen_up_to_kappa_l_six():
     coef = _coef(lib, 2)
     full = lib.forward_model(coef)
     lp = lib.lumped_from_coef(coef)
-    fast = LumpedPCSModel(lib.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
-                          lp["rest_force"], n_quadrature=8)
+    fast = LumpedPCSModel(
+        lib.kinematics,
+        lp["rhoA"],
+        lp["rhoI"],
+        lp["rhoAg"],
+        lp["stiffness"],
+        lp["damping"],
+        lp["rest_force"],
+        n_quadrature=8,
+    )
     rng = np.random.default_rng(8)
     for kl in (2.0, 4.0, 6.0):
         q = rng.uniform(-1, 1, (100, 6)) * np.array([kl / 0.07, 0.3, 0.3, kl / 0.1, 0.3, 0.3])
@@ -118,26 +126,35 @@ def _true_model(name, library="physical"):
         lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
     else:
         lib = PCSLagrangianLibrary(robot.segment_lengths)
-    coef = lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus,
-                                            robot.damping)
+    coef = lib.coefficients_from_parameters(
+        robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+    )
     return robot, lib, coef
 
 
-@pytest.mark.parametrize("name,method,library", [
-    ("one_segment", "rosenbrock", "physical"), ("one_segment", "dopri5", "physical"),
-    ("two_segment", "rosenbrock", "physical"), ("two_segment", "dopri5", "physical"),
-    ("one_segment", "radau", "monomial"),
-])
+@pytest.mark.parametrize(
+    "name,method,library",
+    [
+        ("one_segment", "rosenbrock", "physical"),
+        ("one_segment", "dopri5", "physical"),
+        ("two_segment", "rosenbrock", "physical"),
+        ("two_segment", "dopri5", "physical"),
+        ("one_segment", "radau", "monomial"),
+        ("one_segment", "dopri5", "monomial"),  # a callable model takes solve_ivp's RK45 for dopri5
+    ],
+)
 def test_true_parameters_follow_the_simulator(name, method, library):
     robot, lib, coef = _true_model(name, library)
     m = robot.n_segments
     t = np.arange(101) * 1e-3
     rng = np.random.default_rng(2)
     tau = robot.gravity_forces(np.zeros(3 * m)) + _square_wave(
-        t, m, rng, np.abs(robot.elastic_forces(np.tile([10.0, 0.05, 0.05], m))))
+        t, m, rng, np.abs(robot.elastic_forces(np.tile([10.0, 0.05, 0.05], m)))
+    )
     q_ref, qd_ref = _simulate_truth(robot, np.zeros(3 * m), np.zeros(3 * m), t, tau)
-    sim = lib.forward_model(coef).simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, method=method, rtol=1e-10,
-                                           atol=1e-12)
+    sim = lib.forward_model(coef).simulate(
+        np.zeros(3 * m), np.zeros(3 * m), t, tau, method=method, rtol=1e-10, atol=1e-12
+    )
     assert np.all(np.abs(sim.q - q_ref).max(axis=0) <= 1e-6 * np.abs(q_ref).max(axis=0))
     assert np.all(np.abs(sim.qd - qd_ref).max(axis=0) <= 1e-5 * np.abs(qd_ref).max(axis=0))
     assert sim.segment_lengths == robot.kinematics.segment_lengths
@@ -206,4 +223,6 @@ def test_forward_model_is_rebuilt_after_pickling():
     clone = pickle.loads(pickle.dumps(model))
     assert "_forward" not in clone.__dict__
     q = np.array([[2.0, 0.01, 0.0]])
-    np.testing.assert_array_equal(clone.forward_model().mass_and_bias(q, q)[0], model.forward_model().mass_and_bias(q, q)[0])
+    np.testing.assert_array_equal(
+        clone.forward_model().mass_and_bias(q, q)[0], model.forward_model().mass_and_bias(q, q)[0]
+    )

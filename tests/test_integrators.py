@@ -104,13 +104,21 @@ def test_adaptive_schemes_meet_their_tolerance(method):
 def test_callable_input_through_solve_ivp():
     wf = 7.0
     t = np.linspace(0.0, 1.0, 201)
-    out = _run(_oscillator(), t, lambda s: [0.0, 0.0, np.cos(wf * s)], y0=(0.5, 0.0), method="radau", rtol=1e-10,
-               atol=1e-12)
+    out = _run(
+        _oscillator(), t, lambda s: [0.0, 0.0, np.cos(wf * s)], y0=(0.5, 0.0), method="radau", rtol=1e-10, atol=1e-12
+    )
     # the steady-state and the transient of a cosine-forced oscillator, in closed form
     from scipy.integrate import solve_ivp
 
-    ref = solve_ivp(lambda s, y: A_OSC @ y + [0.0, np.cos(wf * s)], (0, 1), [0.5, 0.0], method="DOP853",
-                    t_eval=t, rtol=1e-12, atol=1e-14).y.T
+    ref = solve_ivp(
+        lambda s, y: A_OSC @ y + [0.0, np.cos(wf * s)],
+        (0, 1),
+        [0.5, 0.0],
+        method="DOP853",
+        t_eval=t,
+        rtol=1e-12,
+        atol=1e-14,
+    ).y.T
     assert np.abs(out - ref).max() < 1e-7
     with pytest.raises(ValueError, match="tabulated inputs"):
         _run(_oscillator(), t, lambda s: [0.0, 0.0, 1.0], method="rosenbrock")
@@ -170,10 +178,19 @@ def test_former_method_names_warn_and_map():
 
 def test_solve_held_on_a_plain_function():
     t, u, exact = _problem()
-    out = solve_held(lambda y, uk: A_OSC @ y + np.array([0.0, uk[0]]), [1.0, 0.0], t, u, method="dop853",
-                     rtol=1e-10, atol=1e-12)
+    out = solve_held(
+        lambda y, uk: A_OSC @ y + np.array([0.0, uk[0]]), [1.0, 0.0], t, u, method="dop853", rtol=1e-10, atol=1e-12
+    )
     assert np.abs(out - exact).max() < 1e-8
     with pytest.raises(SimulationError, match="a="):
         solve_held(lambda y, uk: 50.0 * y, [1.0, 1.0], t, u, method="radau", max_abs_state=1e3, state_names=["a", "b"])
     with pytest.raises(ValueError, match="for solve_ivp"):
         solve_held(lambda y, uk: y, [1.0], t, u, method="rosenbrock")
+
+
+def test_solve_held_reports_where_solve_ivp_gives_up_inside_a_sample():
+    # y' = y^2 from y(0) = 1 blows up at t = 1, inside the sample [0.5, 2]; solve_ivp fails there
+    with pytest.raises(SimulationError, match="solve_ivp") as err:
+        solve_held(lambda y, uk: y**2, [1.0], [0.0, 0.5, 2.0], np.zeros((3, 1)), method="dopri5", max_abs_state=1e300)
+    assert err.value.t == pytest.approx(1.0, abs=1e-3)  # the last step reached (numerically at the pole), not 0.5
+    assert err.value.y[0] > 1e6

@@ -43,8 +43,16 @@ def integrate_backbone(q_stack, lengths, s_eval):
         th = y[2]
         return [np.cos(th) * sh - np.sin(th) * (1 + ax), np.sin(th) * sh + np.cos(th) * (1 + ax), k]
 
-    out = solve_ivp(rhs, (0, bounds[-1]), [0.0, 0.0, 0.0], t_eval=s_eval, rtol=1e-12, atol=1e-14,
-                    method="DOP853", max_step=min(lengths) / 50)
+    out = solve_ivp(
+        rhs,
+        (0, bounds[-1]),
+        [0.0, 0.0, 0.0],
+        t_eval=s_eval,
+        rtol=1e-12,
+        atol=1e-14,
+        method="DOP853",
+        max_step=min(lengths) / 50,
+    )
     return out.y.T
 
 

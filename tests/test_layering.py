@@ -18,7 +18,9 @@ Layers (what each may import besides itself):
 - simulation (the ground truth) and the identification side never import each
   other; the simulator may use the camera model to render synthetic videos;
 - vision (images → poses → strains) imports no dynamics;
-- ``pipeline`` composes vision and identification;
+- ``pipeline`` and ``rest_length`` compose vision and identification;
+- ``control`` runs identified models on observations from vision; the plant
+  (the simulator) is passed in, never imported;
 - the top layer (CLI and its commands, data files, demo and report, plotting,
   model files, the package root's lazy re-exports) may import anything, and
   nothing below it imports it.
@@ -45,21 +47,50 @@ SIMULATION = ("pcs_sindy.simulation",)
 IDENTIFICATION = (
     "pcs_sindy.library",
     "pcs_sindy.optimizers",
+    "pcs_sindy.least_squares",
     "pcs_sindy.regressor",
     "pcs_sindy.integrators",
     "pcs_sindy._jit_rollout",
     "pcs_sindy._jit_dynamics",
     "pcs_sindy.forward",
     "pcs_sindy.formulations",
+    "pcs_sindy.recordings",
+    "pcs_sindy.variable_projection",
     "pcs_sindy.identifiability",
     "pcs_sindy.rollout",
     "pcs_sindy.actuation",
-    "pcs_sindy.control",
 )
-VISION = ("pcs_sindy.vision", "pcs_sindy.camera", "pcs_sindy.segmentation")
-COMPOSITION = ("pcs_sindy.pipeline",)
-TOP = ("pcs_sindy.cli", "pcs_sindy.commands", "pcs_sindy.datafiles", "pcs_sindy.demo", "pcs_sindy.report",
-       "pcs_sindy.plotting", "pcs_sindy.persistence", "pcs_sindy")
+VISION = (
+    "pcs_sindy.vision",
+    "pcs_sindy.camera",
+    "pcs_sindy.calibration",
+    "pcs_sindy.frame_source",
+    "pcs_sindy.binarisation",
+    "pcs_sindy.markers",
+    "pcs_sindy.marker_chain",
+    "pcs_sindy.frame_tracker",
+    "pcs_sindy.extraction",
+    "pcs_sindy.chain_geometry",
+    "pcs_sindy.segment_merging",
+    "pcs_sindy.shape_fit",
+    "pcs_sindy.threshold_selection",
+    "pcs_sindy.segmentation",
+    "pcs_sindy._frame_fit",
+)
+#: vision and identification together: the pipeline, and the rest length corrected through the dynamics
+COMPOSITION = ("pcs_sindy.pipeline", "pcs_sindy.rest_length")
+#: controllers and closed loops: identified models observed through vision; the plant (the simulator) is passed in
+CONTROL = ("pcs_sindy.control",)
+TOP = (
+    "pcs_sindy.cli",
+    "pcs_sindy.commands",
+    "pcs_sindy.datafiles",
+    "pcs_sindy.demo",
+    "pcs_sindy.report",
+    "pcs_sindy.plotting",
+    "pcs_sindy.persistence",
+    "pcs_sindy",
+)
 
 LAYERS = {
     "ground": GROUND,
@@ -68,6 +99,7 @@ LAYERS = {
     "identification": IDENTIFICATION,
     "vision": VISION,
     "composition": COMPOSITION,
+    "control": CONTROL,
     "top": TOP,
 }
 
@@ -85,6 +117,7 @@ LAYER_ALLOWED = {
     "identification": ("ground", "infrastructure", "identification"),
     "vision": ("ground", "infrastructure", "vision"),
     "composition": ("ground", "infrastructure", "vision", "identification", "composition"),
+    "control": ("ground", "infrastructure", "vision", "identification", "control"),
     "top": tuple(LAYERS),
 }
 #: single modules allowed across the table, each with the reason

@@ -18,15 +18,15 @@ from scipy.integrate import quad
 from sklearn.base import clone
 
 from pcs_sindy.kinematics import cosc, cosc_prime, sinc, sinc_prime
-from pcs_sindy.library import PCSLagrangianLibrary
-from pcs_sindy.library import codegen
+from pcs_sindy.library import PCSLagrangianLibrary, codegen
 from pcs_sindy.library.special import SERIES_RADIUS, SpecialBank, register_backbone_functions, special
 from pcs_sindy.simulation.dynamics import PCSRobot
 
 RADIUS = 0.02
 ONE = dict(lengths=[0.1], rho=[1070.0], E=[1e4], G=[1e3], D=[1e-5, 1.5e-1, 1.5e-1])
-TWO = dict(lengths=[0.07, 0.1], rho=[1070.0, 1049.0], E=[1e4, 9e3], G=[1e3, 3e3],
-           D=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
+TWO = dict(
+    lengths=[0.07, 0.1], rho=[1070.0, 1049.0], E=[1e4, 9e3], G=[1e3, 3e3], D=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2]
+)
 
 
 @pytest.fixture(scope="module")
@@ -35,13 +35,15 @@ def cache_dir(tmp_path_factory):
 
 
 def robot(case, scaling="seed"):
-    return PCSRobot(case["lengths"], case["rho"], case["E"], case["G"], case["D"], radius=RADIUS,
-                    stiffness_scaling=scaling)
+    return PCSRobot(
+        case["lengths"], case["rho"], case["E"], case["G"], case["D"], radius=RADIUS, stiffness_scaling=scaling
+    )
 
 
 def true_coef(lib, case, scaling="seed"):
-    return lib.coefficients_from_parameters(case["rho"], RADIUS, case["E"], case["G"], case["D"],
-                                            stiffness_scaling=scaling)
+    return lib.coefficients_from_parameters(
+        case["rho"], RADIUS, case["E"], case["G"], case["D"], stiffness_scaling=scaling
+    )
 
 
 def random_states(n, n_samples, seed=0):
@@ -115,8 +117,9 @@ def test_inverse_dynamics_and_mass_matrix_match_simulator(case, basis, cache_dir
     tau_ref = sim.inverse_dynamics(q, qd, qdd)
     for k in range(30):  # per sample, relative to that sample's magnitude
         assert rel_err(psi[k] @ coef, tau_ref[k]) < 1e-8
-    np.testing.assert_allclose(lib.mass_matrix(q, coef), sim.mass_matrix(q), rtol=1e-8,
-                               atol=1e-10 * np.max(np.abs(sim.mass_matrix(q))))
+    np.testing.assert_allclose(
+        lib.mass_matrix(q, coef), sim.mass_matrix(q), rtol=1e-8, atol=1e-10 * np.max(np.abs(sim.mass_matrix(q)))
+    )
     # bias and potential forces split Psi coef consistently with the simulator's terms
     pot = sim.gravity_forces(q) + sim.elastic_forces(q)
     assert rel_err(lib.potential_forces(q, coef), pot) < 1e-8
@@ -152,9 +155,11 @@ def test_features_sum_to_the_lagrangian(case, cache_dir):
 
 
 # ---------------------------------------------------------------- limit rule
-@pytest.mark.parametrize("case,mask", [(ONE, [[1, 0, 1]]), (ONE, [[0, 1, 1]]), (TWO, [[1, 1, 1], [1, 0, 1]]),
-                                       (TWO, [[1, 1, 0], [1, 0, 1]])], ids=["1seg-noshear", "1seg-nobend",
-                                                                           "2seg-noshear2", "2seg-mixed"])
+@pytest.mark.parametrize(
+    "case,mask",
+    [(ONE, [[1, 0, 1]]), (ONE, [[0, 1, 1]]), (TWO, [[1, 1, 1], [1, 0, 1]]), (TWO, [[1, 1, 0], [1, 0, 1]])],
+    ids=["1seg-noshear", "1seg-nobend", "2seg-noshear2", "2seg-mixed"],
+)
 def test_restrict_is_the_limit_of_the_full_library(case, mask, cache_dir):
     full = PCSLagrangianLibrary(case["lengths"], cache_dir=cache_dir)
     red = full.restrict(mask)
@@ -193,8 +198,12 @@ def test_restrict_physical_basis_matches_simulator(cache_dir):
     embed = red.kinematics.to_full
     psi_full = full.euler_lagrange_matrix(embed(q), embed(qd), embed(qdd))[:, keep, :]
     # same columns up to summation order of the (physical) weight matrix product
-    np.testing.assert_allclose(red.euler_lagrange_matrix(q, qd, qdd), psi_full[:, :, red.column_map_], rtol=1e-12,
-                               atol=1e-14 * np.max(np.abs(psi_full)))
+    np.testing.assert_allclose(
+        red.euler_lagrange_matrix(q, qd, qdd),
+        psi_full[:, :, red.column_map_],
+        rtol=1e-12,
+        atol=1e-14 * np.max(np.abs(psi_full)),
+    )
     tau = robot(TWO).inverse_dynamics(embed(q), embed(qd), embed(qdd))[:, keep]
     assert rel_err(red.euler_lagrange_matrix(q, qd, qdd) @ true_coef(red, TWO), tau) < 1e-8
     np.testing.assert_allclose(-2.0 * true_coef(red, TWO)[red.stiffness_index_], robot(TWO).stiffness[keep], rtol=1e-12)
@@ -211,7 +220,9 @@ def test_basis_sizes_one_segment(cache_dir):
 
 
 # ---------------------------------------------------------------- fast dynamics
-@pytest.mark.parametrize("case,mask", [(ONE, None), (ONE, [[1, 0, 1]]), (TWO, None)], ids=["1seg", "1seg-noshear", "2seg"])
+@pytest.mark.parametrize(
+    "case,mask", [(ONE, None), (ONE, [[1, 0, 1]]), (TWO, None)], ids=["1seg", "1seg-noshear", "2seg"]
+)
 def test_forward_model_matches_batched_and_simulator(case, mask, cache_dir):
     lib = PCSLagrangianLibrary(case["lengths"], active_strains=mask, cache_dir=cache_dir)
     coef = true_coef(lib, case)
@@ -243,8 +254,17 @@ def test_works_inside_pysindy_and_clones(cache_dir):
     assert twin.get_params()["cache_dir"] == cache_dir
     twin.set_params(basis="physical")
     t = np.linspace(0.0, 1.0, 120)
-    x = np.stack([10 * np.sin(3 * t), 0.1 * np.cos(2 * t), 0.05 * np.sin(t),
-                  30 * np.cos(3 * t), -0.2 * np.sin(2 * t), 0.05 * np.cos(t)], axis=1)
+    x = np.stack(
+        [
+            10 * np.sin(3 * t),
+            0.1 * np.cos(2 * t),
+            0.05 * np.sin(t),
+            30 * np.cos(3 * t),
+            -0.2 * np.sin(2 * t),
+            0.05 * np.cos(t),
+        ],
+        axis=1,
+    )
     model = ps.SINDy(feature_library=twin, optimizer=ps.STLSQ(threshold=0.0))
     model.fit(x, t=t)
     assert model.coefficients().shape == (6, 7)
@@ -276,7 +296,9 @@ def test_cache_roundtrip_and_tamper_detection(tmp_path):
     assert not third.from_cache and third.source == first.source
     # text with a consistent hash but not of the generated shape is refused too (never executed)
     data = json.loads(path.read_text())
-    data["source"] = data["source"].replace("def psi(q, qd, qdd, L):", f"def psi(q, qd, qdd, L):\n    open({str(tmp_path / 'x')!r}, 'w')")
+    data["source"] = data["source"].replace(
+        "def psi(q, qd, qdd, L):", f"def psi(q, qd, qdd, L):\n    open({str(tmp_path / 'x')!r}, 'w')"
+    )
     data["sha256"] = hashlib.sha256(data["source"].encode()).hexdigest()
     path.write_text(json.dumps(data))
     fourth = codegen.build_basis(1, cache_dir=tmp_path)
@@ -287,7 +309,9 @@ def test_cache_roundtrip_and_tamper_detection(tmp_path):
 # ---------------------------------------------------------------- bad input
 def test_bad_input_raises_value_error_naming_the_argument(cache_dir):
     with pytest.raises(ValueError, match="segment_lengths"):
-        PCSLagrangianLibrary([0.1, -0.2], cache_dir=cache_dir).euler_lagrange_matrix(np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6)))
+        PCSLagrangianLibrary([0.1, -0.2], cache_dir=cache_dir).euler_lagrange_matrix(
+            np.zeros((1, 6)), np.zeros((1, 6)), np.zeros((1, 6))
+        )
     with pytest.raises(ValueError, match="basis"):
         PCSLagrangianLibrary([0.1], basis="fourier", cache_dir=cache_dir).n_coefficients_
     with pytest.raises(ValueError, match="active_strains"):

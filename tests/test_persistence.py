@@ -21,10 +21,10 @@ from sklearn.pipeline import Pipeline
 
 from pcs_sindy.persistence import FORMAT_NAME, FORMAT_VERSION, PersistenceMixin, load, save
 from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.vision import MarkerPoseExtractor
 from pcs_sindy.segmentation import KinematicFusion
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory
+from pcs_sindy.vision import MarkerPoseExtractor
 
 N_SAMPLES = 200
 
@@ -62,8 +62,10 @@ def fusion(poses_two):
 @pytest.fixture(scope="module")
 def regressors(one_segment):
     X, tau, qd, qdd, _ = one_segment
-    return {basis: EulerLagrangeRegressor(library=basis, formulation="strong").fit(X, tau, qd=qd, qdd=qdd)
-            for basis in ("physical", "monomial")}
+    return {
+        basis: EulerLagrangeRegressor(library=basis, formulation="strong").fit(X, tau, qd=qd, qdd=qdd)
+        for basis in ("physical", "monomial")
+    }
 
 
 @pytest.fixture()
@@ -77,13 +79,15 @@ def _same(a, b) -> bool:
     """Structural equality with bit-exact arrays (NaN equal to NaN), types included."""
     if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
         return (
-            isinstance(a, np.ndarray) and isinstance(b, np.ndarray) and a.dtype == b.dtype
+            isinstance(a, np.ndarray)
+            and isinstance(b, np.ndarray)
+            and a.dtype == b.dtype
             and np.array_equal(a, b, equal_nan=a.dtype.kind in "fc")
         )
     if type(a) is not type(b):
         return False
     if isinstance(a, (list, tuple)):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b))
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
     if isinstance(a, dict):
         return list(a) == list(b) and all(_same(a[k], b[k]) for k in a)
     if isinstance(a, (float, np.floating)) and math.isnan(a):
@@ -130,14 +134,23 @@ def test_fusion_round_trip_bit_exact(fusion, poses_two, tmp_path):
     loaded = load(out)
     assert type(loaded) is KinematicFusion
     assert loaded.get_params() == fusion.get_params()
-    for key in ("segment_lengths_", "boundaries_", "marker_arc_lengths_", "q_max_", "distance_profile_",
-                "total_length_", "n_segments_", "n_markers_", "history_"):
+    for key in (
+        "segment_lengths_",
+        "boundaries_",
+        "marker_arc_lengths_",
+        "q_max_",
+        "distance_profile_",
+        "total_length_",
+        "n_segments_",
+        "n_markers_",
+        "history_",
+    ):
         assert _same(getattr(loaded, key), getattr(fusion, key)), key
     a, b = fusion.transform(poses_two), loaded.transform(poses_two)
-    for x, y in zip(a, b):
+    for x, y in zip(a, b, strict=True):
         assert np.array_equal(x.q, y.q) and x.segment_lengths == y.segment_lengths
     ra, rb = fusion.inverse_transform(a), loaded.inverse_transform(b)
-    assert all(np.array_equal(x.poses, y.poses) for x, y in zip(ra, rb))
+    assert all(np.array_equal(x.poses, y.poses) for x, y in zip(ra, rb, strict=True))
 
 
 @pytest.mark.parametrize("basis", ["physical", "monomial"])
@@ -155,7 +168,7 @@ def test_regressor_round_trip_bit_exact(basis, regressors, one_segment, tmp_path
     assert loaded.library_ is loaded.optimizer_.library_
     assert (loaded.full_library_ is loaded.library_) == (model.full_library_ is model.library_)
     pa, pb = model.predict(X, qd=qd, qdd=qdd), loaded.predict(X, qd=qd, qdd=qdd)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     q = recs[0].q[:50]
     assert np.array_equal(model.mass_matrix(q), loaded.mass_matrix(q))
     r = recs[1]
@@ -177,7 +190,7 @@ def test_regressor_with_strain_removal_round_trip(tmp_path):
     assert loaded.full_library_ is not loaded.library_
     assert _same(loaded.optimizer_.history_, model.optimizer_.history_)
     pa, pb = model.predict(X, qd=qd, qdd=qdd), loaded.predict(X, qd=qd, qdd=qdd)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     r = recs[0]
     sa = model.simulate(r.q[0], r.qd[0], r.t[:30], r.tau[:30])
     sb = loaded.simulate(r.q[0], r.qd[0], r.t[:30], r.tau[:30])
@@ -187,22 +200,25 @@ def test_regressor_with_strain_removal_round_trip(tmp_path):
 def test_pipeline_round_trip(poses_two, tmp_path):
     d = get_scenario("two_segment").generate(seed=0)
     taus = [r.tau[:150] for r in d.train[:2]]
-    pipe = Pipeline([
-        ("segments", KinematicFusion(shape_fit="end_pose")),
-        ("dynamics", EulerLagrangeRegressor(weak_window=20, weak_stride=10, check_mass_matrix=False)),
-    ])
+    pipe = Pipeline(
+        [
+            ("segments", KinematicFusion(shape_fit="end_pose")),
+            ("dynamics", EulerLagrangeRegressor(weak_window=20, weak_stride=10, check_mass_matrix=False)),
+        ]
+    )
     pipe.fit(poses_two, taus)
     loaded = load(save(pipe, tmp_path / "pipe"))
     assert type(loaded) is Pipeline and [n for n, _ in loaded.steps] == ["segments", "dynamics"]
     assert _same(loaded.get_params(deep=False)["steps"], pipe.get_params(deep=False)["steps"])
     pa, pb = pipe.predict(poses_two), loaded.predict(poses_two)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     ta, tb = pipe[:-1].transform(poses_two), loaded[:-1].transform(poses_two)
-    assert all(np.array_equal(a.q, b.q) for a, b in zip(ta, tb))
+    assert all(np.array_equal(a.q, b.q) for a, b in zip(ta, tb, strict=True))
 
 
 def test_pcs_pipeline_round_trip(poses_two, tmp_path):
     from pcs_sindy import pipeline
+
     d = get_scenario("two_segment").generate(seed=0)
     taus = [r.tau[:150] for r in d.train[:2]]
     pipe = pipeline.make_pcs_pipeline(
@@ -214,7 +230,7 @@ def test_pcs_pipeline_round_trip(poses_two, tmp_path):
     loaded = pipeline.PCSPipeline.load(pipe.save(tmp_path / "pcs_pipe"))
     assert type(loaded) is pipeline.PCSPipeline
     pa, pb = pipe.predict(poses_two), loaded.predict(poses_two)
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
     assert np.array_equal(loaded.segment_lengths_, pipe.segment_lengths_)
     r = d.train[0]
     q0, qd0 = pipe.initial_state(poses_two)
@@ -245,11 +261,26 @@ def test_extractor_and_camera_params(tmp_path):
 def test_value_types_round_trip(fusion, tmp_path):
     obj = KinematicFusion(q_max=(60.0, 0.3, 0.3), pose_std=[1e-3, 0.02])
     obj.extra_ = {
-        "inf": float("inf"), "-inf": float("-inf"), "nan": float("nan"), "tiny": 5e-324, "big": 2**70,
-        "f32": np.float32(0.1), "i64": np.int64(-3), "b": np.bool_(True), "z": 1 + 2j,
-        "tuple": (1, (2.5, "x")), "list": [None, True, "s"], 3: "int key", (1, 2): "tuple key",
-        "arrays": [np.arange(5, dtype=np.int32), np.array([[np.nan, -0.0]]), np.array(["a", "bc"]),
-                   np.zeros((0, 3)), np.array(2.5)],
+        "inf": float("inf"),
+        "-inf": float("-inf"),
+        "nan": float("nan"),
+        "tiny": 5e-324,
+        "big": 2**70,
+        "f32": np.float32(0.1),
+        "i64": np.int64(-3),
+        "b": np.bool_(True),
+        "z": 1 + 2j,
+        "tuple": (1, (2.5, "x")),
+        "list": [None, True, "s"],
+        3: "int key",
+        (1, 2): "tuple key",
+        "arrays": [
+            np.arange(5, dtype=np.int32),
+            np.array([[np.nan, -0.0]]),
+            np.array(["a", "bc"]),
+            np.zeros((0, 3)),
+            np.array(2.5),
+        ],
     }
     shared = np.linspace(0, 1, 7)
     obj.a_, obj.b_ = shared, shared
@@ -325,8 +356,9 @@ def test_crafted_class_name_is_refused(name, saved, sentinel):
     # the same class nested in a parameter
     doc = _doc(saved.with_name("model.json"))
     doc["class"] = doc["object"]["$object"] = "KinematicFusion"
-    doc["object"]["params"] = {"threshold": {"$object": name, "id": 5, "params": {"command": f"touch {sentinel}"},
-                                             "state": {}}}
+    doc["object"]["params"] = {
+        "threshold": {"$object": name, "id": 5, "params": {"command": f"touch {sentinel}"}, "state": {}}
+    }
     _write_doc(saved, doc)
     with pytest.raises(ValueError, match=r"threshold: class .* is not allowed"):
         load(saved)
@@ -362,8 +394,13 @@ def test_npz_from_another_model_is_refused(saved, fusion, tmp_path):
 
 @pytest.mark.parametrize(
     "version, match",
-    [(FORMAT_VERSION + 1, "newer pcs_sindy"), (0, "invalid format_version"), ("1", "invalid format_version"),
-     (None, "invalid format_version"), (True, "invalid format_version")],
+    [
+        (FORMAT_VERSION + 1, "newer pcs_sindy"),
+        (0, "invalid format_version"),
+        ("1", "invalid format_version"),
+        (None, "invalid format_version"),
+        (True, "invalid format_version"),
+    ],
 )
 def test_wrong_version_is_refused(version, match, saved):
     doc = _doc(saved)
@@ -419,7 +456,9 @@ def test_wrong_params_are_refused(field, value, match, saved):
         load(saved)
 
 
-@pytest.mark.parametrize("key", ["__class__", "__dict__", "fit", "transform", "_private_", "threshold", "segment lengths_"])
+@pytest.mark.parametrize(
+    "key", ["__class__", "__dict__", "fit", "transform", "_private_", "threshold", "segment lengths_"]
+)
 def test_state_cannot_reach_methods_or_dunders(key, saved):
     doc = _doc(saved)
     doc["object"]["state"][key] = 1
@@ -435,7 +474,9 @@ def test_regressor_params_are_validated(regressors, tmp_path):
         original = doc["object"]["params"][field]
         doc["object"]["params"][field] = value
         _write_doc(path, doc)
-        with pytest.raises(ValueError, match=rf"(invalid parameters|parameter {field} must).*{field}|parameter {field} must"):
+        with pytest.raises(
+            ValueError, match=rf"(invalid parameters|parameter {field} must).*{field}|parameter {field} must"
+        ):
             load(path)
         doc["object"]["params"][field] = original
         _write_doc(path, doc)
@@ -505,7 +546,7 @@ def test_differentiation_object_round_trip(one_segment, tmp_path):
     assert type(loaded.differentiation_method) is ps.FiniteDifference
     assert loaded.differentiation_method.get_params() == model.differentiation_method.get_params()
     pa, pb = model.predict(X), loaded.predict(X)  # derivatives from the restored differentiation object
-    assert all(np.array_equal(a, b) for a, b in zip(pa, pb))
+    assert all(np.array_equal(a, b) for a, b in zip(pa, pb, strict=True))
 
 
 def test_round_trip_in_a_fresh_process(regressors, one_segment, tmp_path):
@@ -522,12 +563,12 @@ def test_round_trip_in_a_fresh_process(regressors, one_segment, tmp_path):
 import numpy as np
 from pcs_sindy.persistence import load
 from pcs_sindy.trajectory import StrainTrajectory
-d = np.load({str(tmp_path / 'inputs.npz')!r})
+d = np.load({str(tmp_path / "inputs.npz")!r})
 m = load({str(path)!r})
 X = [StrainTrajectory(d["q"], d["t"], segment_lengths=m.kinematics_.segment_lengths)]
 p = m.predict(X, qd=[d["qd"]], qdd=[d["qdd"]])[0]
 s = m.simulate(d["q"][0], d["qd"][0], d["t"][:30], d["tau"])
-np.savez({str(tmp_path / 'out.npz')!r}, p=p, s=s.q)
+np.savez({str(tmp_path / "out.npz")!r}, p=p, s=s.q)
 """
     subprocess.run([sys.executable, "-c", script], check=True, timeout=300)
     out = np.load(tmp_path / "out.npz")

@@ -86,7 +86,9 @@ def test_exact_derivatives_recover_every_parameter(scenario):
     # exact accelerations from the simulator's forward dynamics at the recorded states
     qdd = [robot.forward_dynamics(r.q, r.qd, r.tau) for r in data.train]
     lib = PhysicalPCSLibrary(L, rest_strain=False)
-    model = EulerLagrangeRegressor(library=lib, formulation="strong").fit(X, [r.tau for r in data.train], qd=[r.qd for r in data.train], qdd=qdd)
+    model = EulerLagrangeRegressor(library=lib, formulation="strong").fit(
+        X, [r.tau for r in data.train], qd=[r.qd for r in data.train], qdd=qdd
+    )
 
     truth = _true_coefficients(scenario, lib)
     assert lib.n_coefficients_ == 5 * 8  # rhoA, rhoI, 3 stiffnesses, 3 dampings per segment

@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from scipy.optimize import lsq_linear
 from sklearn.base import clone
+from truth import simulate_truth
 
 from pcs_sindy.formulations import integrate_forces, sliding_windows, weak_form_rows
 from pcs_sindy.library.physical import PhysicalPCSLibrary
 from pcs_sindy.simulation.dynamics import PCSRobot
-from truth import simulate_truth
 
 # (lengths, density, E, G, damping) — the seed's Table I robots
 ROBOTS = {
@@ -130,8 +130,9 @@ def test_lagrangian_basis_gives_simulator_energies(m):
 
 
 def test_pysindy_params_and_clone():
-    lib = PhysicalPCSLibrary([0.1, 0.05], active_strains=[[1, 0, 1], [1, 1, 1]], identify_gravity=True,
-                             rest_strain=False)
+    lib = PhysicalPCSLibrary(
+        [0.1, 0.05], active_strains=[[1, 0, 1], [1, 1, 1]], identify_gravity=True, rest_strain=False
+    )
     c = clone(lib)
     assert c.get_params() == lib.get_params()
     assert c.n_coefficients_ == lib.n_coefficients_

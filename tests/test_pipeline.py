@@ -80,7 +80,7 @@ def test_video_pipeline_predict_and_score(video_fit) -> None:
     pred = pipe.predict(frames)
     assert len(pred) == 3 and all(p.shape == (60, 6) and np.all(np.isfinite(p)) for p in pred)
     strains = pipe.transform_strains(frames)
-    for a, b in zip(pred, pipe.model_.predict(strains)):
+    for a, b in zip(pred, pipe.model_.predict(strains), strict=True):
         np.testing.assert_array_equal(a, b)
     # the pipeline's score is the dynamics step's on the fitted transformers' strains
     assert pipe.score(frames, taus) == pipe.model_.score(strains, taus)
@@ -240,8 +240,10 @@ def test_pipeline_fits_actuator_inputs_from_poses() -> None:
     from pcs_sindy.library import PhysicalPCSLibrary
 
     pipe = make_pcs_pipeline(
-        start="poses", fusion=KinematicFusion(total_length=0.1),
-        regressor=EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation))
+        start="poses",
+        fusion=KinematicFusion(total_length=0.1),
+        regressor=EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation),
+    )
     pipe.fit(poses, [r.u for r in data.train])
     true = scenario.robot.actuation
     np.testing.assert_allclose(pipe.model_.actuation_.gains_, np.r_[true.bending_gain, true.axial_gain], rtol=0.02)

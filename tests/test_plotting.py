@@ -444,7 +444,14 @@ def test_animation_file(tmp_path, suffix):
     t, xy = _rollout(49)
     before = plt.get_fignums()
     out = animate_rollout(
-        tmp_path / f"roll{suffix}", t, xy, xy + 0.002, markers_true=xy[:, ::3], stride=4, size=(160, 128), dpi=40,
+        tmp_path / f"roll{suffix}",
+        t,
+        xy,
+        xy + 0.002,
+        markers_true=xy[:, ::3],
+        stride=4,
+        size=(160, 128),
+        dpi=40,
         progress=False,
     )
     assert out == tmp_path / f"roll{suffix}" and out.is_file()

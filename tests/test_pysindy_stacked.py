@@ -50,7 +50,8 @@ def test_sindy_stacked_equals_regressor(one_segment, kind, optimizer):
     L = robot.segment_lengths
     X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in recs]
     reg = EulerLagrangeRegressor(library=lib, formulation="strong", check_mass_matrix=False).fit(
-        X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
+        X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd
+    )
     assert reg.removed_strains_ == []
     opt = ps.STLSQ(threshold=0.0, alpha=0.0) if optimizer == "stlsq" else StiffnessThresholdOptimizer()
     model = ps.SINDy(feature_library=StackedEulerLagrangeLibrary(lib), optimizer=opt)
@@ -61,8 +62,9 @@ def test_sindy_stacked_equals_regressor(one_segment, kind, optimizer):
     np.testing.assert_allclose(coef[0], reg.coef_, rtol=1e-8, atol=1e-8 * np.abs(reg.coef_).max())
     if kind == "physical":
         # and both are the robot's true parameters (exact q̇, q̈: the regression is exact)
-        truth = lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus,
-                                                 robot.shear_modulus, robot.damping)
+        truth = lib.coefficients_from_parameters(
+            robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+        )
         np.testing.assert_allclose(coef[0], truth, rtol=1e-6)
     # predict gives the forces back, stacked dof-major
     pred = unstack_forces(model.predict(x[0]), robot.n_q)
@@ -107,8 +109,9 @@ def test_any_pysindy_optimizer_drives_the_regressor(one_segment, optimizer):
     robot = one_segment[0]
     ref = _strong_fit(one_segment, StiffnessThresholdOptimizer(threshold=np.inf))
     reg = _strong_fit(one_segment, optimizer)
-    truth = reg.library_.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus,
-                                                      robot.shear_modulus, robot.damping)
+    truth = reg.library_.coefficients_from_parameters(
+        robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+    )
     # exact rates and accelerations: every optimizer without a penalty lands on the truth
     np.testing.assert_allclose(reg.coef_, ref.coef_, rtol=1e-5, atol=1e-6 * np.abs(truth).max())
     np.testing.assert_allclose(ref.coef_, truth, rtol=1e-6)
@@ -119,8 +122,11 @@ def test_from_sindy_rolls_out_like_the_regressor(one_segment):
     robot, recs, qdd = one_segment
     lib = _physical(robot)
     model = ps.SINDy(feature_library=StackedEulerLagrangeLibrary(lib), optimizer=ps.STLSQ(threshold=0.0, alpha=0.0))
-    model.fit([np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd)], t=[r.t for r in recs],
-              x_dot=[stack_forces(r.tau) for r in recs])
+    model.fit(
+        [np.hstack([r.q, r.qd, a]) for r, a in zip(recs, qdd, strict=True)],
+        t=[r.t for r in recs],
+        x_dot=[stack_forces(r.tau) for r in recs],
+    )
     from_sindy = EulerLagrangeRegressor.from_sindy(model)
     reg = _strong_fit(one_segment, ps.STLSQ(threshold=0.0, alpha=0.0))
     np.testing.assert_array_equal(from_sindy.coef_, model.coefficients()[0])

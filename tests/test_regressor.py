@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 from sklearn.base import clone
+from truth import simulate_truth
 
 from pcs_sindy.formulations import jump_free
 from pcs_sindy.integration import DivergenceError
@@ -23,7 +24,6 @@ from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.trajectory import StrainTrajectory
 
 from toy_library import ToyLibrary
-from truth import simulate_truth
 
 # ----------------------------------------------------------------------
 # toy model (its hand-derived library is tests/toy_library.py)
@@ -79,7 +79,9 @@ def _toy_data(n_rec=3, k=K_TOY):
 
 def test_toy_exact_derivatives_recover_coefficients():
     X, taus, qds, qdds, _ = _toy_data()
-    model = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    model = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     model.fit(X, taus, qd=qds, qdd=qdds)
     np.testing.assert_allclose(model.coef_, PI_TOY, rtol=1e-7)
     np.testing.assert_allclose(model.stiffness_, K_TOY, rtol=1e-7)
@@ -96,12 +98,16 @@ def test_toy_exact_derivatives_recover_coefficients():
 
 def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form():
     X, taus, _, _, recs = _toy_data()
-    model = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    model = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     model.fit(X, taus)
     np.testing.assert_allclose(model.stiffness_, K_TOY, rtol=0.05)  # measured 3.2-3.6 %
     assert model.score(X, taus) > 0.9  # measured 0.95 (force jumps smeared by the filter)
     # rollout of the exactly identified model versus the matrix exponential
-    exact = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    exact = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     exact.fit(X, taus, qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
     t, q, qd, _, tau = _toy_recording(11)
     sim = exact.simulate(q[0], qd[0], t, tau, method="dop853", rtol=1e-10, atol=1e-12)
@@ -118,7 +124,9 @@ def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form()
 def test_toy_stiff_strain_is_removed_and_stays_zero_in_rollout():
     k_stiff = np.array([1.2, 3e4, 8.0])  # the "shear" is far above a bound of 1e3
     X, taus, qds, qdds, _ = _toy_data(k=k_stiff)
-    model = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    model = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     model.fit(X, taus, qd=qds, qdd=qdds)
     assert model.removed_strains_ == ["sh_1"]
     np.testing.assert_array_equal(model.active_strains_, [[True, False, True]])
@@ -149,7 +157,9 @@ def test_toy_non_positive_definite_mass_matrix_warns():
 
 def test_toy_divergence_is_reported():
     X, taus, qds, qdds, recs = _toy_data()
-    model = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    model = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     model.fit(X, taus, qd=qds, qdd=qdds)
     t = np.arange(2000) * 1e-3
     with pytest.raises(DivergenceError, match=r"t = .*be_1="):
@@ -201,10 +211,13 @@ def test_bad_input_raises_clear_errors():
 
 def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
     X, taus, qds, qdds, _ = _toy_data()
-    exact = EulerLagrangeRegressor(library=ToyLibrary(), formulation="strong",
-                                   optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    exact = EulerLagrangeRegressor(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     exact.fit(X, taus, qd=qds, qdd=qdds)
-    held = [StrainTrajectory(r[1], r[0], segment_lengths=[0.1], qd=r[2]) for r in (_toy_recording(7), _toy_recording(8))]
+    held = [
+        StrainTrajectory(r[1], r[0], segment_lengths=[0.1], qd=r[2]) for r in (_toy_recording(7), _toy_recording(8))
+    ]
     tau_held = [_toy_recording(7)[4], _toy_recording(8)[4]]
     # the exact model rolls the matrix-exponential truth out: R^2 = 1 to the integrator's tolerance
     assert exact.score(held, tau_held) > 1 - 1e-6
@@ -328,7 +341,9 @@ def test_pcs_savitzky_golay_and_rollout():
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=0.02)
     assert model.score(X, [r[4] for r in recs]) > 0.99
     # rollout of an exactly identified model follows the simulator
-    exact = EulerLagrangeRegressor(formulation="strong").fit(X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
+    exact = EulerLagrangeRegressor(formulation="strong").fit(
+        X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs]
+    )
     t = np.arange(40) * 1e-3
     tau = np.tile(robot.gravity_forces(np.zeros(3)) + robot.elastic_forces(np.array([20.0, 0.1, 0.1])), (t.size, 1))
     q_ref, qd_ref = simulate_truth(robot, np.zeros(3), np.zeros(3), t, tau)
@@ -339,7 +354,9 @@ def test_pcs_savitzky_golay_and_rollout():
 
 def test_exclude_force_jumps_removes_the_differentiation_bias():
     X, taus, _, _, _ = _toy_data()
-    kw = dict(library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3))
+    kw = dict(
+        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+    )
     plain = EulerLagrangeRegressor(**kw).fit(X, taus)
     kw["library"] = ToyLibrary()
     clean = EulerLagrangeRegressor(window_length=7, exclude_force_jumps=True, **kw).fit(X, taus)
@@ -359,9 +376,9 @@ def test_exclude_force_jumps_removes_the_differentiation_bias():
     )
     np.testing.assert_array_equal(jump_free(tau, 7), ref)
     with pytest.raises(ValueError, match="exclude_force_jumps left no sample"):
-        EulerLagrangeRegressor(window_length=25, exclude_force_jumps=True, library=ToyLibrary(), formulation="strong").fit(
-            X, [np.repeat(t[::10], 10, axis=0)[: len(t)] + np.arange(len(t))[:, None] * 1e-3 for t in taus]
-        )
+        EulerLagrangeRegressor(
+            window_length=25, exclude_force_jumps=True, library=ToyLibrary(), formulation="strong"
+        ).fit(X, [np.repeat(t[::10], 10, axis=0)[: len(t)] + np.arange(len(t))[:, None] * 1e-3 for t in taus])
 
 
 def test_physical_library_stiffness_sign_and_removal():
@@ -370,7 +387,9 @@ def test_physical_library_stiffness_sign_and_removal():
 
     robot = _robot("one_segment_stiff_shear")
     X, taus, qds, qdds = _exact_recordings(robot, 2, 300, seed=3)
-    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary((0.1,)), formulation="strong").fit(X, taus, qd=qds, qdd=qdds)
+    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary((0.1,)), formulation="strong").fit(
+        X, taus, qd=qds, qdd=qdds
+    )
     assert model.optimizer_.history_[0]["stiffness"][1] == pytest.approx(robot.stiffness[1], rel=1e-3)
     assert model.removed_strains_ == ["sh_1"]
     np.testing.assert_allclose(model.stiffness_[[0, 2]], robot.stiffness[[0, 2]], rtol=1e-3)
@@ -385,7 +404,8 @@ def test_physical_library_bounded_fit_keeps_parameters_non_negative():
         rng = np.random.default_rng(seed)
         noisy = [tau + 0.3 * np.std(tau, axis=0) * rng.standard_normal(tau.shape) for tau in taus]
         free = EulerLagrangeRegressor(
-            library=PhysicalPCSLibrary((0.1,), rest_strain=False), formulation="strong",
+            library=PhysicalPCSLibrary((0.1,), rest_strain=False),
+            formulation="strong",
             optimizer=StiffnessThresholdOptimizer(bounded=False, threshold=np.inf),
             check_mass_matrix=False,  # unbounded estimates may well give an indefinite M: that is the point
         ).fit(X, noisy, qd=qds, qdd=qdds)
@@ -394,8 +414,9 @@ def test_physical_library_bounded_fit_keeps_parameters_non_negative():
     else:
         pytest.fail("no noise seed produced a negative unbounded estimate")
     bounded = EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary((0.1,), rest_strain=False), formulation="strong",
-        optimizer=StiffnessThresholdOptimizer(threshold=np.inf)
+        library=PhysicalPCSLibrary((0.1,), rest_strain=False),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(threshold=np.inf),
     ).fit(X, noisy, qd=qds, qdd=qdds)
     assert np.all(bounded.coef_ >= 0)
     assert np.all(np.linalg.eigvalsh(bounded.mass_matrix(X[0].q)) > 0)

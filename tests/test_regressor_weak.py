@@ -9,18 +9,18 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer
-from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.trajectory import StrainTrajectory
-
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
-from pcs_sindy.simulation import get_scenario
 from truth import simulate_truth
 
+from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
+from pcs_sindy.optimizers import StiffnessThresholdOptimizer
+from pcs_sindy.regressor import EulerLagrangeRegressor
+from pcs_sindy.simulation import get_scenario
+from pcs_sindy.trajectory import StrainTrajectory
+
 # the defaults, written out (and a library without constant forces where the truth has none)
-WEAK = dict(library=PhysicalPCSLibrary(rest_strain=False), formulation="weak", weak_window=40, weak_stride=20,
-            window_length=7)
+WEAK = dict(
+    library=PhysicalPCSLibrary(rest_strain=False), formulation="weak", weak_window=40, weak_stride=20, window_length=7
+)
 
 
 def _robot(name):
@@ -74,7 +74,9 @@ def test_weak_form_on_held_simulator_data_recovers_stiffness_and_damping():
     assert model.n_regression_samples_ == 3 * 18
     # the strong form on the same data with the seed's SG 25 is biased by the force jumps (measured 6-9 %)
     strong = EulerLagrangeRegressor(formulation="strong", window_length=25).fit(X, taus)
-    assert np.max(np.abs(strong.stiffness_ / robot.stiffness - 1)) > 5 * np.max(np.abs(model.stiffness_ / robot.stiffness - 1))
+    assert np.max(np.abs(strong.stiffness_ / robot.stiffness - 1)) > 5 * np.max(
+        np.abs(model.stiffness_ / robot.stiffness - 1)
+    )
     # the mass matrix of the weak-form model is the simulator's
     M_true = robot.mass_matrix(X[0].q[::40])
     M_hat = model.mass_matrix(X[0].q[::40])
@@ -97,7 +99,9 @@ def test_weak_form_smooth_actuation_and_strain_removal():
     recs = [_smooth_recording(robot, s, amp=(30.0, 1e-3, 0.1)) for s in range(3)]
     X = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs]
     taus = [r[4] for r in recs]
-    model = EulerLagrangeRegressor(weak_hold="trapezoid", **WEAK).fit(X, taus, qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
+    model = EulerLagrangeRegressor(weak_hold="trapezoid", **WEAK).fit(
+        X, taus, qd=[r[2] for r in recs], qdd=[r[3] for r in recs]
+    )
     first = model.optimizer_.history_[0]["stiffness"]
     # the first round sees the true, over-the-bound (168 N) shear stiffness; measured 3e-7 relative error
     np.testing.assert_allclose(first, robot.stiffness, rtol=1e-5)
@@ -136,7 +140,10 @@ def test_bounded_weak_fit_on_noisy_poses_is_physical(seed):
     X, taus, _ = _held_recordings(robot, 2, n_samples=300, seed=10 + seed)
     rng = np.random.default_rng(seed)
     sigma = np.tile([3.0, 0.05, 0.05], 2)
-    noisy = [StrainTrajectory(x.q + sigma * rng.standard_normal(x.q.shape), x.t, segment_lengths=x.segment_lengths) for x in X]
+    noisy = [
+        StrainTrajectory(x.q + sigma * rng.standard_normal(x.q.shape), x.t, segment_lengths=x.segment_lengths)
+        for x in X
+    ]
     kw = dict(optimizer=StiffnessThresholdOptimizer(threshold=np.inf), **WEAK)
     model = EulerLagrangeRegressor(**kw).fit(noisy, taus)
     lb = model.library_.lower_bounds_
@@ -169,11 +176,11 @@ def test_identifiability_flags_an_unexcited_strain():
     assert not {"k_be_1", "k_ax_1", "rhoA_1"} & set(info["poorly_determined"])
     names = info["names"]
     assert names == model.library_.euler_lagrange_names()
-    rel = dict(zip(names, info["relative_standard_errors"]))
+    rel = dict(zip(names, info["relative_standard_errors"], strict=True))
     assert rel["k_sh_1"] > 1.0 > 0.01 > rel["k_ax_1"]
     # the standard error is honest: the fitted value of a well-excited stiffness is within 4 SE of the truth
-    se = dict(zip(names, info["standard_errors"]))
-    coef = dict(zip(names, model.model_coef_))
+    se = dict(zip(names, info["standard_errors"], strict=True))
+    coef = dict(zip(names, model.model_coef_, strict=True))
     assert abs(coef["k_ax_1"] - robot.stiffness[2]) <= 4 * se["k_ax_1"]
     report = model.identifiability_report()
     assert "sh_1" in report.splitlines()[-1] and "condition number" in report
@@ -182,7 +189,8 @@ def test_identifiability_flags_an_unexcited_strain():
     X2 = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs2]
     taus2 = [r[4] + 0.01 * np.std(r[4], axis=0) * rng.standard_normal(r[4].shape) for r in recs2]
     model2 = EulerLagrangeRegressor(formulation="strong", optimizer=opt).fit(
-        X2, taus2, qd=[r[2] for r in recs2], qdd=[r[3] for r in recs2])
+        X2, taus2, qd=[r[2] for r in recs2], qdd=[r[3] for r in recs2]
+    )
     assert model2.identifiability_["poorly_excited_strains"] == []
     kd = np.r_[model2.library_.stiffness_index_, model2.library_.damping_index_]
     assert np.all(model2.identifiability_["relative_standard_errors"][kd] < 0.1)

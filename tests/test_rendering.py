@@ -11,7 +11,7 @@ import pytest
 
 from pcs_sindy.camera import Camera, camera_json_path, read_camera_json
 from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
-from pcs_sindy.simulation.rendering import render_frames, render_video
+from pcs_sindy.simulation.rendering import marker_corners, render_frames, render_video
 
 LENGTHS = (0.05, 0.05)
 S = PlanarPCS(LENGTHS).marker_arc_lengths(20)
@@ -257,3 +257,66 @@ def test_render_bad_input(tmp_path: Path) -> None:
     blocker.write_text("x")
     with pytest.raises(OSError, match="file"):
         render_video(poses, blocker / "sub" / "clip.avi", CAM)
+
+
+def test_nuisances_photometry_and_blur() -> None:
+    from pcs_sindy.simulation.rendering import Nuisances
+
+    poses = random_poses(3)
+    # light multiplies every pixel: the ratio to the clean frame is the illumination field, brighter up-gradient
+    lit = render_frames(
+        poses, CAM, marker_size=SIZE, body=False, background=150, nuisances=Nuisances(lighting_gradient=0.4)
+    ).astype(float)
+    # falls along +u from 1.2 to 0.8 over the half-diagonal either side of the centre
+    half = np.hypot(319.5, 239.5)
+    for u in (10, 320, 629):
+        assert lit[0, 470, u] == pytest.approx(150 * (1 - 0.2 * (u - 319.5) / half), abs=0.6)
+    # noise has the requested standard deviation on the background, and the same seed repeats it
+    noisy = render_frames(poses, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(noise=4.0, seed=1))
+    resid = noisy.astype(float)[:, 100:200, 20:120] - 255.0
+    assert np.std(np.clip(resid, None, 0)) > 1.0  # clipped at white, but present
+    np.testing.assert_array_equal(
+        noisy, render_frames(poses, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(noise=4.0, seed=1))
+    )
+    # motion blur averages the exposure: a marker moving at constant speed keeps its darkness and its centroid
+    moving = np.zeros((3, 1, 3))
+    moving[:, 0, 0] = [0.0, 0.002, 0.004]  # 6 px per frame along x
+    moving[:, 0, 1] = 0.03
+    sharp = render_frames(moving, CAM, marker_size=SIZE, body=False)[1]
+    blurred = render_frames(moving, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(motion_blur=1.0))[1]
+    for img in (sharp, blurred):
+        m = cv2.moments(((255.0 - img) / 255.0).astype(np.float32))
+        assert abs(m["m00"] - SIZE[0] * SIZE[1] * CAM.pixels_per_metre**2) < 3.0
+        assert np.linalg.norm([m["m10"] / m["m00"] - CAM.to_pixels(moving[1, 0])[0], m["m01"] / m["m00"] - 180.0]) < 0.1
+    assert np.count_nonzero(blurred < 250) > np.count_nonzero(sharp < 250)  # smeared over more pixels
+
+
+def test_nuisances_scene_and_occlusion() -> None:
+    from pcs_sindy.simulation.rendering import Nuisances
+
+    poses = random_poses(4)
+    plain = render_frames(poses, CAM, marker_size=SIZE, body=False)
+    floor = render_frames(poses, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(floor=120.0, floor_level=0.9))
+    assert np.all(floor[:, 440:, :] <= 120) and np.array_equal(floor[:, :400], plain[:, :400])
+    cluttered = render_frames(poses, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(clutter=True, seed=2))
+    assert np.count_nonzero(cluttered[0] < 128) > 2 * np.count_nonzero(plain[0] < 128)
+    # the occluder covers the requested share of one marker's width, in the requested frames only
+    occ = render_frames(poses, CAM, marker_size=SIZE, body=False, nuisances=Nuisances(occlusion=(5, 1, 2, 0.5)))
+    pix = CAM.to_pixels(poses)
+    for k in range(4):
+        # the marker's inside (one pixel in from its anti-aliased edges)
+        corners = np.round(
+            marker_corners(pix[k, 5], SIZE[0] * CAM.pixels_per_metre - 2, SIZE[1] * CAM.pixels_per_metre - 2)
+        )
+        mask = np.zeros((480, 640), np.uint8)
+        cv2.fillPoly(mask, [corners.astype(np.int32)], 1)
+        dark = np.count_nonzero((occ[k] < 100) & (mask > 0)) / np.count_nonzero(mask)
+        assert (0.35 < dark < 0.65) if k in (1, 2) else dark > 0.95
+    with pytest.raises(ValueError, match="occlusion"):
+        Nuisances(occlusion=(1, 0, 0, 0.5))
+    with pytest.raises(ValueError, match="noise"):
+        Nuisances(noise=-1.0)
+    with pytest.raises(ValueError, match="jpeg_quality"):
+        Nuisances(jpeg_quality=0)
+    with pytest.raises(ValueError, match="nuisances"):
+        render_frames(poses, CAM, nuisances={"noise": 1.0})

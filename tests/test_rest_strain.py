@@ -14,13 +14,13 @@ import warnings
 
 import numpy as np
 import pytest
+from truth import simulate_truth
 
 from pcs_sindy.formulations import integrate_forces, sliding_windows
 from pcs_sindy.library import PhysicalPCSLibrary
 from pcs_sindy.regressor import EulerLagrangeRegressor
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.trajectory import StrainTrajectory
-from truth import simulate_truth
 
 WEAK = dict(formulation="weak", weak_window=40, weak_stride=20, window_length=7)
 
@@ -38,7 +38,14 @@ def test_columns_layout_and_strong_form():
     n = 6
     assert lib.n_coefficients_ == plain.n_coefficients_ + n
     names = lib.euler_lagrange_names()
-    assert [names[j] for j in lib.rest_force_index_] == ["f0_be_1", "f0_sh_1", "f0_ax_1", "f0_be_2", "f0_sh_2", "f0_ax_2"]
+    assert [names[j] for j in lib.rest_force_index_] == [
+        "f0_be_1",
+        "f0_sh_1",
+        "f0_ax_1",
+        "f0_be_2",
+        "f0_sh_2",
+        "f0_ax_2",
+    ]
     # damping stays last, the stiffness columns do not move
     np.testing.assert_array_equal(lib.damping_index_, np.arange(lib.n_coefficients_ - n, lib.n_coefficients_))
     np.testing.assert_array_equal(lib.stiffness_index_, plain.stiffness_index_)
@@ -84,7 +91,9 @@ def test_restrict_forces_compiled_dynamics_and_lagrangian():
     q, qd, _ = _states(6, 3)
     plain = PhysicalPCSLibrary(L, rest_strain=False)
     c_plain = np.delete(coef, lib.rest_force_index_)
-    np.testing.assert_allclose(lib.potential_forces(q, coef), plain.potential_forces(q, c_plain) - f0, rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(
+        lib.potential_forces(q, coef), plain.potential_forces(q, c_plain) - f0, rtol=1e-12, atol=1e-12
+    )
     bias = lib.bias_forces(q, qd, coef)
     np.testing.assert_allclose(bias, plain.bias_forces(q, qd, c_plain) - f0, rtol=1e-12, atol=1e-12)
     _, b = lib.forward_model(coef).mass_and_bias(q, qd)

@@ -25,9 +25,17 @@ def test_table_parameters_reach_the_robot():
     np.testing.assert_allclose(r.damping, [3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
     stiff = get_scenario("two_segment_stiff_axial_shear").robot.stiffness
     np.testing.assert_allclose(stiff / r.stiffness, [1, 1, 1000, 1, 1000, 1])
-    assert set(list_scenarios()) >= {"one_segment", "two_segment", "three_segment", "one_segment_stiff_shear",
-                                     "pac_one_segment", "two_segment_stiff_axial_shear", "five_segment",
-                                     "two_segment_tendon", "one_segment_pneumatic"}
+    assert set(list_scenarios()) >= {
+        "one_segment",
+        "two_segment",
+        "three_segment",
+        "one_segment_stiff_shear",
+        "pac_one_segment",
+        "two_segment_stiff_axial_shear",
+        "five_segment",
+        "two_segment_tendon",
+        "one_segment_pneumatic",
+    }
 
 
 def test_unknown_scenario_is_named():
@@ -104,8 +112,9 @@ def test_stiffened_strain_is_driven_like_the_nominal_robot():
 
 
 def test_validation_stays_inside_the_seed_strain_ranges():
-    data = get_scenario("two_segment").generate(seed=0, cache=False, n_train=1, train_duration=0.02,
-                                               validation_duration=2.0)
+    data = get_scenario("two_segment").generate(
+        seed=0, cache=False, n_train=1, train_duration=0.02, validation_duration=2.0
+    )
     v = data.validation
     assert v.q.shape == (2000, 6) and v.tau.shape == (2000, 6)
     assert np.all(np.abs(v.q) <= np.tile([60.0, 0.3, 0.3], 2))

@@ -12,8 +12,7 @@ import numpy as np
 import pytest
 
 import pcs_sindy.integration as integration
-from pcs_sindy.simulation import SimulationError, get_scenario
-from pcs_sindy.simulation import dynamics
+from pcs_sindy.simulation import SimulationError, dynamics, get_scenario
 from pcs_sindy.simulation.integrate import METHODS_SUPPORTED
 from pcs_sindy.trajectory import StrainTrajectory
 
@@ -26,8 +25,9 @@ def robot():
 @pytest.fixture(scope="module")
 def run():
     t = np.arange(31) * 1e-3
-    tau = np.repeat(np.random.default_rng(0).uniform(-1, 1, (4, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10,
-                    axis=0)[: t.size]
+    tau = np.repeat(np.random.default_rng(0).uniform(-1, 1, (4, 6)) * [5e-3, 0.05, 0.1, 3e-3, 0.05, 0.1], 10, axis=0)[
+        : t.size
+    ]
     q0 = np.array([5.0, 0.02, -0.01, -8.0, 0.03, 0.02])
     return q0, t, tau
 
@@ -82,8 +82,9 @@ def test_callable_inputs_with_a_batch(robot, run):
     fn = lambda time: np.stack([amp * np.sin(80 * time), -amp * np.cos(50 * time)])  # noqa: E731
     runs = robot.simulate(np.zeros((2, 6)), np.zeros((2, 6)), t, fn, rtol=1e-9, atol=1e-12)
     for b in range(2):
-        ref = robot.simulate(np.zeros(6), np.zeros(6), t, lambda time, b=b: fn(time)[b], method="dop853",
-                             rtol=1e-11, atol=1e-14)
+        ref = robot.simulate(
+            np.zeros(6), np.zeros(6), t, lambda time, b=b: fn(time)[b], method="dop853", rtol=1e-11, atol=1e-14
+        )
         assert runs[b].metadata["u"] is not None
         np.testing.assert_allclose(runs[b].q, ref.q, rtol=0, atol=1e-6 * np.abs(ref.q).max())
 

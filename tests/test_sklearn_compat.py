@@ -44,15 +44,35 @@ from pcs_sindy.simulation.rendering import render_frames
 WIDTH_X = "x must be [q, qd] of the library's strains: its width 2n is fixed by the robot, the check feeds other widths"
 # checks that feed 2-D float arrays of arbitrary width to a library
 _WIDTH_CHECKS = [
-    "check_complex_data", "check_dict_unchanged", "check_dont_overwrite_parameters", "check_dtype_object",
-    "check_estimators_dtypes", "check_estimators_empty_data_messages", "check_estimators_fit_returns_self",
-    "check_estimators_nan_inf", "check_estimators_overwrite_params", "check_estimators_pickle",
-    "check_f_contiguous_array_estimator", "check_fit2d_1feature", "check_fit2d_1sample", "check_fit2d_predict1d",
-    "check_fit_check_is_fitted", "check_fit_idempotent", "check_fit_score_takes_y",
-    "check_methods_sample_order_invariance", "check_methods_subset_invariance", "check_n_features_in",
-    "check_n_features_in_after_fitting", "check_pipeline_consistency", "check_positive_only_tag_during_fit",
-    "check_readonly_memmap_input", "check_transformer_data_not_an_array", "check_transformer_general",
-    "check_transformer_preserve_dtypes", "check_estimator_sparse_array", "check_estimator_sparse_matrix",
+    "check_complex_data",
+    "check_dict_unchanged",
+    "check_dont_overwrite_parameters",
+    "check_dtype_object",
+    "check_estimators_dtypes",
+    "check_estimators_empty_data_messages",
+    "check_estimators_fit_returns_self",
+    "check_estimators_nan_inf",
+    "check_estimators_overwrite_params",
+    "check_estimators_pickle",
+    "check_f_contiguous_array_estimator",
+    "check_fit2d_1feature",
+    "check_fit2d_1sample",
+    "check_fit2d_predict1d",
+    "check_fit_check_is_fitted",
+    "check_fit_idempotent",
+    "check_fit_score_takes_y",
+    "check_methods_sample_order_invariance",
+    "check_methods_subset_invariance",
+    "check_n_features_in",
+    "check_n_features_in_after_fitting",
+    "check_pipeline_consistency",
+    "check_positive_only_tag_during_fit",
+    "check_readonly_memmap_input",
+    "check_transformer_data_not_an_array",
+    "check_transformer_general",
+    "check_transformer_preserve_dtypes",
+    "check_estimator_sparse_array",
+    "check_estimator_sparse_matrix",
     "check_estimator_sparse_tag",
 ]
 
@@ -80,9 +100,16 @@ RECORDING_ESTIMATORS = {
 }
 # the checks of check_estimator that need no data
 STRUCTURAL_CHECKS = [
-    "check_estimator_cloneable", "check_no_attributes_set_in_init", "check_get_params_invariance",
-    "check_set_params", "check_estimator_repr", "check_valid_tag_types", "check_estimator_tags_renamed",
-    "check_mixin_order", "check_do_not_raise_errors_in_init_or_set_params", "check_parameters_default_constructible",
+    "check_estimator_cloneable",
+    "check_no_attributes_set_in_init",
+    "check_get_params_invariance",
+    "check_set_params",
+    "check_estimator_repr",
+    "check_valid_tag_types",
+    "check_estimator_tags_renamed",
+    "check_mixin_order",
+    "check_do_not_raise_errors_in_init_or_set_params",
+    "check_parameters_default_constructible",
 ]
 
 
@@ -143,7 +170,7 @@ def _same(a, b) -> None:
     assert type(a) is type(b)
     if isinstance(a, list):
         assert len(a) == len(b)
-        for u, v in zip(a, b):
+        for u, v in zip(a, b, strict=True):
             _same(u, v)
     elif isinstance(a, np.ndarray):
         np.testing.assert_array_equal(a, b)
@@ -216,7 +243,9 @@ def test_extractor_invariants_on_frames() -> None:
     q = rng.uniform(-1, 1, (4, 6)) * np.array([15.0, 0.05, 0.05] * 2)
     q[0] = 0.0
     cam = Camera(1500.0, (80.0, 15.0), (160, 180))
-    videos = [render_frames(forward_kinematics(q[i : i + 2], lengths, s), cam, marker_size=(0.012, 0.004)) for i in range(3)]
+    videos = [
+        render_frames(forward_kinematics(q[i : i + 2], lengths, s), cam, marker_size=(0.012, 0.004)) for i in range(3)
+    ]
     ex = MarkerPoseExtractor(camera=cam, fps=100.0, progress=False)
     params = copy.deepcopy(ex.get_params())
     out = ex.fit_transform(videos)

@@ -12,10 +12,16 @@ from pcs_sindy.forward import CallableModel
 from pcs_sindy.library.base import LagrangianLibrary
 
 _COLUMNS = [
-    ("kin", (0,)), ("kin", (1,)), ("kin", (2,)),
-    ("el", (0,)), ("el", (1,)), ("el", (2,)),
+    ("kin", (0,)),
+    ("kin", (1,)),
+    ("kin", (2,)),
+    ("el", (0,)),
+    ("el", (1,)),
+    ("el", (2,)),
     ("cpl", (0, 1)),
-    ("damp", (0,)), ("damp", (1,)), ("damp", (2,)),
+    ("damp", (0,)),
+    ("damp", (1,)),
+    ("damp", (2,)),
 ]
 
 
@@ -63,7 +69,11 @@ class ToyLibrary(LagrangianLibrary):
 
     def _terms(self, q, qd, qdd):
         """(Psi, P, R) with Psi = dP/dt + R, by hand."""
-        Q, QD, QDD = self._full(np.asarray(q, float)), self._full(np.asarray(qd, float)), self._full(np.asarray(qdd, float))
+        Q, QD, QDD = (
+            self._full(np.asarray(q, float)),
+            self._full(np.asarray(qd, float)),
+            self._full(np.asarray(qdd, float)),
+        )
         shape = (Q.shape[0], 3, len(self._cols))
         psi, mom, rest = np.zeros(shape), np.zeros(shape), np.zeros(shape)
         for c, (kind, st) in enumerate(self._cols):
@@ -109,8 +119,12 @@ class ToyLibrary(LagrangianLibrary):
         def single(q, qd):
             return self.mass_matrix(q[None], coef)[0], self.bias_forces(q[None], qd[None], coef)[0]
 
-        return CallableModel(self.kinematics, single, lambda q, qd: (self.mass_matrix(q, coef), self.bias_forces(q, qd, coef)),
-                             actuation=actuation)
+        return CallableModel(
+            self.kinematics,
+            single,
+            lambda q, qd: (self.mass_matrix(q, coef), self.bias_forces(q, qd, coef)),
+            actuation=actuation,
+        )
 
     def restrict(self, active_strains):
         mask = np.asarray(active_strains, dtype=bool).reshape(-1)
@@ -119,7 +133,11 @@ class ToyLibrary(LagrangianLibrary):
 
     def equations(self, coef, precision=3, threshold=0.0):
         coef = self._check_coef(coef)
-        terms = [f"{c:.{precision}g} {nm}" for c, nm in zip(coef, self.coefficient_names()) if abs(c) > threshold]
+        terms = [
+            f"{c:.{precision}g} {nm}"
+            for c, nm in zip(coef, self.coefficient_names(), strict=True)
+            if abs(c) > threshold
+        ]
         return ["L = " + " + ".join(terms), self._damping_line(coef, precision)]
 
     def transform(self, x):

@@ -13,5 +13,10 @@ from .pcs_lagrangian import PCSLagrangianLibrary
 from .physical import PhysicalPCSLibrary
 from .stacked import StackedEulerLagrangeLibrary, stack_forces, unstack_forces
 
-__all__ = ["PCSLagrangianLibrary", "PhysicalPCSLibrary", "StackedEulerLagrangeLibrary", "stack_forces",
-           "unstack_forces"]
+__all__ = [
+    "PCSLagrangianLibrary",
+    "PhysicalPCSLibrary",
+    "StackedEulerLagrangeLibrary",
+    "stack_forces",
+    "unstack_forces",
+]

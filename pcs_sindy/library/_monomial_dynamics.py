@@ -100,11 +100,17 @@ class DynamicsTables:
         sf_names = sorted({a[1:].rsplit("_", 1)[0] for a in sf_atoms})
         self.bank = _special.SpecialBank(sf_names) if sf_names else None
         self.isf = np.array([atoms[a] for a in sf_atoms], dtype=np.intp)
-        self.sf_pick = np.array([(int(a.rsplit("_", 1)[1]) - 1) * len(sf_names) + sf_names.index(a[1:].rsplit("_", 1)[0])
-                                 for a in sf_atoms], dtype=np.intp)
+        self.sf_pick = np.array(
+            [
+                (int(a.rsplit("_", 1)[1]) - 1) * len(sf_names) + sf_names.index(a[1:].rsplit("_", 1)[0])
+                for a in sf_atoms
+            ],
+            dtype=np.intp,
+        )
         trig_atoms = [a for a in names if a[0] in "cs" and not a.startswith("sh_")]
-        phases = np.array([[-int(p[1:]) if p.startswith("m") else int(p) for p in a[1:].split("_")] for a in trig_atoms],
-                          dtype=float).reshape(-1, m)
+        phases = np.array(
+            [[-int(p[1:]) if p.startswith("m") else int(p) for p in a[1:].split("_")] for a in trig_atoms], dtype=float
+        ).reshape(-1, m)
         self.phases = phases
         self.itrig = np.array([atoms[a] for a in trig_atoms], dtype=np.intp)
         self.is_cos = np.array([a[0] == "c" for a in trig_atoms], dtype=bool)
@@ -213,6 +219,7 @@ class DynamicsTables:
                 series = (u[:, None] ** powers).ravel() @ T
                 return np.where(asarray(small)[seg_of_atom], series, closed)
         else:
+
             def special_values(u_list):
                 return np.zeros(0)
 

@@ -36,6 +36,7 @@ from pcs_sindy import _jit_dynamics
 
 __all__ = ["moments", "Quadrature", "make_quadrature", "kinematic_fields", "project", "jacobian", "rotary_mass"]
 
+
 def moments(u: NDArray[np.float64]) -> tuple[NDArray[np.complex128], NDArray[np.complex128], NDArray[np.complex128]]:
     """``E_n(u) = int_0^1 t^n e^{iut} dt`` for n = 0, 1, 2 of every element, exact through ``u = 0``.
 

@@ -9,7 +9,8 @@ columns last through every restriction.  Internal to the regressor's fit.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -72,7 +73,7 @@ class WithGains:
 
     euler_lagrange_names = coefficient_names
 
-    def restrict(self, active_strains: ArrayLike) -> "WithGains":
+    def restrict(self, active_strains: ArrayLike) -> WithGains:
         return WithGains(self.library.restrict(active_strains), self.gain_names, self.gain_lower, self._parent)
 
     def scale_constraint(self) -> tuple[NDArray[np.float64], float] | None:

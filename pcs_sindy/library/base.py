@@ -108,7 +108,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
     def _check_segmentation_params(self) -> None:
         """Validate ``segment_lengths`` (None or positive finite lengths) and ``active_strains``."""
         if getattr(self, "segment_lengths", None) is not None:
-            self.kinematics  # PlanarPCS validates lengths and the strain mask
+            _ = self.kinematics  # PlanarPCS validates lengths and the strain mask
 
     def _check_params(self) -> None:
         """Validate the constructor arguments (subclasses add their own)."""
@@ -124,7 +124,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         kin = segmentation_of(x)
         if kin is None:
             if "segmentation_" not in self.__dict__:
-                self.kinematics  # raises NotFittedError when there is none at all
+                _ = self.kinematics  # raises NotFittedError when there is none at all
             return 2 * self.n_strains
         lengths = getattr(self, "segment_lengths", None)
         if lengths is not None:
@@ -142,7 +142,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         self.__dict__["segmentation_"] = kin
         return 2 * int(kin.n_active)
 
-    def fit(self, x: Any, y: Any = None) -> "LagrangianLibrary":
+    def fit(self, x: Any, y: Any = None) -> LagrangianLibrary:
         """Set the segmentation and the state width.
 
         Parameters
@@ -163,7 +163,8 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
             got = {np.shape(a)[-1] if np.ndim(a) else None for a in arrays}
             if got != {width}:
                 raise ValueError(
-                    f"x must have 2n = {width} columns [q, qd] of the {width // 2} active strains; got widths {sorted(map(str, got))}"
+                    f"x must have 2n = {width} columns [q, qd] of the {width // 2} active strains; "
+                    f"got widths {sorted(map(str, got))}"
                 )
         self._check_structure()
         self.n_features_in_ = width
@@ -173,7 +174,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
     def _check_structure(self) -> None:
         """Validate the parameters and build the structure."""
         self._check_params()
-        self.n_coefficients_  # builds the column layout
+        _ = self.n_coefficients_  # builds the column layout
 
     # ------------------------------------------------------------------ column layout
     @property
@@ -313,7 +314,7 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
 
     # ------------------------------------------------------------------ structure changes and text
     @abstractmethod
-    def restrict(self, active_strains: ArrayLike) -> "LagrangianLibrary":
+    def restrict(self, active_strains: ArrayLike) -> LagrangianLibrary:
         """Library of a subset of the active strains (removed strains held at 0), with ``column_map_``."""
 
     @abstractmethod
@@ -324,4 +325,3 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         strain = self.kinematics.strain_names(active_only=True)
         damp = self.damping_from_coef(coef)
         return "D = diag(" + ", ".join(f"{s}: {d:.{precision}g}" for s, d in zip(strain, damp)) + ")"
-

@@ -32,9 +32,10 @@ import json
 import math
 import os
 import re as _re
+from collections.abc import Callable
 from fractions import Fraction
 from pathlib import Path
-from typing import Any, Callable
+from typing import Any
 
 import numpy as np
 import sympy as sp
@@ -243,14 +244,22 @@ def _generate_source(products: list[tuple[tuple[str, int], ...]], m: int, progre
 
 def _terms_to_json(terms: list[LagrangianTerm]) -> list:
     return [
-        [t.coefficient.numerator, t.coefficient.denominator, list(t.length_exponents), t.param, [list(a) for a in t.atoms]]
+        [
+            t.coefficient.numerator,
+            t.coefficient.denominator,
+            list(t.length_exponents),
+            t.param,
+            [list(a) for a in t.atoms],
+        ]
         for t in terms
     ]
 
 
 def _terms_from_json(data: list) -> list[LagrangianTerm]:
     return [
-        LagrangianTerm(Fraction(int(a), int(b)), tuple(int(x) for x in le), str(p), tuple((str(n), int(e)) for n, e in at))
+        LagrangianTerm(
+            Fraction(int(a), int(b)), tuple(int(x) for x in le), str(p), tuple((str(n), int(e)) for n, e in at)
+        )
         for a, b, le, p, at in data
     ]
 
@@ -299,9 +308,30 @@ class CompiledBasis:
 _SF_CALL = _re.compile(r"SF\['([A-Za-z0-9_]+)'\]")
 
 _ALLOWED_NODES = (
-    ast.Module, ast.FunctionDef, ast.arguments, ast.arg, ast.Assign, ast.Return, ast.Name, ast.Load, ast.Store,
-    ast.Attribute, ast.Subscript, ast.Slice, ast.Tuple, ast.Constant, ast.BinOp, ast.UnaryOp, ast.Call,
-    ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow, ast.USub, ast.UAdd,
+    ast.Module,
+    ast.FunctionDef,
+    ast.arguments,
+    ast.arg,
+    ast.Assign,
+    ast.Return,
+    ast.Name,
+    ast.Load,
+    ast.Store,
+    ast.Attribute,
+    ast.Subscript,
+    ast.Slice,
+    ast.Tuple,
+    ast.Constant,
+    ast.BinOp,
+    ast.UnaryOp,
+    ast.Call,
+    ast.Add,
+    ast.Sub,
+    ast.Mult,
+    ast.Div,
+    ast.Pow,
+    ast.USub,
+    ast.UAdd,
 )
 _ALLOWED_CALLS = {"float"}
 _GLOBALS = {"np", "SF", "float", "math"}  # names the generated code reads but must never rebind
@@ -315,7 +345,9 @@ def _check_generated_source(source: str) -> None:
     of ``np.cos/sin/zeros/empty``, ``float`` and ``SF['name']`` are accepted.
     """
     tree = ast.parse(source)
-    if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi", "weak"] or len(tree.body) != 3:
+    if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi", "weak"] or len(
+        tree.body
+    ) != 3:
         raise ValueError("cached source must define exactly features(), psi() and weak()")
     local = {a.arg for fn in tree.body for a in fn.args.args}
     local |= {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
@@ -334,9 +366,11 @@ def _check_generated_source(source: str) -> None:
                 raise ValueError(f"cached source uses a forbidden attribute: {node.attr}")
         if isinstance(node, ast.Call):
             f = node.func
-            ok = (isinstance(f, ast.Name) and f.id in _ALLOWED_CALLS) or (
-                isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "np"
-            ) or (isinstance(f, ast.Subscript) and isinstance(f.value, ast.Name) and f.value.id == "SF")
+            ok = (
+                (isinstance(f, ast.Name) and f.id in _ALLOWED_CALLS)
+                or (isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "np")
+                or (isinstance(f, ast.Subscript) and isinstance(f.value, ast.Name) and f.value.id == "SF")
+            )
             if not ok or node.keywords:
                 raise ValueError("cached source contains a forbidden call")
         if isinstance(node, ast.Name) and node.id.startswith("__"):

@@ -59,17 +59,17 @@ class _Phasors:
         self.data = data or {}
 
     @classmethod
-    def const(cls, m: int, re, im=0, phase: Phase | None = None) -> "_Phasors":
+    def const(cls, m: int, re, im=0, phase: Phase | None = None) -> _Phasors:
         return cls(m, {phase or (0,) * m: (sp.sympify(re), sp.sympify(im))})
 
-    def __add__(self, other: "_Phasors") -> "_Phasors":
+    def __add__(self, other: _Phasors) -> _Phasors:
         out = dict(self.data)
         for ph, (r, i) in other.data.items():
             r0, i0 = out.get(ph, (0, 0))
             out[ph] = (r0 + r, i0 + i)
         return _Phasors(self.m, out)
 
-    def __mul__(self, other: "_Phasors") -> "_Phasors":
+    def __mul__(self, other: _Phasors) -> _Phasors:
         out: dict[Phase, tuple] = {}
         for p1, (r1, i1) in self.data.items():
             for p2, (r2, i2) in other.data.items():
@@ -78,10 +78,10 @@ class _Phasors:
                 out[ph] = (r0 + r1 * r2 - i1 * i2, i0 + r1 * i2 + i1 * r2)
         return _Phasors(self.m, out)
 
-    def scale(self, factor) -> "_Phasors":
+    def scale(self, factor) -> _Phasors:
         return _Phasors(self.m, {p: (r * factor, i * factor) for p, (r, i) in self.data.items()})
 
-    def conj(self) -> "_Phasors":
+    def conj(self) -> _Phasors:
         return _Phasors(self.m, {tuple(-a for a in p): (r, -i) for p, (r, i) in self.data.items()})
 
     def real(self, trig) -> sp.Expr:
@@ -155,8 +155,6 @@ def derive_lagrangian_terms(m: int) -> list[LagrangianTerm]:
             trig_cache[key] = sym(f"{kind}{tag}")
         return sign * trig_cache[key]
 
-    zero = (0,) * m
-
     def ph_start(i: int, sign: int = 1) -> Phase:  # e^{i sign phi_i}
         return tuple(sign if j < i else 0 for j in range(m))
 
@@ -197,8 +195,14 @@ def derive_lagrangian_terms(m: int) -> list[LagrangianTerm]:
         kinetic += params[f"mI_{i + 1}"] * L[i] / 2 * (phid[i] ** 2 + phid[i] * ud[i] + ud[i] ** 2 / 3)
         Z = Z + (w[i] * IE[i] * C(1, 0, ph_start(i))).scale(L[i])
         gravity = L[i] * (params[f"gx_{i + 1}"] * Z.real(trig) + params[f"gy_{i + 1}"] * Z.imag(trig))
-        elastic = -(params[f"kbe_{i + 1}"] * kap[i] ** 2 + params[f"ksh_{i + 1}"] * sh[i] ** 2
-                    + params[f"kax_{i + 1}"] * ax[i] ** 2) / 2
+        elastic = (
+            -(
+                params[f"kbe_{i + 1}"] * kap[i] ** 2
+                + params[f"ksh_{i + 1}"] * sh[i] ** 2
+                + params[f"kax_{i + 1}"] * ax[i] ** 2
+            )
+            / 2
+        )
         lagrangian += kinetic + gravity + elastic
 
     param_syms = list(params.values())
@@ -215,7 +219,9 @@ def derive_lagrangian_terms(m: int) -> list[LagrangianTerm]:
         param = param_syms[pe.index(1)].name
         coeff = sp.Rational(coeff)
         terms.append(
-            LagrangianTerm(Fraction(int(coeff.p), int(coeff.q)), tuple(int(e) for e in monom[ng + npar :]), param, atoms)
+            LagrangianTerm(
+                Fraction(int(coeff.p), int(coeff.q)), tuple(int(e) for e in monom[ng + npar :]), param, atoms
+            )
         )
     terms.sort(key=lambda t: (t.atoms, t.param, t.length_exponents))
     return terms

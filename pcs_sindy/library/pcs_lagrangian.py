@@ -2,8 +2,9 @@
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from fractions import Fraction
-from typing import Any, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -12,8 +13,8 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
 from ..kinematics import PlanarPCS
-from . import special as _special
 from ._monomial_dynamics import DynamicsTables
+from ._monomial_terms import readable, reduce_product
 from .base import LagrangianLibrary
 from .codegen import CompiledBasis, build_basis
 from .derivation import PARAM_KINDS
@@ -30,69 +31,6 @@ def _compiled(m: int, cache_dir, progress: bool = False) -> CompiledBasis:
     if key not in _MEMORY:
         _MEMORY[key] = build_basis(m, cache_dir, progress=progress)
     return _MEMORY[key]
-
-
-def _canonical_phase(kind: str, phase: tuple[int, ...]) -> tuple[int, str | None, tuple[int, ...]]:
-    """(sign, kind or None if the atom is the constant 1, canonical phase); sign 0 means zero."""
-    if not any(phase):
-        return (1, None, phase) if kind == "c" else (0, None, phase)
-    first = next(a for a in phase if a != 0)
-    if first < 0:
-        return (-1 if kind == "s" else 1, kind, tuple(-a for a in phase))
-    return 1, kind, phase
-
-
-def _phase_tag(phase: tuple[int, ...]) -> str:
-    return "_".join(str(a) if a >= 0 else f"m{-a}" for a in phase)
-
-
-def _reduce_product(atoms, removed_q: set[str], removed_kappa_segments: set[int]):
-    """Limit q_e, qd_e -> 0 of one atom product: (exact factor, remaining atoms)."""
-    factor = Fraction(1)
-    out: dict[str, int] = {}
-    for name, power in atoms:
-        if name.startswith("F"):
-            seg = int(name.rsplit("_", 1)[1]) - 1
-            if seg in removed_kappa_segments:
-                factor *= _special.special(name[1:].rsplit("_", 1)[0]).value_at_zero ** power
-                continue
-        elif name[0] in "cs" and not name.startswith("sh_"):
-            phase = tuple(-int(p[1:]) if p.startswith("m") else int(p) for p in name[1:].split("_"))
-            phase = tuple(0 if k in removed_kappa_segments else a for k, a in enumerate(phase))
-            sign, kind, phase = _canonical_phase(name[0], phase)
-            factor *= sign**power
-            if kind is None:
-                continue
-            name = kind + _phase_tag(phase)
-        else:
-            base = name[1:] if name.startswith("d") else name
-            if base in removed_q:
-                return Fraction(0), ()
-        out[name] = out.get(name, 0) + power
-        if factor == 0:
-            return Fraction(0), ()
-    if factor == 0:
-        return Fraction(0), ()
-    return factor, tuple(sorted(out.items()))
-
-
-def _readable(atoms, state_names: dict[str, str], lengths_known: bool) -> str:
-    parts = []
-    for name, power in atoms:
-        if name.startswith("F"):
-            fn, seg = name[1:].rsplit("_", 1)
-            txt = f"{fn}(u{seg})"
-        elif name in state_names:
-            txt = state_names[name]
-        elif name[0] in "cs":
-            phase = tuple(-int(p[1:]) if p.startswith("m") else int(p) for p in name[1:].split("_"))
-            arg = " ".join(("+" if a > 0 else "-") + (f"{abs(a)}" if abs(a) != 1 else "") + f"u{k + 1}"
-                           for k, a in enumerate(phase) if a)
-            txt = ("cos(" if name[0] == "c" else "sin(") + arg.lstrip("+") + ")"
-        else:
-            txt = name
-        parts.append(txt if power == 1 else f"{txt}^{power}")
-    return " ".join(parts) if parts else "1"
 
 
 class PCSLagrangianLibrary(LagrangianLibrary):
@@ -207,8 +145,10 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         # P[j, p]: coefficient of lumped unknown p in pi_j (monomial basis of the full model)
         P = np.zeros((n_g, len(lumped)))
         for t in cb.terms:
-            P[prod_index[t.atoms], lumped_index[t.param]] += float(t.coefficient) * float(np.prod(L ** np.array(t.length_exponents)))
-        reduced = [_reduce_product(p, removed, removed_kappa) for p in products]
+            P[prod_index[t.atoms], lumped_index[t.param]] += float(t.coefficient) * float(
+                np.prod(L ** np.array(t.length_exponents))
+            )
+        reduced = [reduce_product(p, removed, removed_kappa) for p in products]
         self._lumped_names = lumped
         if self.basis == "monomial":
             groups: dict[tuple, int] = {}
@@ -247,7 +187,9 @@ class PCSLagrangianLibrary(LagrangianLibrary):
                         continue  # constants do not enter the Euler-Lagrange equations
                     key = (red, t.length_exponents)
                     exact[key] = exact.get(key, Fraction(0)) + t.coefficient * factor
-                    w[prod_index[t.atoms]] += float(t.coefficient) * float(np.prod(L ** np.array(t.length_exponents))) / scale
+                    w[prod_index[t.atoms]] += (
+                        float(t.coefficient) * float(np.prod(L ** np.array(t.length_exponents))) / scale
+                    )
                 if any(v != 0 for v in exact.values()):
                     cols.append(p_idx)
                     wcols.append(w)
@@ -394,7 +336,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         if self.basis == "monomial":
             out = []
             for factor, red in zip(self._column_factor, self._column_reduced):
-                txt = _readable(red, names, True)
+                txt = readable(red, names, True)
                 out.append(txt if factor == 1 else f"{factor} {txt}")
             return out
         labels = {"mA": "T_A", "mI": "T_I", "gx": "Ug_x", "gy": "Ug_y", "kbe": "be^2", "ksh": "sh^2", "kax": "ax^2"}
@@ -449,8 +391,10 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         idx = np.arange(n)
         p_damp = np.zeros((B, n, n))
         p_damp[:, idx, idx] = q
-        return (np.concatenate([self._columns(mom[:, self._mask, :]), p_damp], axis=2),
-                np.concatenate([self._columns(rest[:, self._mask, :]), np.zeros((B, n, n))], axis=2))
+        return (
+            np.concatenate([self._columns(mom[:, self._mask, :]), p_damp], axis=2),
+            np.concatenate([self._columns(rest[:, self._mask, :]), np.zeros((B, n, n))], axis=2),
+        )
 
     def _tables(self) -> DynamicsTables:
         if "dyn" not in self._dyn_cache:
@@ -488,14 +432,26 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         return self._tables().evaluate(self._pi_products(c), c[self._n_f :], q, np.zeros_like(q))[1]
 
     # ------------------------------------------------------------------ physical parameters
-    def lumped_parameters(self, density, radius, youngs_modulus, shear_modulus, gravity=(0.0, 9.81),
-                          shear_factor=4.0 / 3.0, stiffness_scaling="seed") -> NDArray[np.float64]:
+    def lumped_parameters(
+        self,
+        density,
+        radius,
+        youngs_modulus,
+        shear_modulus,
+        gravity=(0.0, 9.81),
+        shear_factor=4.0 / 3.0,
+        stiffness_scaling="seed",
+    ) -> NDArray[np.float64]:
         """Lumped unknowns ``[rho A, rho I, rho A g_x, rho A g_y, k_be, k_sh, k_ax]`` per segment."""
         self._ensure_setup()
         m = self._lengths.size
 
         def per_segment(name, value):
-            arr = np.broadcast_to(np.asarray(value, dtype=float), (m,)) if np.ndim(value) == 0 else np.asarray(value, dtype=float)
+            arr = (
+                np.broadcast_to(np.asarray(value, dtype=float), (m,))
+                if np.ndim(value) == 0
+                else np.asarray(value, dtype=float)
+            )
             if arr.shape != (m,):
                 raise ValueError(f"{name} must be a scalar or have shape ({m},); got shape {np.shape(value)}")
             if not np.all(np.isfinite(arr)):
@@ -515,29 +471,43 @@ class PCSLagrangianLibrary(LagrangianLibrary):
             raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
         fL = np.ones(m) if stiffness_scaling == "seed" else self._lengths
         A, I = np.pi * r**2, np.pi * r**4 / 4.0
-        vals = np.stack([rho * A, rho * I, rho * A * g[0], rho * A * g[1], fL * E * I, fL * shear_factor * G * A, fL * E * A], axis=1)
+        vals = np.stack(
+            [rho * A, rho * I, rho * A * g[0], rho * A * g[1], fL * E * I, fL * shear_factor * G * A, fL * E * A],
+            axis=1,
+        )
         return vals.reshape(-1)
 
-    def coefficients_from_parameters(self, density, radius, youngs_modulus, shear_modulus, damping,
-                                     gravity=(0.0, 9.81), shear_factor=4.0 / 3.0,
-                                     stiffness_scaling="seed") -> NDArray[np.float64]:
+    def coefficients_from_parameters(
+        self,
+        density,
+        radius,
+        youngs_modulus,
+        shear_modulus,
+        damping,
+        gravity=(0.0, 9.81),
+        shear_factor=4.0 / 3.0,
+        stiffness_scaling="seed",
+    ) -> NDArray[np.float64]:
         """``pi+`` of the robot with these physical parameters (per segment values or scalars).
 
         ``damping`` is the diagonal of D for all 3m strains (removed strains' entries ignored)
         or for the n active ones.  ``stiffness_scaling``: ``"seed"`` (``f_L = 1``) or
         ``"length"``/``"physical"`` (``f_L = L_i``).
         """
-        lumped = self.lumped_parameters(density, radius, youngs_modulus, shear_modulus, gravity, shear_factor,
-                                        stiffness_scaling)
+        lumped = self.lumped_parameters(
+            density, radius, youngs_modulus, shear_modulus, gravity, shear_factor, stiffness_scaling
+        )
         d = np.asarray(damping, dtype=float).reshape(-1)
         if d.size == self._mask.size:
             d = d[self._mask]
         if d.size != self._n or not np.all(np.isfinite(d)):
-            raise ValueError(f"damping must have {self._mask.size} or {self._n} finite entries; got {np.asarray(damping).tolist()}")
+            raise ValueError(
+                f"damping must have {self._mask.size} or {self._n} finite entries; got {np.asarray(damping).tolist()}"
+            )
         return np.concatenate([self._coef_map @ lumped, d])
 
     # ------------------------------------------------------------------ limit rule
-    def restrict(self, active_strains) -> "PCSLagrangianLibrary":
+    def restrict(self, active_strains) -> PCSLagrangianLibrary:
         """Library with fewer strains by the limit rule (seed eqs. 20–21), no re-derivation.
 
         The result has ``column_map_``: for each of its ``pi+`` columns, the index
@@ -546,11 +516,19 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         self._ensure_setup()
         new_mask = np.asarray(PlanarPCS(tuple(self._lengths), active_strains=active_strains).active_mask)
         if np.any(new_mask & ~self._mask):
-            raise ValueError(f"active_strains must be a subset of the current active strains; got {np.asarray(active_strains).tolist()}")
+            raise ValueError(
+                "active_strains must be a subset of the current active strains; "
+                f"got {np.asarray(active_strains).tolist()}"
+            )
         if not np.any(new_mask):
             raise ValueError("active_strains must keep at least one strain; got none active")
-        child = type(self)(tuple(self._lengths), active_strains=new_mask.reshape(-1, 3), cache_dir=self.cache_dir,
-                           basis=self.basis, progress=self.progress)
+        child = type(self)(
+            tuple(self._lengths),
+            active_strains=new_mask.reshape(-1, 3),
+            cache_dir=self.cache_dir,
+            basis=self.basis,
+            progress=self.progress,
+        )
         child._ensure_setup()
         if self.basis == "monomial":
             parent_cols = {int(j): k for k, j in enumerate(self._select)}
@@ -616,13 +594,15 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         self._ensure_setup()
         c = self._coef(coef)
         if self.basis == "physical":
-            lp = self.lumped_from_coef(c)
-            return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"],
-                                  lp["damping"], n_quadrature=lp["n_quadrature"], actuation=actuation)
+            return LumpedPCSModel.from_lumped(self.kinematics, self.lumped_from_coef(c), actuation)
         tables = self._tables()
         pi_g, damping = self._pi_products(c), c[self._n_f :]
-        return CallableModel(self.kinematics, tables.make(pi_g, damping),
-                             lambda q, qd: tables.evaluate(pi_g, damping, q, qd), actuation=actuation)
+        return CallableModel(
+            self.kinematics,
+            tables.make(pi_g, damping),
+            lambda q, qd: tables.evaluate(pi_g, damping, q, qd),
+            actuation=actuation,
+        )
 
     def equations(self, coef, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """``L = c_1 f_1 + c_2 f_2 + ...`` over the basis functions, then ``D = diag(...)``.

@@ -58,7 +58,8 @@ generalised momentum per unit parameter ``P`` (``J_p^T p_dot`` for ``rhoA_i``,
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -67,8 +68,8 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 from tqdm.auto import tqdm
 
-from pcs_sindy.kinematics import STRAIN_NAMES, PlanarPCS
 from pcs_sindy.library import _pcs_numeric as _num
+from pcs_sindy.library._physical_layout import Spec, rest_kinds
 from pcs_sindy.library.base import LagrangianLibrary
 
 __all__ = ["PhysicalPCSLibrary"]
@@ -79,97 +80,6 @@ _CHUNK = 512  # samples per vectorised block (bounds the memory of the node arra
 # --------------------------------------------------------------------------
 # Library
 # --------------------------------------------------------------------------
-def _rest_kinds(rest_strain: object) -> tuple[str, ...]:
-    """The strain kinds with a constant force: all (True), none (False) or the named ones."""
-    if isinstance(rest_strain, (bool, np.bool_)):
-        return STRAIN_NAMES if rest_strain else ()
-    if isinstance(rest_strain, (tuple, list)) and all(k in STRAIN_NAMES for k in rest_strain):
-        return tuple(rest_strain)
-    raise ValueError(
-        f"rest_strain must be True, False or a tuple of strain kinds from {STRAIN_NAMES}; got {rest_strain!r}"
-    )
-
-
-class _Spec:
-    """Validated structure of a library (column layout, quadrature, constant matrices)."""
-
-    def __init__(self, lib: "PhysicalPCSLibrary", kin: PlanarPCS) -> None:
-        lib._check_params()
-        lengths = np.asarray(kin.segment_lengths, dtype=float)
-        self.kin = kin
-        m = self.kin.n_segments
-        radius = np.asarray(lib.radius, dtype=float)
-        if radius.ndim == 0:
-            radius = np.full(m, float(radius))
-        if radius.shape != (m,):
-            raise ValueError(f"radius must be one value or one per segment ({m}); got {lib.radius!r}")
-        self.radius = radius
-        self.gravity = np.asarray(lib.gravity, dtype=float)
-        self.rotary = lib.rotary_inertia
-        # rhoI_i = tie_i * rhoA_i when not identified: r^2/4 for a full circular section, or 0
-        self.tie = radius**2 / 4.0 if self.rotary == "tied" else np.zeros(m)
-        self.quad = _num.make_quadrature(lengths, int(lib.n_quadrature))
-        self.mask = self.kin.active_mask.copy()
-        self.active = np.flatnonzero(self.mask)
-        self.n = self.active.size
-        if self.n == 0:
-            raise ValueError("active_strains must leave at least one strain active")
-        row_of = -np.ones(3 * m, dtype=int)
-        row_of[self.active] = np.arange(self.n)
-        self.row_of = row_of
-        rot = _num.rotary_mass(lengths)
-        self.rot = rot[:, self.active][:, :, self.active]  # (m, n, n)
-
-        names: list[str] = []
-        kinds: list[tuple[str, int, int]] = []  # (kind, segment, full strain index)
-        for i in range(m):
-            any_before = bool(self.mask[: 3 * (i + 1)].any())
-            bend_before = bool(self.mask[0 : 3 * (i + 1) : 3].any())
-            seg = i + 1
-            if any_before:
-                names.append(f"rhoA_{seg}")
-                kinds.append(("rhoA", i, -1))
-            if bend_before and self.rotary == "free":
-                names.append(f"rhoI_{seg}")
-                kinds.append(("rhoI", i, -1))
-            if lib.identify_gravity and any_before:
-                names += [f"rhoAgx_{seg}", f"rhoAgy_{seg}"]
-                kinds += [("gx", i, -1), ("gy", i, -1)]
-            for c in range(3):
-                e = 3 * i + c
-                if self.mask[e]:
-                    names.append(f"k_{STRAIN_NAMES[c]}_{seg}")
-                    kinds.append(("k", i, e))
-        rest_kinds = _rest_kinds(lib.rest_strain)
-        self.rest_strain = bool(rest_kinds)
-        for e in self.active:
-            if STRAIN_NAMES[e % 3] in rest_kinds:
-                names.append(f"f0_{STRAIN_NAMES[e % 3]}_{e // 3 + 1}")
-                kinds.append(("f0", e // 3, e))
-        for e in self.active:
-            names.append(f"d_{STRAIN_NAMES[e % 3]}_{e // 3 + 1}")
-            kinds.append(("d", e // 3, e))
-        self.names = names
-        self.kinds = kinds
-        self.n_coef = len(names)
-        self.col = {name: j for j, name in enumerate(names)}
-        kind_arr = np.array([k[0] for k in kinds])
-        self.stiffness_index = np.array([j for j, k in enumerate(kinds) if k[0] == "k"], dtype=int)
-        self.damping_index = np.array([j for j, k in enumerate(kinds) if k[0] == "d"], dtype=int)
-        self.rest_index = np.array([j for j, k in enumerate(kinds) if k[0] == "f0"], dtype=int)
-        self.rest_rows = np.array([row_of[k[2]] for k in kinds if k[0] == "f0"], dtype=int)
-        lower = np.zeros(self.n_coef)
-        lower[(kind_arr == "gx") | (kind_arr == "gy") | (kind_arr == "f0")] = -np.inf
-        self.lower = lower
-        # columns per kind for fast assembly
-        self.cols_rhoA = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "rhoA"]
-        self.cols_rhoI = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "rhoI"]
-        self.cols_gx = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "gx"]
-        self.cols_gy = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "gy"]
-        self.identify_gravity = bool(lib.identify_gravity)
-        self.g_complex = complex(self.gravity[0], self.gravity[1])
-
-
 class PhysicalPCSLibrary(LagrangianLibrary):
     """Euler–Lagrange regressor of a planar PCS robot, linear in per-segment physical parameters.
 
@@ -267,7 +177,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             raise ValueError(f"gravity must be a finite vector of shape (2,); got {self.gravity!r}")
         if not isinstance(self.identify_gravity, (bool, np.bool_)):
             raise ValueError(f"identify_gravity must be True or False; got {self.identify_gravity!r}")
-        _rest_kinds(self.rest_strain)
+        rest_kinds(self.rest_strain)
         if self.rotary_inertia not in ("free", "tied", "none"):
             raise ValueError(f"rotary_inertia must be 'free', 'tied' or 'none'; got {self.rotary_inertia!r}")
         nq = self.n_quadrature
@@ -285,12 +195,14 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         for j, i in spec.cols_rhoA:
             a[j] = spec.kin.segment_lengths[i]
         if len(spec.cols_rhoA) != spec.kin.n_segments:
-            raise ValueError("mass fixes the scale only when every segment's density is identified; a segment whose "
-                             "strains are all removed has none")
+            raise ValueError(
+                "mass fixes the scale only when every segment's density is identified; a segment whose "
+                "strains are all removed has none"
+            )
         return a, float(self.mass)
 
     @property
-    def _spec(self) -> _Spec:
+    def _spec(self) -> Spec:
         kin = self.kinematics
         key = (
             kin.segment_lengths,
@@ -305,7 +217,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         )
         cached = self.__dict__.get("_spec_cache")
         if cached is None or cached[0] != key:
-            cached = (key, _Spec(self, kin))
+            cached = (key, Spec(self, kin))
             self.__dict__["_spec_cache"] = cached
         return cached[1]
 
@@ -598,21 +510,15 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             )
         area, inertia = np.pi * r**2, np.pi * r**4 / 4.0
         stiff = (f_l[:, None] * np.stack([E * inertia, shear_factor * G * area, E * area], axis=1)).reshape(-1)
+        per_segment = {"rhoA": rho * area, "rhoI": rho * inertia, "gx": rho * area * g[0], "gy": rho * area * g[1]}
+        per_strain = {"k": stiff, "d": d}
         out = np.empty(spec.n_coef)
         for j, (kind, i, e) in enumerate(spec.kinds):
-            out[j] = {
-                "rhoA": lambda: rho[i] * area[i],
-                "rhoI": lambda: rho[i] * inertia[i],
-                "gx": lambda: rho[i] * area[i] * g[0],
-                "gy": lambda: rho[i] * area[i] * g[1],
-                "k": lambda: stiff[e],
-                "d": lambda: d[e],
-                "f0": lambda: 0.0,
-            }[kind]()
+            out[j] = per_segment[kind][i] if kind in per_segment else per_strain[kind][e] if kind in per_strain else 0.0
         return out
 
     # -- strain removal -------------------------------------------------------------------
-    def restrict(self, active_strains: ArrayLike) -> "PhysicalPCSLibrary":
+    def restrict(self, active_strains: ArrayLike) -> PhysicalPCSLibrary:
         """Library of a subset of the active strains (removed strains held at 0).
 
         Parameters
@@ -660,9 +566,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         """The compiled :class:`~pcs_sindy.forward.LumpedPCSModel` of ``coef`` (rollouts, controllers)."""
         from pcs_sindy.forward import LumpedPCSModel
 
-        lp = self.lumped_from_coef(coef)
-        return LumpedPCSModel(self.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
-                              lp["rest_force"], n_quadrature=lp["n_quadrature"], actuation=actuation)
+        return LumpedPCSModel.from_lumped(self.kinematics, self.lumped_from_coef(coef), actuation)
 
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """The Lagrangian's structure, ``M(q)``, the parameter values and ``D``.

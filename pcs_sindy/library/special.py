@@ -19,8 +19,8 @@ No epsilon is ever added to ``u``.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from fractions import Fraction
-from typing import Iterable
 
 import numpy as np
 import sympy as sp

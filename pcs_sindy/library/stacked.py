@@ -35,7 +35,8 @@ Identification side: never imports :mod:`pcs_sindy.simulation`.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -141,7 +142,7 @@ class StackedEulerLagrangeLibrary(BaseFeatureLibrary):
         return int(self.library.euler_lagrange_matrix(z, z, z).shape[-1])
 
     @x_sequence_or_item
-    def fit(self, x: Sequence[NDArray[np.float64]], y: Any = None) -> "StackedEulerLagrangeLibrary":
+    def fit(self, x: Sequence[NDArray[np.float64]], y: Any = None) -> StackedEulerLagrangeLibrary:
         """Check the state width ``3n`` of ``x = [q, qd, qdd]`` and set the output size.
 
         Parameters
@@ -156,9 +157,7 @@ class StackedEulerLagrangeLibrary(BaseFeatureLibrary):
         n = self._check_library()
         width = np.shape(x[0])[-1]
         if width != 3 * n:
-            raise ValueError(
-                f"x must have 3n = {3 * n} columns [q, qd, qdd] of the {n} active strains; got {width}"
-            )
+            raise ValueError(f"x must have 3n = {3 * n} columns [q, qd, qdd] of the {n} active strains; got {width}")
         self.n_dof_ = n
         self.n_features_in_ = 3 * n
         self.n_output_features_ = self._n_columns(n)

@@ -166,9 +166,36 @@ def _rms(x, scale):
 
 
 @njit(cache=True)
-def radau_run(k0, k1, t, u_rows, out, h_arr, hprev_arr, havez_arr, zprev_arr, ratelast_arr, jac_arr, jacst_arr,
-              hlu_arr, big_arr, pivbig_arr, small_arr, pivsmall_arr, geo, rtol, atol, max_step, fixed, A, C, E, mu,
-              refresh_rate, stats):
+def radau_run(
+    k0,
+    k1,
+    t,
+    u_rows,
+    out,
+    h_arr,
+    hprev_arr,
+    havez_arr,
+    zprev_arr,
+    ratelast_arr,
+    jac_arr,
+    jacst_arr,
+    hlu_arr,
+    big_arr,
+    pivbig_arr,
+    small_arr,
+    pivsmall_arr,
+    geo,
+    rtol,
+    atol,
+    max_step,
+    fixed,
+    A,
+    C,
+    E,
+    mu,
+    refresh_rate,
+    stats,
+):
     """Advance every robot from sample ``k0`` to ``k1`` with Radau IIA (order 5), in place.
 
     ``out`` (T, B, N) holds the sampled states (``out[k0]`` is the start);
@@ -344,7 +371,7 @@ def radau_run(k0, k1, t, u_rows, out, h_arr, hprev_arr, havez_arr, zprev_arr, ra
                     _error_solve(jac, mu / step, small, piv_small, err_in, err, tmp)
                     err_norm = _rms(err, scale) if _all_finite(err) else np.inf
                 if not err_norm <= 1.0:
-                    factor = 0.2 if not np.isfinite(err_norm) else max(0.2, safety * err_norm ** -0.25)
+                    factor = 0.2 if not np.isfinite(err_norm) else max(0.2, safety * err_norm**-0.25)
                     h = step * factor
                     have_z = False
                     stats[3] += 1
@@ -355,7 +382,7 @@ def radau_run(k0, k1, t, u_rows, out, h_arr, hprev_arr, havez_arr, zprev_arr, ra
                 h_prev = step
                 time = t_next if step == span else time + step
                 y[:] = y_new
-                factor = 10.0 if err_norm == 0.0 else min(10.0, safety * err_norm ** -0.25)
+                factor = 10.0 if err_norm == 0.0 else min(10.0, safety * err_norm**-0.25)
                 h = max(h, step * factor) if step < h else step * factor
                 jac_state = 0 if slow else 1
             out[k + 1, b] = y
@@ -366,5 +393,3 @@ def radau_run(k0, k1, t, u_rows, out, h_arr, hprev_arr, havez_arr, zprev_arr, ra
         jacst_arr[b] = jac_state
         hlu_arr[b] = h_lu
     return OK, 0.0, -1
-
-

@@ -34,7 +34,8 @@ identification side has its own actuation terms.
 
 from __future__ import annotations
 
-from typing import Any, Sequence
+from collections.abc import Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -59,8 +60,10 @@ def _within_robot(value: NDArray, name: str, total: float, *, allow_zero: bool) 
     if np.any(bad):
         k = int(np.argmax(bad))
         lower = "0 <=" if allow_zero else "0 <"
-        raise ValueError(f"{name}[{k}] = {float(value[k])!r} lies outside the robot: need {lower} {name} <= "
-                         f"{total:g} m (the total rest length)")
+        raise ValueError(
+            f"{name}[{k}] = {float(value[k])!r} lies outside the robot: need {lower} {name} <= "
+            f"{total:g} m (the total rest length)"
+        )
 
 
 def _cover(start: NDArray, end: NDArray, segment_lengths: NDArray) -> NDArray[np.float64]:
@@ -126,8 +129,10 @@ class TendonActuation:
         where = f"{name}[{', '.join(str(int(i)) for i in idx)}]"
         when = "" if t is None else f" at t = {float(t if np.ndim(t) == 0 else t[idx[0]]):g} s"
         k = int(idx[-1])
-        raise ValueError(f"{where} = {float(u[tuple(idx)])!r}{when}: tendon {k} (ending at "
-                         f"{float(np.atleast_1d(self.end)[k]):g} m) would push; tendon tensions must be >= 0")
+        raise ValueError(
+            f"{where} = {float(u[tuple(idx)])!r}{when}: tendon {k} (ending at "
+            f"{float(np.atleast_1d(self.end)[k]):g} m) would push; tendon tensions must be >= 0"
+        )
 
     def __repr__(self) -> str:
         return f"TendonActuation(end={self.end!r}, offset={self.offset!r})"
@@ -157,8 +162,9 @@ class PressureActuation:
 
     kind = "pressure"
 
-    def __init__(self, start: ArrayLike, end: ArrayLike, side: ArrayLike, bending_gain: ArrayLike,
-                 axial_gain: ArrayLike) -> None:
+    def __init__(
+        self, start: ArrayLike, end: ArrayLike, side: ArrayLike, bending_gain: ArrayLike, axial_gain: ArrayLike
+    ) -> None:
         self.start = start
         self.end = end
         self.side = side
@@ -210,5 +216,7 @@ class PressureActuation:
         """Pressures may take either sign (gauge pressure): nothing to check beyond finiteness."""
 
     def __repr__(self) -> str:
-        return (f"PressureActuation(start={self.start!r}, end={self.end!r}, side={self.side!r}, "
-                f"bending_gain={self.bending_gain!r}, axial_gain={self.axial_gain!r})")
+        return (
+            f"PressureActuation(start={self.start!r}, end={self.end!r}, side={self.side!r}, "
+            f"bending_gain={self.bending_gain!r}, axial_gain={self.axial_gain!r})"
+        )

@@ -23,29 +23,46 @@ __all__ = ["get_scenario", "list_scenarios"]
 # ----------------------------------------------------------------------
 _PCS_TABLE: dict[str, dict[str, Any]] = {
     "one_segment": dict(
-        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e3],
-        damping=[1e-5, 1.5e-1, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
+        segment_lengths=[0.1],
+        density=[1070.0],
+        youngs_modulus=[1e4],
+        shear_modulus=[1e3],
+        damping=[1e-5, 1.5e-1, 1.5e-1],
+        seed_noise=(5e-4, np.deg2rad(1.0)),
     ),
     "two_segment": dict(
-        segment_lengths=[0.07, 0.1], density=[1070.0, 1049.0], youngs_modulus=[1e4, 9e3],
-        shear_modulus=[1e3, 3e3], damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
+        segment_lengths=[0.07, 0.1],
+        density=[1070.0, 1049.0],
+        youngs_modulus=[1e4, 9e3],
+        shear_modulus=[1e3, 3e3],
+        damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
         seed_noise=(1e-4, np.deg2rad(0.5)),
     ),
     "three_segment": dict(
-        segment_lengths=[0.05, 0.1, 0.06], density=[1240.0, 1049.0, 1070.0], youngs_modulus=[1e4, 6e4, 8e4],
-        shear_modulus=[1e3, 3e3, 5e3], damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
+        segment_lengths=[0.05, 0.1, 0.06],
+        density=[1240.0, 1049.0, 1070.0],
+        youngs_modulus=[1e4, 6e4, 8e4],
+        shear_modulus=[1e3, 3e3, 5e3],
+        damping=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
         seed_noise=(1e-4, np.deg2rad(0.5)),
     ),
     "one_segment_stiff_shear": dict(
-        segment_lengths=[0.1], density=[1070.0], youngs_modulus=[1e4], shear_modulus=[1e6],
-        damping=[1e-5, 5e0, 1.5e-1], seed_noise=(5e-4, np.deg2rad(1.0)),
+        segment_lengths=[0.1],
+        density=[1070.0],
+        youngs_modulus=[1e4],
+        shear_modulus=[1e6],
+        damping=[1e-5, 5e0, 1.5e-1],
+        seed_noise=(5e-4, np.deg2rad(1.0)),
     ),
     # beyond the seed (issue 6): five segments of alternating soft and stiffer silicone-like
     # materials, 0.27 m in all, with the damping pattern of three_segment
     "five_segment": dict(
-        segment_lengths=[0.04, 0.06, 0.05, 0.07, 0.05], density=[1070.0, 1049.0, 1240.0, 1070.0, 1049.0],
-        youngs_modulus=[1e4, 4e4, 2e4, 6e4, 1.5e4], shear_modulus=[1e3, 3e3, 2e3, 5e3, 1.5e3],
-        damping=[5e-5, 4e-2, 5e-2] * 5, seed_noise=(1e-4, np.deg2rad(0.5)),
+        segment_lengths=[0.04, 0.06, 0.05, 0.07, 0.05],
+        density=[1070.0, 1049.0, 1240.0, 1070.0, 1049.0],
+        youngs_modulus=[1e4, 4e4, 2e4, 6e4, 1.5e4],
+        shear_modulus=[1e3, 3e3, 2e3, 5e3, 1.5e3],
+        damping=[5e-5, 4e-2, 5e-2] * 5,
+        seed_noise=(1e-4, np.deg2rad(0.5)),
     ),
 }
 
@@ -85,8 +102,14 @@ _ACTUATED: dict[str, dict[str, Any]] = {
     ),
     "one_segment_pneumatic": dict(
         base="one_segment",
-        actuation=dict(type="pressure", start=[0.0, 0.0], end=[0.1, 0.1], side=[1, -1], bending_gain=[3e-6, 3e-6],
-                       axial_gain=[2e-4, 2e-4]),
+        actuation=dict(
+            type="pressure",
+            start=[0.0, 0.0],
+            end=[0.1, 0.1],
+            side=[1, -1],
+            bending_gain=[3e-6, 3e-6],
+            axial_gain=[2e-4, 2e-4],
+        ),
         input_max=(9e4, 9e4),
     ),
 }
@@ -127,8 +150,12 @@ def get_scenario(name: str, **overrides: Any) -> Scenario:
     robot_options = {k: overrides.pop(k) for k in ("stiffness_scaling", "gravity", "radius") if k in overrides}
     if name == "pac_one_segment":
         return Scenario(
-            name=name, robot=PACRobot(0.15), parameters={"length": 0.15}, description=_DESCRIPTIONS[name],
-            seed_noise=(5e-4, np.deg2rad(1.0)), **overrides,
+            name=name,
+            robot=PACRobot(0.15),
+            parameters={"length": 0.15},
+            description=_DESCRIPTIONS[name],
+            seed_noise=(5e-4, np.deg2rad(1.0)),
+            **overrides,
         )
     from .dynamics import PCSRobot  # the dynamics are only needed for PCS scenarios
 
@@ -146,8 +173,12 @@ def get_scenario(name: str, **overrides: Any) -> Scenario:
         overrides.setdefault("input_max", actuated["input_max"])
     overrides.setdefault("actuation_reference", _ACTUATION_REFERENCE.get(name))
     return Scenario(
-        name=name, robot=robot, parameters=parameters, seed_noise=seed_noise,
-        description=_DESCRIPTIONS[name], **overrides,
+        name=name,
+        robot=robot,
+        parameters=parameters,
+        seed_noise=seed_noise,
+        description=_DESCRIPTIONS[name],
+        **overrides,
     )
 
 

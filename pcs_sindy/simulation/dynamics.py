@@ -26,7 +26,8 @@ Integration: :mod:`pcs_sindy.simulation.integrate`.
 
 from __future__ import annotations
 
-from typing import Any, Callable, Sequence
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -133,8 +134,10 @@ class PCSRobot:
         n_quadrature: int = 16,
         actuation: Any = None,
     ) -> None:
-        self.kinematics = PlanarPCS(tuple(np.atleast_1d(np.asarray(segment_lengths, dtype=float))),
-                                    base_pose=tuple(_finite_vector(base_pose, 3, "base_pose")))
+        self.kinematics = PlanarPCS(
+            tuple(np.atleast_1d(np.asarray(segment_lengths, dtype=float))),
+            base_pose=tuple(_finite_vector(base_pose, 3, "base_pose")),
+        )
         m = self.kinematics.n_segments
         self.segment_lengths = np.asarray(self.kinematics.segment_lengths)
         self.n_segments = m
@@ -174,8 +177,11 @@ class PCSRobot:
         self.stiffness = (
             f_len[:, None]
             * np.stack(
-                [self.youngs_modulus * self.second_moment, self.shear_factor * self.shear_modulus * self.area,
-                 self.youngs_modulus * self.area],
+                [
+                    self.youngs_modulus * self.second_moment,
+                    self.shear_factor * self.shear_modulus * self.area,
+                    self.youngs_modulus * self.area,
+                ],
                 axis=1,
             )
         ).reshape(-1)
@@ -233,8 +239,9 @@ class PCSRobot:
         )
 
     # -- input checks -----------------------------------------------------------
-    def _check(self, name: str, value: ArrayLike, like: NDArray | None = None, size: int | None = None
-               ) -> NDArray[np.float64]:
+    def _check(
+        self, name: str, value: ArrayLike, like: NDArray | None = None, size: int | None = None
+    ) -> NDArray[np.float64]:
         size = self.n_q if size is None else size
         arr = np.asarray(value, dtype=float)
         if arr.ndim == 0 or arr.shape[-1] != size:
@@ -357,8 +364,9 @@ class PCSRobot:
         if kind == _kernels.ACT_TENDON:
             A = -_kernels.tendon_batch(qf, offset, span)[1].transpose(0, 2, 1)
         else:
-            A = np.broadcast_to(np.eye(self.n_q) if kind == _kernels.ACT_IDENTITY else matrix,
-                                (qf.shape[0], self.n_q, self.n_inputs)).copy()
+            A = np.broadcast_to(
+                np.eye(self.n_q) if kind == _kernels.ACT_IDENTITY else matrix, (qf.shape[0], self.n_q, self.n_inputs)
+            ).copy()
         return A.reshape(lead + (self.n_q, self.n_inputs))
 
     def actuation_forces(self, q: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
@@ -469,12 +477,33 @@ class PCSRobot:
             For bad arguments, naming them: shapes, non-finite values, a
             negative tendon tension (with its input index and time).
         """
-        return simulate(self, q0, qd0, t, u, method=method, rtol=rtol, atol=atol, step=step, max_step=max_step,
-                        progress=progress, tau=tau, fixed_step=fixed_step)
+        return simulate(
+            self,
+            q0,
+            qd0,
+            t,
+            u,
+            method=method,
+            rtol=rtol,
+            atol=atol,
+            step=step,
+            max_step=max_step,
+            progress=progress,
+            tau=tau,
+            fixed_step=fixed_step,
+        )
 
-    def advance(self, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *, step: float | None = DEFAULT_STEP,
-                rtol: float | None = None, atol: float | None = None
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def advance(
+        self,
+        q: ArrayLike,
+        qd: ArrayLike,
+        u: ArrayLike,
+        dt: float,
+        *,
+        step: float | None = DEFAULT_STEP,
+        rtol: float | None = None,
+        atol: float | None = None,
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Advance the state by ``dt`` under inputs ``u`` held constant: one control period of a closed loop.
 
         The compiled Radau IIA of :meth:`simulate` (``method="radau"``), with

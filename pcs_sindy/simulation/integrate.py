@@ -16,7 +16,8 @@ Two paths, one contract (:mod:`pcs_sindy.integration`):
 from __future__ import annotations
 
 import warnings
-from typing import Any, Callable
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -29,8 +30,16 @@ from ..integration import SCIPY_METHODS, SimulationError, canonical_method
 from ..trajectory import StrainTrajectory
 from . import _kernels, _radau
 
-__all__ = ["METHODS_SUPPORTED", "DEFAULT_STEP", "UNSET", "simulate", "advance", "check_inputs", "integrate",
-           "RadauStepper"]
+__all__ = [
+    "METHODS_SUPPORTED",
+    "DEFAULT_STEP",
+    "UNSET",
+    "simulate",
+    "advance",
+    "check_inputs",
+    "integrate",
+    "RadauStepper",
+]
 
 #: methods of :data:`pcs_sindy.integration.METHODS` the simulator implements ("radau" first: the default)
 METHODS_SUPPORTED = ("radau", "dopri5", "dop853", "bdf", "lsoda", "rk23")
@@ -49,9 +58,20 @@ class _Unset:
 UNSET: Any = _Unset()
 
 
-def integrate(robot: Any, y0: NDArray, t: NDArray, u_rows: NDArray | None, u_fn: Callable | None, *, method: str,
-              rtol: float, atol: float, step: float | None, max_step: float, progress: bool
-              ) -> tuple[NDArray[np.float64], dict[str, int]]:
+def integrate(
+    robot: Any,
+    y0: NDArray,
+    t: NDArray,
+    u_rows: NDArray | None,
+    u_fn: Callable | None,
+    *,
+    method: str,
+    rtol: float,
+    atol: float,
+    step: float | None,
+    max_step: float,
+    progress: bool,
+) -> tuple[NDArray[np.float64], dict[str, int]]:
     """Sampled states (T, B, 2n) of ``robot`` from ``y0`` (B, 2n), and integrator counts.
 
     Arguments are validated by the caller: ``u_rows`` (T, B, p) tabulated
@@ -67,9 +87,22 @@ def integrate(robot: Any, y0: NDArray, t: NDArray, u_rows: NDArray | None, u_fn:
 # --------------------------------------------------------------------------
 # the public entry points and their argument checks
 # --------------------------------------------------------------------------
-def simulate(robot: Any, q0: ArrayLike, qd0: ArrayLike, t: ArrayLike, u: Any, *, method: str, rtol: float | None,
-             atol: float | None, step: float | None | str, max_step: float | None, progress: bool, tau: Any,
-             fixed_step: Any) -> StrainTrajectory | list[StrainTrajectory]:
+def simulate(
+    robot: Any,
+    q0: ArrayLike,
+    qd0: ArrayLike,
+    t: ArrayLike,
+    u: Any,
+    *,
+    method: str,
+    rtol: float | None,
+    atol: float | None,
+    step: float | None | str,
+    max_step: float | None,
+    progress: bool,
+    tau: Any,
+    fixed_step: Any,
+) -> StrainTrajectory | list[StrainTrajectory]:
     """:meth:`PCSRobot.simulate` (documented there)."""
     u = _renamed(u, tau, "u", "tau")
     if u is None:
@@ -99,24 +132,40 @@ def simulate(robot: Any, q0: ArrayLike, qd0: ArrayLike, t: ArrayLike, u: Any, *,
         if not (np.isfinite(step) and step > 0):
             raise ValueError(f"step must be finite and > 0, None or 'auto'; got {step!r}")
         if method != "radau" or u_fn is not None:
-            raise ValueError(f"a fixed step needs method='radau' and tabulated inputs; got method={method!r}"
-                             f"{' and a callable u' if u_fn is not None else ''} (use step=None)")
+            raise ValueError(
+                f"a fixed step needs method='radau' and tabulated inputs; got method={method!r}"
+                f"{' and a callable u' if u_fn is not None else ''} (use step=None)"
+            )
     y0 = np.concatenate([q0.reshape(-1, robot.n_q), qd0.reshape(-1, robot.n_q)], axis=1)
-    out, counts = integrate(robot, y0, t, u_rows, u_fn, method=method, rtol=rtol, atol=atol, step=step,
-                            max_step=max_step, progress=progress)
+    out, counts = integrate(
+        robot, y0, t, u_rows, u_fn, method=method, rtol=rtol, atol=atol, step=step, max_step=max_step, progress=progress
+    )
     meta = {"method": method, "step": step, "rtol": rtol, "atol": atol, "counts": counts}
     runs = [
-        StrainTrajectory(out[:, b, : robot.n_q], t, segment_lengths=robot.segment_lengths, qd=out[:, b, robot.n_q :],
-                         base_pose=tuple(robot.base_pose),
-                         metadata={**meta, "u": u if u_rows is None else u_rows[:, b]})
+        StrainTrajectory(
+            out[:, b, : robot.n_q],
+            t,
+            segment_lengths=robot.segment_lengths,
+            qd=out[:, b, robot.n_q :],
+            base_pose=tuple(robot.base_pose),
+            metadata={**meta, "u": u if u_rows is None else u_rows[:, b]},
+        )
         for b in range(out.shape[1])
     ]
     return runs if batch else runs[0]
 
 
-
-def advance(robot: Any, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *, step: float | None,
-            rtol: float | None, atol: float | None) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def advance(
+    robot: Any,
+    q: ArrayLike,
+    qd: ArrayLike,
+    u: ArrayLike,
+    dt: float,
+    *,
+    step: float | None,
+    rtol: float | None,
+    atol: float | None,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:meth:`PCSRobot.advance` (documented there)."""
     q = robot._check("q", q)
     qd = robot._check("qd", qd, q)
@@ -129,14 +178,17 @@ def advance(robot: Any, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *,
     rtol, atol, _ = _tolerances(rtol, atol, None)
     u = np.asarray(u, dtype=float)
     if u.shape != q.shape[:-1] + (robot.n_inputs,):
-        raise ValueError(f"u must have shape q.shape[:-1] + (p,) = {q.shape[:-1] + (robot.n_inputs,)} "
-                         f"(p = {robot.n_inputs} inputs); got shape {u.shape}")
+        raise ValueError(
+            f"u must have shape q.shape[:-1] + (p,) = {q.shape[:-1] + (robot.n_inputs,)} "
+            f"(p = {robot.n_inputs} inputs); got shape {u.shape}"
+        )
     if not np.all(np.isfinite(u)):
         raise ValueError("u contains NaN or inf")
     if robot.actuation is not None:
         robot.actuation.check_inputs(u, None)
-    u_rows = np.ascontiguousarray(np.broadcast_to(u.reshape(1, -1, robot.n_inputs), (2, u.size // robot.n_inputs,
-                                                                                   robot.n_inputs)))
+    u_rows = np.ascontiguousarray(
+        np.broadcast_to(u.reshape(1, -1, robot.n_inputs), (2, u.size // robot.n_inputs, robot.n_inputs))
+    )
     y = np.concatenate([q.reshape(-1, robot.n_q), qd.reshape(-1, robot.n_q)], axis=1)
     B = y.shape[0]
     # the integrator state of the last call carries over when this call continues from where it ended
@@ -148,11 +200,20 @@ def advance(robot: Any, q: ArrayLike, qd: ArrayLike, u: ArrayLike, dt: float, *,
         stepper = cached[1]
     out = np.empty((2, B, 2 * robot.n_q))
     out[0] = y
-    stepper.run(0, 1, np.array([0.0, float(dt)]), u_rows, out, robot._jit_geometry(), rtol, atol,
-                np.inf if step is None else step, step is not None)
+    stepper.run(
+        0,
+        1,
+        np.array([0.0, float(dt)]),
+        u_rows,
+        out,
+        robot._jit_geometry(),
+        rtol,
+        atol,
+        np.inf if step is None else step,
+        step is not None,
+    )
     robot._advance_cache = (key, stepper, out[1].copy())
     return out[1, :, : robot.n_q].reshape(q.shape), out[1, :, robot.n_q :].reshape(q.shape)
-
 
 
 def check_inputs(robot: Any, u: Any, t: NDArray, batch: tuple[int, ...]) -> tuple[NDArray | None, Callable | None]:
@@ -177,8 +238,9 @@ def check_inputs(robot: Any, u: Any, t: NDArray, batch: tuple[int, ...]) -> tupl
     arr = np.asarray(u, dtype=float)
     expected = (t.size,) + batch + (p,)
     if arr.shape != expected:
-        raise ValueError(f"u must have shape (len(t),) + q0.shape[:-1] + (p,) = {expected} (p = {p} inputs); "
-                         f"got shape {arr.shape}")
+        raise ValueError(
+            f"u must have shape (len(t),) + q0.shape[:-1] + (p,) = {expected} (p = {p} inputs); got shape {arr.shape}"
+        )
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"u contains NaN or inf (first at sample {int(np.argwhere(~np.isfinite(arr))[0][0])})")
     if check is not None:
@@ -234,14 +296,49 @@ class RadauStepper:
         # accepted steps, Newton iterations, Jacobians, rejected/repeated steps
         self.stats = np.zeros(4, dtype=np.int64)
 
-    def run(self, k0: int, k1: int, t: NDArray, u_rows: NDArray, out: NDArray, geo: tuple, rtol: float, atol: float,
-            max_step: float, fixed: bool) -> None:
+    def run(
+        self,
+        k0: int,
+        k1: int,
+        t: NDArray,
+        u_rows: NDArray,
+        out: NDArray,
+        geo: tuple,
+        rtol: float,
+        atol: float,
+        max_step: float,
+        fixed: bool,
+    ) -> None:
         """Advance ``out[k0]`` to ``out[k1]`` in place; raise SimulationError on failure."""
         status, when, robot = _radau.radau_run(
-            k0, k1, t, u_rows, out, self.h, self.h_prev, self.have_z, self.z_prev, self.rate_last, self.jac,
-            self.jac_state, self.h_lu, self.lu_big, self.piv_big, self.lu_small, self.piv_small, geo,
-            float(rtol), float(atol), float(max_step), fixed, _radau.RADAU_A, _radau.RADAU_C, _radau.RADAU_E,
-            _radau.RADAU_MU, _radau.JAC_REFRESH_RATE, self.stats,
+            k0,
+            k1,
+            t,
+            u_rows,
+            out,
+            self.h,
+            self.h_prev,
+            self.have_z,
+            self.z_prev,
+            self.rate_last,
+            self.jac,
+            self.jac_state,
+            self.h_lu,
+            self.lu_big,
+            self.piv_big,
+            self.lu_small,
+            self.piv_small,
+            geo,
+            float(rtol),
+            float(atol),
+            float(max_step),
+            fixed,
+            _radau.RADAU_A,
+            _radau.RADAU_C,
+            _radau.RADAU_E,
+            _radau.RADAU_MU,
+            _radau.JAC_REFRESH_RATE,
+            self.stats,
         )
         if status != _radau.OK:
             what = "the state derivative is not finite" if status == _radau.NONFINITE else "step size collapsed"
@@ -292,19 +389,33 @@ def _scipy(geo, y0, t, u_rows, u_fn, method, rtol, atol, max_step, progress):
         for a, b in zip(starts, ends):
             if b <= a:
                 continue
-            inputs = (lambda tt, held=np.ascontiguousarray(u_rows[a]): held) if u_fn is None else u_fn
+            if u_fn is None:
+                held = np.ascontiguousarray(u_rows[a])
+                inputs = lambda tt, held=held: held  # noqa: E731 - the input held on this interval
+            else:
+                inputs = u_fn
             options = {}
             if method in _IMPLICIT:
                 options["jac"] = _jacobian(geo, inputs, B, N, method)
             # a diverging state overflows inside scipy's step control: reported below as a SimulationError
             try:
                 with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-                    sol = solve_ivp(_derivative(geo, inputs, B, N), (t[a], t[b]), out[a].reshape(-1),
-                                    method=SCIPY_METHODS[method], t_eval=t[a + 1 : b + 1], rtol=rtol, atol=atol,
-                                    max_step=max_step, **options)
+                    sol = solve_ivp(
+                        _derivative(geo, inputs, B, N),
+                        (t[a], t[b]),
+                        out[a].reshape(-1),
+                        method=SCIPY_METHODS[method],
+                        t_eval=t[a + 1 : b + 1],
+                        rtol=rtol,
+                        atol=atol,
+                        max_step=max_step,
+                        **options,
+                    )
             except _NonFiniteJacobian as err:
-                raise SimulationError(f"{method} (scipy.integrate.solve_ivp): the Jacobian is not finite at "
-                                      f"t = {err.time:.6g} s", t=err.time) from None
+                raise SimulationError(
+                    f"{method} (scipy.integrate.solve_ivp): the Jacobian is not finite at t = {err.time:.6g} s",
+                    t=err.time,
+                ) from None
             for key in counts:
                 counts[key] += int(getattr(sol, key))
             ts, ys = np.asarray(sol.t, dtype=float), np.asarray(sol.y, dtype=float).reshape(N * B, -1)
@@ -314,8 +425,12 @@ def _scipy(geo, y0, t, u_rows, u_fn, method, rtol, atol, max_step, progress):
                 reached = int(np.argmin(finite)) if not np.all(finite) else ts.size
                 t_fail = float(ts[reached - 1]) if reached else float(t[a])
                 y_fail = ys[:, reached - 1] if reached else out[a].reshape(-1)
-                raise SimulationError(f"{method} (scipy.integrate.solve_ivp) failed after t = {t_fail:.6g} s on "
-                                      f"[{t[a]:.6g}, {t[b]:.6g}] s: {sol.message}", t=t_fail, y=y_fail)
+                raise SimulationError(
+                    f"{method} (scipy.integrate.solve_ivp) failed after t = {t_fail:.6g} s on "
+                    f"[{t[a]:.6g}, {t[b]:.6g}] s: {sol.message}",
+                    t=t_fail,
+                    y=y_fail,
+                )
             out[a + 1 : b + 1] = ys.T.reshape(b - a, B, N)
             bar.update(b - a)
     return out, counts

@@ -8,17 +8,24 @@ lighter shade, as a thick polyline through the marker centres or through a
 backbone the caller provides.  Drawing uses OpenCV with sub-pixel vertices
 (``shift``) on a supersampled canvas that is box-averaged down (exact area
 anti-aliasing), so that intensity centroids of the markers are unbiased to a
-few hundredths of a pixel.
+few hundredths of a pixel.  A camera with a lens (:class:`pcs_sindy.camera.Camera`
+with distortion and perspective) bends the marker outlines as a real lens does.
 
-The camera (metres <-> pixels, :class:`pcs_sindy.camera.Camera`) is written
-next to every video as JSON so that extraction can invert the mapping.
+:class:`~pcs_sindy.simulation.nuisances.Nuisances` degrades the footage the
+way real recordings are degraded (:mod:`pcs_sindy.simulation.nuisances`), and
+:func:`~pcs_sindy.simulation.checkerboard.render_checkerboard` draws
+calibration boards through the same lens; both are importable from here too.
+
+The camera (metres <-> pixels) is written next to every video as JSON so
+that extraction can invert the mapping.
 """
 
 from __future__ import annotations
 
 import os
+from collections.abc import Sequence
 from pathlib import Path
-from typing import NamedTuple, Sequence
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -26,11 +33,14 @@ from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from ..camera import Camera, camera_json_path
+from ._drawing import _SHIFT, _draw_polygon, _fixed, _subdivide
+from .checkerboard import render_checkerboard
+from .nuisances import Nuisances, _degrade, _illumination, _occlude, _scene, _sub_frame_poses
 
-__all__ = ["render_frames", "render_video", "marker_corners", "RenderedVideo"]
+__all__ = ["render_frames", "render_video", "render_checkerboard", "marker_corners", "Nuisances", "RenderedVideo"]
 
-_SHIFT = 8  # fractional bits of the vertex coordinates passed to OpenCV
 _VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
+_EDGE_POINTS = 6  # vertices per polygon edge when a lens bends straight edges
 
 
 class RenderedVideo(NamedTuple):
@@ -77,10 +87,6 @@ def marker_corners(pixel_poses: ArrayLike, width_px: float, thickness_px: float)
     return np.stack([c[..., 0, :] + a + t, c[..., 0, :] - a + t, c[..., 0, :] - a - t, c[..., 0, :] + a - t], axis=-2)
 
 
-def _fixed(points: NDArray[np.float64]) -> NDArray[np.int32]:
-    return np.ascontiguousarray(np.round(points * (1 << _SHIFT)), dtype=np.int32)
-
-
 def render_frames(
     poses: ArrayLike,
     camera: Camera | None = None,
@@ -95,6 +101,8 @@ def render_frames(
     body_colour: float | Sequence[float] = 210,
     colour: bool = False,
     supersample: int | None = None,
+    nuisances: Nuisances | None = None,
+    first_frame: int = 0,
     progress: bool = False,
 ) -> NDArray[np.uint8]:
     """Draw the base and tracked cross-sections of every frame.
@@ -104,8 +112,9 @@ def render_frames(
     poses : array_like, shape (T, N + 1, 3)
         Base (index 0) and marker poses in metres/radians in the base frame.
     camera : Camera, optional
-        Metres -> pixels; default ``Camera.fit_poses(poses)``: 640×480 with
-        the largest scale that holds this robot bending past ±180°.
+        Metres -> pixels (with its lens, if any); default
+        ``Camera.fit_poses(poses)``: 640×480 with the largest scale that
+        holds this robot bending past ±180°.
     marker_size : (float, float)
         ``(width across the robot, thickness along it)`` in metres; the width
         must exceed the thickness so the orientation can be read back.
@@ -128,6 +137,11 @@ def render_frames(
         area coverage (to 1/supersample^2) and centroids are unbiased.
         Default: 16 for markers thinner than 8 px, else 8.  The body is drawn
         with OpenCV's own anti-aliasing.
+    nuisances : Nuisances, optional
+        Degradations of real footage (see :class:`Nuisances`).
+    first_frame : int
+        Index of ``poses[0]`` in its recording (occlusion timing and noise seeds
+        when a long recording is rendered in pieces).
     progress : bool
         Show a tqdm bar over frames.
 
@@ -139,6 +153,8 @@ def render_frames(
     camera = Camera.fit_poses(poses) if camera is None else camera
     if not isinstance(camera, Camera):
         raise ValueError(f"camera must be a pcs_sindy.camera.Camera; got {type(camera).__name__}")
+    if not camera.has_base_frame:
+        raise ValueError("camera must have a base frame (origin and angle) to render poses")
     size = np.asarray(marker_size, dtype=float)
     if size.shape != (2,) or not np.all(np.isfinite(size)) or np.any(size <= 0) or size[0] <= size[1]:
         raise ValueError(f"marker_size must be (width, thickness) > 0 with width > thickness; got {marker_size!r}")
@@ -150,6 +166,10 @@ def render_frames(
         isinstance(supersample, bool) or not isinstance(supersample, (int, np.integer)) or not 1 <= supersample <= 32
     ):
         raise ValueError(f"supersample must be None or an integer in [1, 32]; got {supersample!r}")
+    if nuisances is not None and not isinstance(nuisances, Nuisances):
+        raise ValueError(f"nuisances must be None or a Nuisances; got {type(nuisances).__name__}")
+    if isinstance(first_frame, bool) or not isinstance(first_frame, (int, np.integer)) or first_frame < 0:
+        raise ValueError(f"first_frame must be a non-negative integer; got {first_frame!r}")
     bg = _check_colour(background, "background", colour)
     fg = _check_colour(marker_colour, "marker_colour", colour)
     bc = _check_colour(body_colour, "body_colour", colour)
@@ -174,43 +194,39 @@ def render_frames(
         backbone = camera.to_pixels(backbone[..., :2])
     draw_body = backbone is not None or body is True
 
-    pix = camera.to_pixels(poses)
+    nz = nuisances
+    blur = nz is not None and nz.motion_blur > 0
+    sub = _sub_frame_poses(poses, nz.motion_blur) if blur else poses[:, None]  # (T, B, N + 1, 3)
     # OpenCV fills a polygon's boundary pixels too, which widens a filled
     # rectangle by one canvas pixel: shrink it by that much so areas are exact
     grow = -1.0 / supersample if marker_style == "filled" else 0.0
-    corners = marker_corners(pix, w_px + grow, t_px + grow)  # (T, N + 1, 4, 2) in pixels
-    body_pts = backbone if backbone is not None else pix[..., :2]
-    body_px = body_width * ppm
-    S = supersample
-    shape = (T, height, width, 3) if colour else (T, height, width)
-    out = np.empty(shape, dtype=np.uint8)
-    out[...] = np.round(bg if colour else bg[0]).astype(np.uint8)
-    margin = 2.0 + (line if marker_style == "outline" else 0.0)
-    body_thick = max(1, int(round(body_px)))
+    rect = camera.to_rectified(sub)
+    corners = marker_corners(rect, w_px + grow, t_px + grow)  # (T, B, N + 1, 4, 2), rectified pixels
+    if camera.has_lens:
+        corners = camera.unrectify(_subdivide(corners, _EDGE_POINTS))
+    body_pts = backbone[:, None] if backbone is not None else camera.unrectify(rect[..., :2])
+    body_thick = max(1, int(round(body_width * ppm)))
+    shape = (height, width, 3) if colour else (height, width)
+    scene = _scene(camera, shape, bg, nz, camera.to_pixels(np.zeros(2)), t_px)
+    light = _illumination((height, width), nz) if nz is not None and (nz.lighting_gradient or nz.vignetting) else None
+    occ = nz.occlusion if nz is not None else None
+    out = np.empty((T, *shape), dtype=np.uint8)
     for k in tqdm(range(T), desc="render", unit="frame", disable=not progress):
-        img = out[k]
-        if draw_body:
-            cv2.polylines(img, [_fixed(body_pts[k]).reshape(-1, 1, 2)], False, bc, body_thick, cv2.LINE_AA, _SHIFT)
-        # Each marker is drawn on its own patch at S times the resolution and
-        # box-averaged back (INTER_AREA): exact area coverage up to 1/S^2, so
-        # centroids are unbiased (OpenCV's LINE_AA fill is not sub-pixel in v).
-        # Patches start from the current image, so overlaps compose in order.
-        for c in corners[k]:
-            lo = np.floor(c.min(axis=0) - margin).astype(int)
-            hi = np.ceil(c.max(axis=0) + margin).astype(int) + 1
-            x0, y0 = max(lo[0], 0), max(lo[1], 0)
-            x1, y1 = min(hi[0], width), min(hi[1], height)
-            if x1 <= x0 or y1 <= y0:
-                continue  # outside the image
-            patch = img[y0:y1, x0:x1]
-            big = cv2.resize(patch, ((x1 - x0) * S, (y1 - y0) * S), interpolation=cv2.INTER_NEAREST)
-            # low-res pixel centre p -> high-res coordinate (p + 0.5) S - 0.5
-            poly = _fixed((c - np.array([x0, y0], dtype=float) + 0.5) * S - 0.5).reshape(-1, 1, 2)
-            if marker_style == "filled":
-                cv2.fillPoly(big, [poly], fg, cv2.LINE_8, _SHIFT)
-            else:
-                cv2.polylines(big, [poly], True, fg, max(1, int(round(line * S))), cv2.LINE_8, _SHIFT)
-            patch[...] = cv2.resize(big, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA).reshape(patch.shape)
+        acc = None
+        for b in range(sub.shape[1]):
+            img = scene.copy()
+            if draw_body:
+                pts = body_pts[k, 0 if backbone is not None else b]
+                cv2.polylines(img, [_fixed(pts).reshape(-1, 1, 2)], False, bc, body_thick, cv2.LINE_AA, _SHIFT)
+            for c in corners[k, b]:
+                _draw_polygon(img, c, fg, supersample, None if marker_style == "filled" else line)
+            acc = img.astype(np.float32) if acc is None else acc + img
+        img = np.round(acc / sub.shape[1]).astype(np.uint8) if sub.shape[1] > 1 else acc.astype(np.uint8)
+        if occ is not None and occ[1] <= first_frame + k < occ[1] + occ[2] and occ[0] < poses.shape[1]:
+            _occlude(img, camera, poses[k, occ[0]], occ[3], w_px, t_px, colour)
+        if nz is not None:
+            img = _degrade(img, light, nz, np.random.default_rng([nz.seed, first_frame + k]))
+        out[k] = img
     return out
 
 
@@ -241,7 +257,8 @@ def render_video(
     progress : bool
         tqdm bar over frames.
     **render_kwargs
-        Passed to :func:`render_frames` (marker size and style, body, colours).
+        Passed to :func:`render_frames` (marker size and style, body, colours,
+        ``nuisances``).
 
     Returns
     -------
@@ -252,6 +269,8 @@ def render_video(
         camera = Camera.fit_poses(_check_poses(poses))
     if not np.isscalar(fps) or not np.isfinite(fps) or fps <= 0:
         raise ValueError(f"fps must be a finite number > 0; got {fps!r}")
+    if "first_frame" in render_kwargs:
+        raise ValueError("first_frame is set by render_video itself")
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix and suffix not in _VIDEO_CODECS:
@@ -268,23 +287,27 @@ def render_video(
 
     poses = _check_poses(poses)
     colour = bool(render_kwargs.get("colour", False))
+    # render in chunks: a long 1 kHz recording does not fit in memory at once
+    chunks = (
+        (start, render_frames(poses[start : start + 256], camera, first_frame=start, **render_kwargs))
+        for start in range(0, poses.shape[0], 256)
+    )
     if suffix:
         width, height = camera.image_size
         fourcc = cv2.VideoWriter_fourcc(*(codec or _VIDEO_CODECS[suffix]))
         writer = cv2.VideoWriter(str(path), fourcc, float(fps), (width, height), True)
         if not writer.isOpened():
-            raise OSError(f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec or _VIDEO_CODECS[suffix]})")
+            raise OSError(
+                f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec or _VIDEO_CODECS[suffix]})"
+            )
         try:
-            # render in chunks: a long 1 kHz recording does not fit in memory at once
-            for start in tqdm(range(0, poses.shape[0], 256), desc="video", unit="chunk", disable=not progress):
-                frames = render_frames(poses[start : start + 256], camera, **render_kwargs)
+            for _, frames in tqdm(chunks, desc="video", unit="chunk", disable=not progress):
                 for frame in frames:
                     writer.write(frame if colour else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
         finally:
             writer.release()
     else:
-        for start in tqdm(range(0, poses.shape[0], 256), desc="frames", unit="chunk", disable=not progress):
-            frames = render_frames(poses[start : start + 256], camera, **render_kwargs)
+        for start, frames in tqdm(chunks, desc="frames", unit="chunk", disable=not progress):
             for j, frame in enumerate(frames):
                 name = path / f"frame_{start + j:06d}.png"
                 if not cv2.imwrite(str(name), frame):

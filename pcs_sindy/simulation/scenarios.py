@@ -392,7 +392,7 @@ class Scenario:
                     count = int(data["count"])
                     out = []
                     for k in range(count):
-                        get = lambda key: data[f"{key}{k}"] if f"{key}{k}" in data.files else None  # noqa: E731
+                        get = lambda key, k=k: data[f"{key}{k}"] if f"{key}{k}" in data.files else None  # noqa: E731
                         tau, u = get("tau"), get("u")
                         out.append((get("t"), get("q"), get("qd"), tau, tau if u is None else u))
                     return out

@@ -1,0 +1,105 @@
+"""The controller interface shared by the regulators and the tracking controllers.
+
+A controller is built from an identified model and hyper-parameters (stored
+unchanged, sklearn-style), prepared for one task by :meth:`Controller.start`
+(a reference and the uniform control time grid; learned attributes end in
+``_``) and then called once per control period by :meth:`Controller.step`
+with the measured modelled strains and rates.  :func:`~.closed_loop.closed_loop`
+drives a controller against a plant; on hardware the same two calls run the loop.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .models import as_forward_model, strain_limits
+from .statics import check_input_bounds, model_tip
+
+__all__ = ["Controller", "check_time_grid"]
+
+
+def check_time_grid(t: ArrayLike, name: str = "t") -> tuple[NDArray[np.float64], float]:
+    """Uniform, strictly increasing control times (T,) with T >= 2, and their period."""
+    arr = np.asarray(t, dtype=float)
+    if arr.ndim != 1 or arr.size < 2 or not np.all(np.isfinite(arr)):
+        raise ValueError(f"{name} must be a finite 1-D array of at least 2 control times; got shape {arr.shape}")
+    dt = np.diff(arr)
+    if np.any(dt <= 0) or np.max(np.abs(dt - dt[0])) > 1e-9 * dt[0]:
+        raise ValueError(
+            f"{name} must be uniformly spaced and increasing (one control period); got steps from "
+            f"{dt.min():.6g} to {dt.max():.6g} s"
+        )
+    return arr, float(dt[0])
+
+
+class Controller(ABC):
+    """A feedback law on the modelled strains of an identified model.
+
+    Parameters
+    ----------
+    model : fitted model or ForwardModel
+        Anything with ``forward_model()`` (e.g. a fitted
+        :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`) or a forward model.
+    input_bounds : None or (lower, upper)
+        Bounds on the commanded inputs (scalars or (p,)); commands are clipped
+        to them.  Default: the forward model's ``input_bounds`` if it has
+        them, else unbounded.
+    strain_limits : array_like, optional
+        The model's trusted strain range, (n,) symmetric or (2, n); references
+        outside it are rejected.  Default: :func:`~.models.strain_limits`.
+
+    Attributes
+    ----------
+    forward_model_ : ForwardModel
+    n_inputs_ : int
+    input_bounds_ : ndarray (2, p)
+    strain_limits_ : ndarray (2, n)
+    t_ : ndarray (T,)
+        Control times of the task.
+    dt_ : float
+        Control period.
+    reference_tip_ : ndarray (T, 2)
+        Tip position the task asks for at every control time.
+    reference_strains_ : ndarray (T, n)
+        The modelled strains the controller steers to at every control time.
+    """
+
+    def __init__(self, model: Any, *, input_bounds: Any = None, strain_limits: ArrayLike | None = None) -> None:
+        self.model = model
+        self.input_bounds = input_bounds
+        self.strain_limits = strain_limits
+
+    def _prepare(self, t: ArrayLike) -> None:
+        fm = as_forward_model(self.model)
+        self.forward_model_ = fm
+        self.n_inputs_ = int(fm.n_inputs)
+        bounds = self.input_bounds if self.input_bounds is not None else getattr(fm, "input_bounds", None)
+        self.input_bounds_ = check_input_bounds(bounds, self.n_inputs_)
+        self._bounded = bool(np.any(np.isfinite(self.input_bounds_)))
+        self.strain_limits_ = strain_limits(self.model, fm, self.strain_limits)
+        self.t_, self.dt_ = check_time_grid(t)
+
+    def _clip(self, u: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self._bounded:
+            np.minimum(np.maximum(u, self.input_bounds_[0], out=u), self.input_bounds_[1], out=u)
+        return u
+
+    def _tips(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        return model_tip(self.forward_model_, q)
+
+    @abstractmethod
+    def start(
+        self, reference: Any, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
+    ) -> Controller:
+        """Prepare the task ``reference`` over the control times ``t`` from the model state ``(q0, qd0)``."""
+
+    @abstractmethod
+    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Command (p,) for control time ``t_[k]`` from the measured modelled strains and rates (n,).
+
+        The hot path: no checks; ``q`` and ``qd`` are float arrays of the n modelled strains.
+        """

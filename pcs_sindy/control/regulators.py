@@ -1,0 +1,320 @@
+"""Regulation to a fixed configuration: the seed's P-satI-D with feed-forward, and tip regulation through inputs.
+
+:class:`SetpointRegulator` (docs/control.md, "Set-point regulation")::
+
+    tau = G(q*) + K q* - f0 + Kp (q* - q) + Ki sat(int (q* - q) dt) - Kd qd
+    u   = A^+ tau
+
+with the model's static forces as feed-forward (``feedforward=False`` gives the
+PID baseline) and two anti-windup measures: the integrator state is clamped
+(it never winds beyond the saturation) and each strain integrates only near
+its set-point (conditional integration).
+
+:class:`TipRegulator` (docs/control.md, "Tip regulation") finds the inputs
+``u*`` whose model equilibrium ``q*`` puts the tip at the target (bounded
+optimisation, :func:`~.statics.equilibrium_inputs`), stabilises that
+equilibrium with input-space gains of the same rule and removes the remaining
+tip error with integral action through the static sensitivity
+``S = d tip / d u`` of the model's equilibria::
+
+    w   <- clip(w + dt ki S_W^+ e,  box)              (the integral, an input offset)
+    u    = clip(u* + w - Fq (q - q* - Q w) - Fd qd + kp S_W^+ e,  bounds),     e = tip* - tip(q)
+
+with ``S_W^+ = W S^T (S W S^T)^-1`` (``W`` the squared input scales),
+``Q = dq*/du`` (the offset moves the equilibrium the strain feedback regulates
+about, so at rest ``u = u* + w``) and the box keeping ``u* + w`` within the
+input bounds: projected integral action, updated only while ``|e|`` is within
+a band (conditional integration),
+which cannot wind up against a bound and lets an antagonist take over where an
+input rests on its bound (a slack tendon).
+
+It needs nothing but the model's ``input_matrix`` and input bounds, so it
+serves generalised-force models and tendon or chamber models alike.
+"""
+
+from __future__ import annotations
+
+import warnings
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from . import _kinematics
+from .base import Controller
+from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains
+from .models import InputMap, check_strains, linearise, static_forces, strain_scales
+from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
+
+__all__ = ["SetpointRegulator", "TipRegulator"]
+
+
+class SetpointRegulator(Controller):
+    """P-satI-D with model feed-forward to a strain set-point (the published paper's regulator).
+
+    Parameters
+    ----------
+    model : fitted model or ForwardModel
+    kp, ki, kd : scalar, (n,) or (n, n), optional
+        Gains on the n modelled strains.  Not given: ``kp``/``kd`` by the rule
+        of :mod:`pcs_sindy.control.gains` (discrete LQR with prescribed degree
+        of stability on the model's linearisation at the set-point) and
+        ``ki = integral_rate (K + Kp)``.
+    rate : float, default 10.0
+        Rule: every mode of the linearised loop decays at least like ``exp(-rate t)``.
+    effort : float, default 1.0
+        Rule: weight of the scaled forces in the quadratic cost.
+    integral_rate : float, optional
+        Rule: decay rate of the integral action [1/s]; default ``rate / 3``.
+    integral_limit : scalar or (n,), optional
+        Largest generalised force the integral may supply per strain (the
+        saturation).  Default: 10 % of the force that holds each strain at
+        its typical magnitude (60 1/m bending, 0.3 shear/axial) with the
+        static stiffness; ``np.inf`` for none.
+    integral_band : float, default 0.05
+        A strain integrates its error only while it is within this fraction of
+        its typical magnitude from the set-point (3 1/m bending, 0.015 shear
+        and axial): conditional integration, so the transient of a large move
+        winds up nothing the integral then has to unwind.  ``np.inf``: always.
+    feedforward : bool, default True
+        Add ``G(q*) + K q* - f0`` of the model.  False: PID on the strains.
+    input_bounds, strain_limits
+        See :class:`~pcs_sindy.control.base.Controller`.
+
+    Attributes
+    ----------
+    setpoint_ : ndarray (n,)
+    feedforward_ : ndarray (n,)
+    kp_, ki_, kd_ : ndarray (n, n)
+    integral_max_ : ndarray (n,)
+        Saturation of each integrator state ``int (q* - q) dt``.
+    linearisation_ : Linearisation
+        Of the model at the set-point.
+    poles_ : ndarray (3n,)
+        Discrete poles of the model's linearised loop with these gains
+        (:func:`~.gains.loop_poles`); a warning is issued if any lies outside the unit circle.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        kp: ArrayLike | None = None,
+        ki: ArrayLike | None = None,
+        kd: ArrayLike | None = None,
+        *,
+        rate: float = 10.0,
+        effort: float = 1.0,
+        integral_rate: float | None = None,
+        integral_limit: ArrayLike | None = None,
+        integral_band: float = 0.05,
+        feedforward: bool = True,
+        input_bounds: Any = None,
+        strain_limits: ArrayLike | None = None,
+    ) -> None:
+        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
+        self.kp = kp
+        self.ki = ki
+        self.kd = kd
+        self.rate = rate
+        self.effort = effort
+        self.integral_rate = integral_rate
+        self.integral_limit = integral_limit
+        self.integral_band = integral_band
+        self.feedforward = feedforward
+
+    def start(
+        self, reference: ArrayLike, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
+    ) -> SetpointRegulator:
+        """Regulate to the strain set-point ``reference`` ((n,) modelled or (3m,) strains) over the times ``t``."""
+        self._prepare(t)
+        fm = self.forward_model_
+        n = fm.kinematics.n_active
+        rate = check_positive(self.rate, "rate")
+        effort = check_positive(self.effort, "effort")
+        i_rate = (
+            rate / 3.0
+            if self.integral_rate is None
+            else check_positive(self.integral_rate, "integral_rate", allow_zero=True)
+        )
+        q_ref = check_strains(reference, fm, self.strain_limits_, "reference")
+        self._inputs = InputMap(fm, q_ref)
+        lin = linearise(fm, q_ref)
+        scales = strain_scales(fm.kinematics)
+        if self.kp is None or self.kd is None:
+            kp, kd = lqr_gains(lin, self.dt_, rate, effort, scales)
+        self.kp_ = as_gain_matrix(kp if self.kp is None else self.kp, n, "kp")
+        self.kd_ = as_gain_matrix(kd if self.kd is None else self.kd, n, "kd")
+        self.ki_ = as_gain_matrix(integral_gain(lin, self.kp_, i_rate) if self.ki is None else self.ki, n, "ki")
+        if self.integral_limit is None:
+            limit = 0.1 * force_scales(lin, scales)
+        else:
+            limit = np.asarray(self.integral_limit, dtype=float)
+            limit = np.full(n, float(limit)) if limit.ndim == 0 else limit
+            if limit.shape != (n,) or np.any(np.isnan(limit)) or np.any(limit < 0):
+                raise ValueError(
+                    f"integral_limit must be a scalar or ({n},) of values >= 0 (np.inf: no "
+                    f"saturation); got {np.asarray(self.integral_limit).tolist()}"
+                )
+        ki_diag = np.abs(np.diag(self.ki_))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.integral_max_ = np.where(ki_diag > 0, limit / ki_diag, 0.0)
+        self.linearisation_ = lin
+        self.poles_ = loop_poles(lin, self.kp_, self.ki_, self.kd_, self.dt_)
+        if np.max(np.abs(self.poles_)) > 1.0 + 1e-9:
+            warnings.warn(
+                f"the gains do not stabilise the model's linearisation at the set-point with a control "
+                f"period of {self.dt_:g} s (largest |pole| {np.max(np.abs(self.poles_)):.6f} > 1)",
+                UserWarning,
+                stacklevel=2,
+            )
+        band = check_positive(self.integral_band, "integral_band", allow_inf=True)
+        self._band = band * scales
+        self.setpoint_ = q_ref
+        self.feedforward_ = static_forces(fm, q_ref) if self.feedforward else np.zeros(n)
+        self._z = np.zeros(n)
+        self.reference_tip_ = np.broadcast_to(self._tips(q_ref), (self.t_.size, 2)).copy()
+        self.reference_strains_ = np.broadcast_to(q_ref, (self.t_.size, n)).copy()
+        return self
+
+    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+        e = self.setpoint_ - q
+        z = self._z
+        # conditional integration: a strain integrates only near its set-point
+        z += self.dt_ * np.where(np.abs(e) <= self._band, e, 0.0)
+        np.minimum(np.maximum(z, -self.integral_max_, out=z), self.integral_max_, out=z)
+        tau = self.feedforward_ + self.kp_ @ e + self.ki_ @ z - self.kd_ @ qd
+        return self._clip(self._inputs(tau, q))
+
+
+class TipRegulator(Controller):
+    """Tip regulation through the model's inputs: equilibrium inputs for the target, then feedback.
+
+    Parameters
+    ----------
+    model : fitted model or ForwardModel
+    kp : float, default 0.0
+        Proportional gain on the tip error through ``S_W^+`` (1: one full
+        static correction per error); the strain feedback already acts proportionally.
+    ki : float, default 3.0
+        Integral gain [1/s] on the tip error.
+    integral_limit : float, default 0.25
+        Largest integral offset of each input, as a fraction of its scale (the
+        span of its bounds, else the input exerting the strains' typical forces;
+        :func:`~.statics.input_scales`); the offset also keeps every input within its bounds.
+    integral_band : float, default 5e-3
+        The integral acts only while the tip error is within this distance [m]
+        (conditional integration: the transient of a large move winds nothing up).
+    rate, effort : float
+        The rule of :mod:`pcs_sindy.control.gains`, here for the inputs:
+        ``(Fq, Fd)`` stabilise the model's equilibrium ``q*`` through ``A(q*)``.
+    on_unreachable : {"raise", "nearest"}, default "raise"
+        A target the model cannot reach within its input bounds and strain
+        range raises ValueError (with the nearest reachable tip), or is
+        replaced by the nearest reachable tip.
+    input_bounds, strain_limits
+        See :class:`~pcs_sindy.control.base.Controller` (e.g. ``(0, 16)``
+        for tendon tensions).
+
+    Attributes
+    ----------
+    equilibrium_ : EquilibriumResult
+        ``u*``, ``q*``, the tip and whether the target was reachable.
+    target_ : ndarray (2,)
+        The regulated tip (the nearest reachable one if replaced).
+    sensitivity_ : ndarray (2, p)
+        ``d tip / d u`` of the model's equilibria at ``u*``.
+    fq_, fd_ : ndarray (p, n)
+        Strain and rate feedback on the inputs.
+    """
+
+    def __init__(
+        self,
+        model: Any,
+        kp: float = 0.0,
+        ki: float = 3.0,
+        *,
+        integral_limit: float = 0.25,
+        integral_band: float = 5e-3,
+        rate: float = 10.0,
+        effort: float = 1.0,
+        on_unreachable: str = "raise",
+        input_bounds: Any = None,
+        strain_limits: ArrayLike | None = None,
+    ) -> None:
+        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
+        self.kp = kp
+        self.ki = ki
+        self.integral_limit = integral_limit
+        self.integral_band = integral_band
+        self.rate = rate
+        self.effort = effort
+        self.on_unreachable = on_unreachable
+
+    def start(
+        self, reference: ArrayLike, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
+    ) -> TipRegulator:
+        """Regulate the tip to ``reference`` ([x, y] in the base frame) over the control times ``t``."""
+        self._prepare(t)
+        fm = self.forward_model_
+        kp = check_positive(self.kp, "kp", allow_zero=True)
+        ki = check_positive(self.ki, "ki", allow_zero=True)
+        i_lim = check_positive(self.integral_limit, "integral_limit", allow_zero=True, allow_inf=True)
+        band = check_positive(self.integral_band, "integral_band", allow_inf=True)
+        rate = check_positive(self.rate, "rate")
+        effort = check_positive(self.effort, "effort")
+        if self.on_unreachable not in ("raise", "nearest"):
+            raise ValueError(f"on_unreachable must be 'raise' or 'nearest'; got {self.on_unreachable!r}")
+        eq = equilibrium_inputs(fm, reference, self.input_bounds_, self.strain_limits_)
+        if not eq.reachable and self.on_unreachable == "raise":
+            raise ValueError(
+                f"reference tip {eq.target.tolist()} is not reachable by the model within input_bounds and its strain "
+                f"range; nearest reachable tip {eq.tip.round(6).tolist()} ({1e3 * eq.error:.3g} mm away); pass "
+                "on_unreachable='nearest' to regulate there"
+            )
+        self.equilibrium_: EquilibriumResult = eq
+        self.target_ = eq.target.copy() if eq.reachable else eq.tip.copy()
+        lin = linearise(fm, eq.q, eq.u)
+        dq_du = np.linalg.solve(lin.stiffness, lin.input_matrix)
+        S = tip_jacobian(fm, eq.q) @ dq_du
+        self.sensitivity_ = S
+        u_scale = input_scales(lin, self.input_bounds_, strain_scales(fm.kinematics))
+        SW = S * u_scale**2
+        self._gain = SW.T @ np.linalg.inv(S @ SW.T)
+        self.fq_, self.fd_ = lqr_gains(lin, self.dt_, rate, effort, strain_scales(fm.kinematics), u_scale)
+        # the strain feedback regulates about the equilibrium the integral offset moves to
+        self._shift = np.eye(self.n_inputs_) + self.fq_ @ dq_du
+        self._kp, self._ki = kp, ki
+        self._band2 = band**2
+        self._w = np.zeros(self.n_inputs_)
+        # the offset keeps u* + w inside the bounds and within integral_limit of its own scale
+        self._w_lo = np.maximum(self.input_bounds_[0] - eq.u, -i_lim * u_scale)
+        self._w_hi = np.minimum(self.input_bounds_[1] - eq.u, i_lim * u_scale)
+        kin = fm.kinematics
+        self._lengths = np.asarray(kin.segment_lengths, dtype=float)
+        self._base = np.asarray(kin.base_pose, dtype=float)
+        self._mask = kin.active_mask
+        self._qfull = np.zeros(kin.n_q)
+        self._pose = np.zeros(3)
+        self.reference_tip_ = np.broadcast_to(self.target_, (self.t_.size, 2)).copy()
+        self.reference_strains_ = np.broadcast_to(eq.q, (self.t_.size, eq.q.size)).copy()
+        return self
+
+    def tip(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The model's tip position (2,) at modelled strains ``q`` (compiled)."""
+        self._qfull[self._mask] = q
+        _kinematics.tip_pose(self._qfull, self._lengths, self._base, self._pose)
+        return self._pose[:2]
+
+    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+        e = self.target_ - self.tip(q)
+        eq = self.equilibrium_
+        # integral action as an input offset kept inside the input box (projected), so a bounded
+        # input never winds up and an antagonist takes over where one input rests on its bound
+        w = self._w
+        if e[0] * e[0] + e[1] * e[1] <= self._band2:
+            w += (self.dt_ * self._ki) * (self._gain @ e)
+            np.minimum(np.maximum(w, self._w_lo, out=w), self._w_hi, out=w)
+        u = eq.u + self._shift @ w - self.fq_ @ (q - eq.q) - self.fd_ @ qd
+        if self._kp:
+            u += self._kp * (self._gain @ e)
+        return self._clip(u)

@@ -1,0 +1,43 @@
+"""Figures of the seed: strain-distance profile, error trade-off, rollouts, stills, animation.
+
+Plain functions on numpy arrays (the fitted estimators expose everything they
+need: e.g. ``KinematicFusion.distance_profile_``, ``boundaries_``,
+``marker_arc_lengths_``; ``StrainTrajectory.poses(s)`` gives backbones).
+Every plotting function returns the :class:`matplotlib.figure.Figure` and
+accepts an ``ax``/``axes`` argument to draw into existing axes; none calls
+``plt.show()``.  :func:`animate_rollout` writes a video file with OpenCV and
+uses its own Agg canvas, so it works without a display.
+
+Conventions (docs/method.md, "Configuration"): positions in metres, angles in radians, strains
+``[kappa_be 1/m, sigma_sh -, sigma_ax -]`` per segment.  Drawings of the robot
+follow the renderer: the base at the top and image-down = +y, so the y axis of
+robot drawings in metres is inverted.
+
+The figures live in modules named after what they show, and every public name
+is importable from here:
+
+* :mod:`pcs_sindy.plotting.segmentation` - kinematic fusion
+  (:func:`plot_strain_distance_profile`, seed Fig. 6; :func:`plot_error_vs_segments`, Fig. 8);
+* :mod:`pcs_sindy.plotting.rollout` - rollouts against time
+  (:func:`plot_rollout`, Fig. 9a / 11a; :func:`plot_end_effector`, Fig. 9b);
+* :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10);
+* :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`).
+
+This package sits on top of the library: nothing in the core imports it.
+"""
+
+from __future__ import annotations
+
+from .animation import animate_rollout
+from .rollout import plot_end_effector, plot_rollout
+from .segmentation import plot_error_vs_segments, plot_strain_distance_profile
+from .stills import plot_stills
+
+__all__ = [
+    "plot_strain_distance_profile",
+    "plot_error_vs_segments",
+    "plot_rollout",
+    "plot_end_effector",
+    "plot_stills",
+    "animate_rollout",
+]

@@ -1,0 +1,213 @@
+"""Stills of the robot: images with true markers, detections and the model's backbone overlaid (seed Fig. 3 / 10)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from typing import Any
+
+import numpy as np
+from matplotlib.axes import Axes
+from matplotlib.figure import Figure
+from numpy.typing import NDArray
+
+from ._checks import _finite_array, _new_axes
+
+__all__ = ["plot_stills"]
+
+
+def _per_still(value: Any, k: int, name: str, min_points: int = 1) -> list[NDArray[np.float64]]:
+    """A (K, P, 2|3) array or K arrays (P_k, 2|3) -> K arrays (P_k, 2)."""
+    if isinstance(value, np.ndarray) or not isinstance(value, (list, tuple)):
+        arr = _finite_array(value, name)
+        if arr.ndim != 3 or arr.shape[-1] not in (2, 3):
+            raise ValueError(
+                f"{name} must have shape ({k}, P, 2 or 3) or be a list of {k} (P, 2 or 3) arrays; got {arr.shape}"
+            )
+        value = list(arr)
+    if len(value) != k:
+        raise ValueError(f"{name} must hold one entry per still ({k}); got {len(value)}")
+    out = []
+    for i, item in enumerate(value):
+        arr = _finite_array(item, f"{name}[{i}]")
+        if arr.ndim != 2 or arr.shape[-1] not in (2, 3) or arr.shape[0] < min_points:
+            raise ValueError(f"{name}[{i}] must have shape (P >= {min_points}, 2 or 3); got {arr.shape}")
+        out.append(arr[:, :2])
+    return out
+
+
+def _to_pixels(camera: Any, xy: NDArray[np.float64], name: str) -> NDArray[np.float64]:
+    out = np.asarray(camera.to_pixels(xy), dtype=float)
+    if out.shape != xy.shape:
+        raise ValueError(f"camera.to_pixels must map {name} of shape {xy.shape} to the same shape; got {out.shape}")
+    return out
+
+
+def plot_stills(
+    frames: Any = None,
+    *,
+    poses: Any = None,
+    detected: Any = None,
+    backbone: Any = None,
+    times: Sequence[float] | None = None,
+    camera: Any = None,
+    bgr: bool = True,
+    crop: bool = True,
+    axes: Sequence[Axes] | None = None,
+    labels: Mapping[str, str] | None = None,
+    title: str | None = None,
+) -> Figure:
+    """A row of stills with markers and the model's backbone overlaid (seed Fig. 3 and 10).
+
+    Give image ``frames``, or ``poses`` (drawn as the true markers), or both.
+
+    Coordinates: with a ``camera`` (any object with ``to_pixels(xy)``, such
+    as :class:`pcs_sindy.camera.Camera`), every overlay is in metres in the
+    base frame and is mapped to pixels.  Without a camera, overlays are in
+    pixels ``(u, v)`` when ``frames`` are given and in metres otherwise
+    (axes then read x [m], y [m], with y pointing down as in the videos).
+
+    Parameters
+    ----------
+    frames : array_like (K, H, W) or (K, H, W, 3), or list of K images, optional
+        Grey or colour (``bgr``: OpenCV channel order) images.
+    poses : array_like (K, P, 2|3) or list of K (P_k, 2|3) arrays, optional
+        True marker poses or positions (blue dots).
+    detected : same form as ``poses``, optional
+        Detected marker centres (green dots); the count may vary per still
+        (an empty array: nothing detected on that still).
+    backbone : same form as ``poses`` with P >= 2, optional
+        The model's backbone (red line).
+    times : sequence of K floats, optional
+        Time of each still [s] (panel titles).
+    camera : object with ``to_pixels``, optional
+    bgr : bool
+        Colour frames are in BGR order (OpenCV); set False for RGB.
+    crop : bool
+        Zoom every panel to the box around all overlays (same view in all
+        panels).  With ``False``, images are shown whole, and drawings in
+        pixels without images span ``camera.image_size`` when it exists.
+    axes : sequence of K Axes, optional
+    labels : mapping, optional
+        Legend labels overriding ``{"poses": "true markers", "detected":
+        "detected markers", "backbone": "model backbone"}``.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Figure
+        Per panel, lines in the order: poses, backbone, detected (those given).
+    """
+    if frames is None and poses is None:
+        raise ValueError("give frames or poses (or both); got neither")
+    images: list[NDArray] | None = None
+    if frames is not None:
+        images = list(frames) if isinstance(frames, (list, tuple)) else list(np.asarray(frames))
+        if len(images) == 0:
+            raise ValueError("frames must hold at least one image")
+        for i, img in enumerate(images):
+            img = np.asarray(img)
+            if not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 3)) or min(img.shape[:2]) < 1:
+                raise ValueError(f"frames[{i}] must be a grey (H, W) or colour (H, W, 3) image; got shape {img.shape}")
+            if not np.issubdtype(img.dtype, np.number) or not np.all(np.isfinite(img)):
+                raise ValueError(f"frames[{i}] must be a finite numeric image")
+            images[i] = img
+    if images is not None:
+        k = len(images)
+    elif isinstance(poses, (list, tuple)):
+        k = len(poses)
+    else:
+        k = np.shape(poses)[0] if np.ndim(poses) >= 1 else 0
+    if k < 1:
+        raise ValueError(f"poses must hold at least one still; got {poses!r}")
+    overlays: dict[str, list[NDArray[np.float64]] | None] = {
+        "poses": None if poses is None else _per_still(poses, k, "poses"),
+        "backbone": None if backbone is None else _per_still(backbone, k, "backbone", min_points=2),
+        "detected": None if detected is None else _per_still(detected, k, "detected", min_points=0),
+    }
+    if camera is not None:
+        if not callable(getattr(camera, "to_pixels", None)):
+            raise ValueError(f"camera must have a to_pixels(xy) method; got {type(camera).__name__}")
+        overlays = {
+            key: None if val is None else [_to_pixels(camera, xy, f"{key}[{i}]") for i, xy in enumerate(val)]
+            for key, val in overlays.items()
+        }
+    if times is not None:
+        times_arr = _finite_array(times, "times")
+        if times_arr.shape != (k,):
+            raise ValueError(f"times must have one entry per still ({k}); got shape {times_arr.shape}")
+    names = {"poses": "true markers", "detected": "detected markers", "backbone": "model backbone"}
+    if labels is not None:
+        unknown = set(labels) - set(names)
+        if unknown:
+            raise ValueError(f"labels keys must be among {sorted(names)}; got {sorted(unknown)}")
+        names.update(labels)
+    styles = {
+        "poses": dict(linestyle="none", marker="o", markersize=4, color="tab:blue"),
+        "backbone": dict(linestyle="-", linewidth=1.6, color="tab:red", alpha=0.9),
+        "detected": dict(linestyle="none", marker="o", markersize=3, color="tab:green"),
+    }
+    pixels = images is not None or camera is not None
+
+    # One view for every still (so the panels compare), computed here rather
+    # than with shared axes, which fight the equal aspect ratio.
+    points = [xy for val in overlays.values() if val is not None for xy in val]
+    view = None
+    if points and (images is None or crop):
+        allp = np.concatenate(points)
+        lo, hi = allp.min(axis=0), allp.max(axis=0)
+        pad = 0.12 * max(float(np.max(hi - lo)), 1e-9) + (8.0 if pixels else 0.0)
+        view = (lo - pad, hi + pad)
+    if images is None and camera is not None and hasattr(camera, "image_size") and not crop:
+        width, height = camera.image_size
+        view = (np.array([-0.5, -0.5]), np.array([width - 0.5, height - 0.5]))
+
+    created = axes is None
+    if view is not None:
+        aspect = float((view[1][1] - view[0][1]) / (view[1][0] - view[0][0]))
+    elif images is not None:
+        aspect = images[0].shape[0] / images[0].shape[1]
+    else:
+        aspect = 1.0
+    # panel height follows the view so the figure has no empty band
+    fig, axes = _new_axes(axes, k, "axes", (2.4 * k + 0.6, 2.4 * min(max(aspect, 0.3), 3.0) + 1.3), ncols=k)
+    for i, ax in enumerate(axes):
+        if images is not None:
+            img = images[i]
+            if img.ndim == 3:
+                rgb = img[..., ::-1] if bgr else img
+                ax.imshow(rgb if rgb.dtype == np.uint8 else np.clip(rgb, 0, 1))
+            else:
+                vmax = 255 if img.dtype == np.uint8 else None
+                ax.imshow(img, cmap="gray", vmin=0 if vmax else None, vmax=vmax)
+        for key in ("poses", "backbone", "detected"):
+            data = overlays[key]
+            if data is not None:
+                ax.plot(data[i][:, 0], data[i][:, 1], label=names[key], **styles[key])
+        if times is not None:
+            ax.set_title(f"t = {times_arr[i]:.3g} s", fontsize="medium")
+        if view is not None:
+            ax.set_xlim(view[0][0], view[1][0])
+            ax.set_ylim(view[1][1], view[0][1])  # image-down = +y: base at the top as in the videos
+        elif not ax.yaxis_inverted():
+            ax.invert_yaxis()
+        ax.set_aspect("equal", adjustable="box")
+        if images is None:
+            if i == 0:
+                ax.set_ylabel("v [px]" if pixels else "y [m]")
+            elif view is not None:
+                ax.tick_params(labelleft=False)  # same view in every panel
+            ax.set_xlabel("u [px]" if pixels else "x [m]")
+            ax.grid(alpha=0.3)
+        else:
+            ax.set_xticks([])
+            ax.set_yticks([])
+    if axes[0].get_lines():
+        if created:
+            # below the panels, where it cannot hide the robot
+            fig.legend(*axes[0].get_legend_handles_labels(), loc="outside lower center", ncol=3, fontsize="small")
+        else:
+            axes[0].legend(loc="lower left", fontsize="x-small")
+    if title is not None:
+        fig.suptitle(title)
+    return fig
