@@ -26,15 +26,14 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from test_calibration import DIST, PATTERN, PLANE_R, PLANE_T, SIZE, SQUARE, K, board_views  # noqa: E402
+from _results import write_section  # noqa: E402
+from test_calibration import DIST, K, PATTERN, PLANE_R, PLANE_T, SIZE, SQUARE, board_views  # noqa: E402
 
 from pcs_sindy.calibration import calibrate_camera  # noqa: E402
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import render_frames  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
-
-from _results import write_section  # noqa: E402
 
 
 def main() -> None:

@@ -54,15 +54,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import write_section  # noqa: E402
+
 from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.control import (  # noqa: E402
-    ComputedTorqueController,
-    SetpointRegulator,
-    TipReference,
-    TipRegulator,
-    closed_loop,
-    tip_circle,
-)
+from pcs_sindy.control import (ComputedTorqueController, SetpointRegulator, TipReference,  # noqa: E402
+                               TipRegulator, closed_loop, tip_circle)
 from pcs_sindy.control.closed_loop import plant_equilibrium  # noqa: E402
 from pcs_sindy.control.estimation import StateMap, frame_strains  # noqa: E402
 from pcs_sindy.control.models import ActuatedModel  # noqa: E402
@@ -73,8 +69,6 @@ from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
-
-from _results import write_section  # noqa: E402
 
 CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "control"
 SEED = 0

@@ -37,12 +37,12 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import write_section  # noqa: E402
+
 from pcs_sindy.camera import Camera, camera_json_path  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import Nuisances, render_frames, render_video  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
-
-from _results import write_section  # noqa: E402
 
 NUISANCE_SETS = {
     "none": (),

@@ -20,16 +20,17 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
+from _results import write_section  # noqa: E402
 from test_rest_length import soft_hanging_robot  # noqa: E402  (the same robot as the test)
 
 from pcs_sindy.rest_length import estimate_rest_length  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
-
-from _results import write_section  # noqa: E402
 
 
 def row(label: str, truth: float, target: float, poses, taus) -> str:

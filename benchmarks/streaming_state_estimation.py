@@ -28,14 +28,14 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _results import write_section  # noqa: E402
+
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import Nuisances, render_frames  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
-
-from _results import write_section  # noqa: E402
 
 
 def run(frames: np.ndarray, cam: Camera, fusion: KinematicFusion, q_true: np.ndarray) -> tuple[str, np.ndarray]:
