@@ -179,8 +179,7 @@ def render(rows):
         "`StiffnessThresholdOptimizer(threshold=1.0)` (seed bounds 12.6 N m², 168 N, 126 kN), no removal = "
         "`threshold=np.inf`; rollout of the 7 s validation from rest, `simulate(..., method=\"dopri5\", rtol=1e-6, "
         "atol=1e-9)` for every row (compiled Dormand–Prince 5(4) for the physical library, scipy's RK45 restarted "
-        "at every held sample for the monomial one, run by benchmarks/_rollout.py because "
-        "`CallableModel.simulate(method=\"dopri5\")` fails), tip pose vs. noise-free truth.",
+        "at every held sample for the monomial one), tip pose vs. noise-free truth.",
         "",
         "| case | noise | removal | configuration | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | "
         "seed e_θ^EE | coefficients (full → final) | fit [s] | rollout [s] (× real time) | M not PD | load |",

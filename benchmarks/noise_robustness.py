@@ -190,8 +190,7 @@ def render(rows, configs):
         "q̇ from Savitzky–Golay 7/3, `PhysicalPCSLibrary()`, which also identifies a constant force per strain).  "
         "Every model is rolled out with "
         "`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)` (the compiled Dormand–Prince 5(4) for the "
-        "physical library, scipy's RK45 restarted at every held sample for the monomial one, run by "
-        "benchmarks/_rollout.py because `CallableModel.simulate(method=\"dopri5\")` fails).",
+        "physical library, scipy's RK45 restarted at every held sample for the monomial one).",
         "",
         "Cells: median e_p^EE [mm] over the noise seeds that rolled out (min–max in brackets); "
         "`div k/3` = k seeds diverged, `t/o k/3` = k seeds hit the rollout budget (earliest time reached in brackets; "
