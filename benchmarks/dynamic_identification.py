@@ -1,11 +1,12 @@
-"""Reproduce the seed's dynamics table (DESIGN.md §6; issue 4 item 4).
+"""Reproduce the seed's dynamics table (docs/method.md; issue 4 item 4), and compare methods.
 
 For each case: simulate the scenario (8 x 0.5 s training recordings + the 7 s
 sinusoidal validation, cached), optionally add the seed's pose noise, estimate
 the strains from the tracked poses on the known segmentation (closed-form IK
 of the segment-end markers, refined by a least-squares fit to all markers so
-that boundaries between markers are handled), fit EulerLagrangeRegressor
-(Savitzky-Golay 25/3, stiffness threshold), roll the model out on the
+that boundaries between markers are handled), fit EulerLagrangeRegressor in
+each configuration of ``CONFIGS`` (the seed's method, variants, the defaults),
+with or without the stiffness threshold, roll the model out on the
 validation actuation from rest and compare the tip pose with the truth.
 
 Rows are cached in ``$PCS_SINDY_CACHE`` (default ``~/.cache/pcs_sindy``) so
@@ -15,6 +16,7 @@ cached row.
 Usage::
 
     .venv/bin/python benchmarks/dynamic_identification.py [--cases one_segment ...] [--noise none seed]
+        [--configs sg25 sg7-jumpfree-physical weak40-physical default]
 """
 
 from __future__ import annotations
@@ -31,8 +33,10 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.integrators import DivergenceError  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
+
+from _rollout import validate  # noqa: E402
+
+from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.segmentation import fit_strains_least_squares  # noqa: E402
@@ -48,8 +52,15 @@ SEED = {
     ("one_segment_stiff_shear", True): ((4.57, 0.099), None),
     ("one_segment_stiff_shear", False): ((5.14, 0.116), None),
 }
-CASES = [("one_segment", True), ("two_segment", True), ("one_segment_stiff_shear", True), ("one_segment_stiff_shear", False)]
-CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "dynamic_identification_rows.json"
+CASES = [
+    ("one_segment", True),
+    ("two_segment", True),
+    ("one_segment_stiff_shear", True),
+    ("one_segment_stiff_shear", False),
+]
+CACHE = (
+    Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "dynamic_identification_rows.json"
+)
 
 
 def estimate_strains(scenario, rec, noise):
@@ -69,18 +80,32 @@ def estimate_strains(scenario, rec, noise):
     return q
 
 
+# The configurations, written out with the library options on the library.  The physical rows keep the
+# library of their name (PhysicalPCSLibrary without rest strains, rotary inertia identified: 8 unknowns per
+# segment); "default" is EulerLagrangeRegressor() with no arguments.
+_PHYSICAL = dict(rest_strain=False)
 CONFIGS = {
-    # the seed's differentiation
-    "sg25": dict(window_length=25, polyorder=3),
+    # the seed's method: monomial library, strong form, Savitzky-Golay 25/3
+    "sg25": lambda: EulerLagrangeRegressor.seed_method(),
     # short window, samples whose window straddles a force jump left out
-    "sg7-jumpfree": dict(window_length=7, polyorder=3, exclude_force_jumps=True),
-    # the same with the library's physical basis (7 lumped unknowns per segment)
-    "sg7-jumpfree-physical": dict(window_length=7, polyorder=3, exclude_force_jumps=True, basis="physical"),
-    "sg25-physical": dict(window_length=25, polyorder=3, basis="physical"),
-    "sg7o4-jumpfree-physical": dict(window_length=7, polyorder=4, exclude_force_jumps=True, basis="physical"),
+    "sg7-jumpfree": lambda: EulerLagrangeRegressor(
+        library="monomial", formulation="strong", window_length=7, polyorder=3, exclude_force_jumps=True),
+    # the same with the physical library (8 lumped unknowns per segment)
+    "sg7-jumpfree-physical": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, polyorder=3,
+        exclude_force_jumps=True),
+    "sg25-physical": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25, polyorder=3),
+    "sg7o4-jumpfree-physical": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, polyorder=4,
+        exclude_force_jumps=True),
     # weak (bump-weighted window integral) form: no qdd; SG 7 only for qd, held forces integrated exactly
-    "weak40-physical": dict(window_length=7, basis="physical", formulation="weak", weak_window=40, weak_stride=20),
+    "weak40-physical": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", window_length=7, weak_window=40, weak_stride=20),
+    # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
+    "default": lambda: EulerLagrangeRegressor(),
 }
+DEFAULT_CONFIGS = ["sg25", "sg7-jumpfree-physical", "weak40-physical", "default"]
 
 
 def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=None):
@@ -105,7 +130,9 @@ def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=
     L = kin.segment_lengths
     X = [StrainTrajectory(estimate_strains(scenario, r, noise), r.t, segment_lengths=L) for r in data.train]
     taus = [r.tau for r in data.train]
-    model = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer(threshold=removal), **CONFIGS[config])
+    model = CONFIGS[config]()
+    # removal: the default factor 1 on the material bound; no removal: np.inf
+    model.set_params(optimizer=StiffnessThresholdOptimizer(threshold=1.0 if removal else np.inf))
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
@@ -125,20 +152,9 @@ def run_case(name, removal, noise_kind, config="sg25", seed=0, simulator_method=
         "fit_time": fit_time,
         "not_pd": model.mass_matrix_not_pd_fraction_,
         "warnings": [str(w.message)[:120] for w in caught],
-        "train_score": float(model.score(X, taus)),
     }
-    t0 = time.perf_counter()
-    n = kin.n_q
-    try:
-        sim = model.simulate(np.zeros(n), np.zeros(n), val.tau, val.t)
-        row["rollout_time"] = time.perf_counter() - t0
-        tip = sim.poses(np.array([kin.total_length]))
-        e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-        row.update(e_p=e_p, e_theta=e_th, diverged=None)
-    except DivergenceError as err:
-        row["rollout_time"] = time.perf_counter() - t0
-        row.update(e_p=None, e_theta=None, diverged=str(err)[:160])
-    row["duration"] = float(val.t[-1] - val.t[0])
+    row.update(validate(model, val, kin.total_length))
+    row["loadavg"] = os.getloadavg()[0]
     return row
 
 
@@ -150,16 +166,24 @@ def render(rows):
     lines = [
         "Strains from the tracked poses on the known segmentation (closed-form IK of the segment-end markers, "
         "least-squares refined to all markers where a boundary lies between markers or with noise); "
-        "differentiation `sg25` = Savitzky–Golay 25/3 (the seed), `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose window "
-        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; `-physical` = the physical basis "
-        "(`basis=\"physical\"`: numeric `PhysicalPCSLibrary`, 8 unknowns per segment — line density, rotary inertia, 3 stiffnesses, "
-        "3 dampings — known gravity, bounded least squares) instead of the monomial one; `weak40-physical` = `formulation=\"weak\"`: "
-        "regression on bump-weighted integrals over windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, "
-        "held forces integrated exactly; seed bounds (12.6 N m², 168 N, 126 kN); rollout of the 7 s validation from rest, "
-        "adaptive Dormand–Prince 5(4) (rtol 1e-6), tip pose vs. noise-free truth.",
+        "`sg25` = the seed's method (`EulerLagrangeRegressor.seed_method()`: monomial library, strong form, "
+        "Savitzky–Golay 25/3); `sg7-jumpfree` = strong form with Savitzky–Golay 7/3 and the samples whose window "
+        "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; "
+        "`-physical` = `library=PhysicalPCSLibrary(rest_strain=False)` (8 unknowns per segment — line density, rotary "
+        "inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of the monomial one; "
+        "`weak40-physical` = the same library with `formulation=\"weak\"`: regression on bump-weighted integrals over "
+        "windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, held forces integrated exactly; "
+        "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "
+        "q̇ from Savitzky–Golay 7/3, and `PhysicalPCSLibrary()`, which also identifies a constant force per strain: "
+        "11 unknowns per segment); removal = "
+        "`StiffnessThresholdOptimizer(threshold=1.0)` (seed bounds 12.6 N m², 168 N, 126 kN), no removal = "
+        "`threshold=np.inf`; rollout of the 7 s validation from rest, `simulate(..., method=\"dopri5\", rtol=1e-6, "
+        "atol=1e-9)` for every row (compiled Dormand–Prince 5(4) for the physical library, scipy's RK45 restarted "
+        "at every held sample for the monomial one), tip pose vs. noise-free truth.",
         "",
-        "| case | noise | removal | differentiation | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | seed e_θ^EE | basis (full → final) | fit [s] | rollout [s] (× real time) | M not PD |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| case | noise | removal | configuration | removed | e_p^EE [mm] | e_θ^EE [rad] | seed e_p^EE [mm] | "
+        "seed e_θ^EE | coefficients (full → final) | fit [s] | rollout [s] (× real time) | M not PD | load |",
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in rows:
         seed = SEED.get((r["case"], r["removal"]))
@@ -169,13 +193,17 @@ def render(rows):
         status = _fmt(e_p, ".3g") if r["diverged"] is None else "diverged"
         rollout = "–" if speed is None else f"{r['rollout_time']:.1f} ({speed:.2f}×)"
         lines.append(
-            f"| {r['case']} | {r['noise']} | {'yes' if r['removal'] else 'no'} | {r['config']} | {', '.join(r['removed']) or '–'} | "
+            f"| {r['case']} | {r['noise']} | {'yes' if r['removal'] else 'no'} | {r['config']} | "
+            f"{', '.join(r['removed']) or '–'} | "
             f"{status} | {_fmt(r['e_theta'], '.3g')} | {_fmt(None if sv is None else sv[0], '.3g')} | "
             f"{_fmt(None if sv is None else sv[1], '.3g')} | {r['n_basis_full']} → {r['n_basis_final']} | "
-            f"{r['fit_time']:.2f} | {rollout} | {r['not_pd']:.1%} |"
+            f"{r['fit_time']:.2f} | {rollout} | {r['not_pd']:.1%} | {_fmt(r.get('loadavg'), '.1f')} |"
         )
     lines += ["", "Identified vs. true stiffness (per strain be, sh, ax of each segment; ∞ = removed as rigid):", ""]
-    lines += ["| case | noise | removal | differentiation | true K | identified K | relative error |", "|---|---|---|---|---|---|---|"]
+    lines += [
+        "| case | noise | removal | configuration | true K | identified K | relative error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for r in rows:
         kt, kh = np.array(r["k_true"]), np.array(r["k_hat"])
         rel = np.where(np.isfinite(kh), kh / kt - 1, np.inf)
@@ -195,9 +223,8 @@ def render(rows):
         "Seed library sizes: 51 + 3 (one segment), 438 + 6 (two), 27 (one segment without shear).",
         "",
         "Notes: `--cases` with no names re-renders the cached rows.  Ground-truth data come from the scenarios' "
-        "default simulator (compiled Radau IIA).  Rollout times are wall times on a shared 2-core machine; models "
-        "with the physical basis roll out through the compiled path (`backend='auto'`), monomial models through the "
-        "Python path, whose dynamics call costs 45-130 µs per stage.",
+        "default simulator (compiled Radau IIA).  Fit and rollout times are wall times on a shared 2-core machine; "
+        "`load` is the 1-minute load average when the row was measured."
     ]
     return "\n".join(lines)
 
@@ -206,8 +233,9 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="*", default=[c for c, _ in CASES])
     parser.add_argument("--noise", nargs="*", default=["none", "seed"], choices=["none", "seed"])
-    parser.add_argument("--configs", nargs="*", default=list(CONFIGS), choices=list(CONFIGS))
-    parser.add_argument("--simulator-method", default=None, help="integrator of the ground-truth data (e.g. lsoda for stiff robots)")
+    parser.add_argument("--configs", nargs="*", default=DEFAULT_CONFIGS, choices=list(CONFIGS))
+    parser.add_argument("--simulator-method", default=None,
+                        help="integrator of the ground-truth data (e.g. lsoda for stiff robots)")
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     rows = json.loads(CACHE.read_text()) if CACHE.exists() else []

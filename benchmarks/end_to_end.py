@@ -9,9 +9,11 @@ For each scenario (``three_segment``, ``five_segment``; ``generate(seed=0)``:
 2. ``MarkerPoseExtractor`` reads the files back (decoding included) -> poses;
 3. ``KinematicFusion(threshold=0.2)`` with the robot's rest length given finds
    the segmentation and the strains (found lengths reported against the truth);
-4. ``EulerLagrangeRegressor(basis="physical")`` fits the model on the fused
-   segmentation, in the weak form (``formulation="weak"``, SG 15 for q̇) and in
-   the strong form (SG 7/3, ``exclude_force_jumps=True``);
+4. ``EulerLagrangeRegressor`` fits the model on the fused segmentation: with
+   ``library=PhysicalPCSLibrary(rest_strain=False)`` in the weak form
+   (``formulation="weak"``, SG 15 for q̇) and in the strong form (SG 7/3,
+   ``exclude_force_jumps=True``), and with the defaults ``EulerLagrangeRegressor()``
+   (windows of 160 samples);
 5. the model is rolled out from rest under the validation actuation and its
    tip pose compared with the simulator's noise-free truth (e_p^EE, e_θ^EE).
 
@@ -46,9 +48,11 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from _rollout import validate  # noqa: E402
+
 from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.integrators import DivergenceError  # noqa: E402
-from pcs_sindy.metrics import distributed_errors, end_effector_errors  # noqa: E402
+from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.metrics import distributed_errors  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
@@ -67,9 +71,14 @@ SOURCES = {
     "exact": "the simulator's strains on the true segmentation "
     "(no poses, no fusion; a reference for the regression alone)",
 }
+# "weak" and "strong": the physical library as before the refactor (no rest strains, rotary inertia identified);
+# "default": EulerLagrangeRegressor() with no arguments
 CONFIGS = {
-    "weak": dict(formulation="weak", window_length=15),
-    "strong": dict(window_length=7, exclude_force_jumps=True),
+    "weak": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="weak",
+                                           window_length=15, weak_window=40, weak_stride=20),
+    "strong": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="strong",
+                                             window_length=7, exclude_force_jumps=True),
+    "default": lambda: EulerLagrangeRegressor(),
 }
 SEED = 0
 # extraction accuracy on rendered 640x480 frames (benchmarks/kinematic_fusion.py: about 2e-5 m and
@@ -170,7 +179,7 @@ def _fit_rows(scenario, data, configs: list[str], base: dict, strains: list) -> 
                 "the forces cannot be mapped"
             )
             continue
-        model = EulerLagrangeRegressor(basis="physical", **CONFIGS[config])
+        model = CONFIGS[config]()
         c0 = time.process_time()
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
@@ -186,20 +195,7 @@ def _fit_rows(scenario, data, configs: list[str], base: dict, strains: list) -> 
             not_pd=float(model.mass_matrix_not_pd_fraction_),
             warnings=[str(w.message)[:160] for w in caught],
         )
-        val = data.validation
-        n = model.kinematics_.n_q
-        t0, c0 = time.perf_counter(), time.process_time()
-        try:
-            sim = model.simulate(np.zeros(n), np.zeros(n), val.tau, val.t)
-            row["rollout_time"] = time.perf_counter() - t0
-            row["rollout_cpu"] = time.process_time() - c0
-            tip = sim.poses(np.array([float(np.sum(base["found_lengths"]))]))
-            e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-            row.update(e_p=e_p, e_theta=e_th, diverged=None)
-        except DivergenceError as err:
-            row["rollout_time"] = time.perf_counter() - t0
-            row.update(e_p=None, e_theta=None, diverged=str(err)[:160])
-        row["duration"] = float(val.t[-1] - val.t[0])
+        row.update(validate(model, data.validation, float(np.sum(base["found_lengths"]))))
         row["loadavg"] = os.getloadavg()[0]
         print(json.dumps({k: v for k, v in row.items() if k not in ("k_true", "k_hat")}), flush=True)
     return rows
@@ -218,14 +214,17 @@ def _wc(row: dict, stage: str) -> str:
 def render(rows: list[dict]) -> str:
     lines = [
         "Training data: `generate(seed=0)` (8 × 0.5 s at 1 kHz, forces held 10 ms, 20 markers + base); validation: "
-        "the 7 s sinusoidal recording, rolled out from rest (adaptive Dormand–Prince, compiled path), tip pose vs. "
-        "the noise-free truth. "
+        "the 7 s sinusoidal recording, rolled out from rest (`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)`: "
+        "the compiled adaptive Dormand–Prince 5(4)), tip pose vs. the noise-free truth. "
         "Sources: " + "; ".join(f"`{k}` = {v}" for k, v in SOURCES.items()) + ". "
         "Videos: 640×480 MJPG `.avi` + camera JSON (`render_video`, `Camera.fit_robot(L)`), read back by "
         "`MarkerPoseExtractor(camera='auto')`. Fusion: `KinematicFusion(threshold=0.2, total_length=L)` (rest length "
-        "given; least-squares shapes with refined boundaries). Regression: `EulerLagrangeRegressor(basis='physical')` "
-        "(numeric `PhysicalPCSLibrary`, bounded least squares, seed stiffness bounds); `weak` = `formulation='weak'` "
-        "(bump windows of 40 samples, stride 20, SG 15 for q̇), `strong` = SG 7/3 with `exclude_force_jumps=True`.",
+        "given; least-squares shapes with refined boundaries). Regression: "
+        "`EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), ...)` (8 unknowns per segment, "
+        "bounded least squares, seed stiffness bounds) with `weak` = `formulation='weak'` (bump windows of 40 "
+        "samples, stride 20, SG 15 for q̇) or `strong` = `formulation='strong'`, SG 7/3 with "
+        "`exclude_force_jumps=True`; `default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows "
+        "of 160 samples, stride 40, SG 7 for q̇, `PhysicalPCSLibrary()` with a constant force per strain).",
         "",
         "| case | source | config | found lengths [m] (true) | fusion e_p^dist [m] | e_p^EE [mm] | e_θ^EE [rad] | "
         "removed | fusion [s] wall (CPU) | fit [s] wall (CPU) | rollout [s] wall (CPU) | M not PD | load |",

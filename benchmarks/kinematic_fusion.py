@@ -26,6 +26,7 @@ first time, most of it simulating the scenarios, which are cached afterwards).
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -178,6 +179,7 @@ def main(argv: list[str] | None = None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="*", help="only these scenarios (results are then not written)")
     args = parser.parse_args(argv)
+    load_start = os.getloadavg()[0]
     lines = [
         "| case | noise (σ_p, σ_θ) | variant | m | segment lengths [m] | e_p^dist [m] | e_θ^dist [rad] "
         "| strain MAE κ [1/m] / σ_sh / σ_ax | fit+transform [s] |",
@@ -268,6 +270,9 @@ def main(argv: list[str] | None = None) -> None:
             "so it reads their mean stretch):",
             "",
             *est_lines,
+            "",
+            f"1-minute load average of the shared 2-core machine: {load_start:.1f} at the start, "
+            f"{os.getloadavg()[0]:.1f} at the end (times are wall times).",
         ]
     )
     if args.cases:

@@ -1,4 +1,4 @@
-"""Benchmark of the PCS Lagrangian library: derivation, cache, evaluation, fast dynamics.
+"""Benchmark of the PCS Lagrangian library: derivation, cache, evaluation, forward model.
 
 Usage: ``.venv/bin/python benchmarks/library_build.py [--max-segments 3]``
 
@@ -88,9 +88,9 @@ def main() -> None:
             q, qd, qdd = states(lib, 4000)
             t_psi = best_of(lambda: lib.euler_lagrange_matrix(q, qd, qdd), repeat=5)
             t_feat = best_of(lambda: lib.fit(np.hstack([q, qd])).transform(np.hstack([q, qd])), repeat=5)
-            lib._dyn_cache.clear()
+            lib._dyn_cache.clear()  # the forward model's tables are built once per library: time that build
             t0 = time.perf_counter()
-            dyn = lib.compile_dynamics(coef)
+            dyn = lib.forward_model(coef).terms
             t_compile = time.perf_counter() - t0
             k = [0]
 
@@ -101,17 +101,18 @@ def main() -> None:
             t_call = best_of(call, repeat=5, number=2000)
             t_mass = best_of(lambda: lib.mass_matrix(q, coef), repeat=3)
             eval_rows.append((m, lib.n_coefficients_, t_psi, t_feat, t_mass, t_compile, t_call))
-            print(f"m={m}: Psi(4000) {t_psi * 1e3:.1f} ms, compile_dynamics call {t_call * 1e6:.1f} us", flush=True)
+            print(f"m={m}: Psi(4000) {t_psi * 1e3:.1f} ms, forward_model().terms call {t_call * 1e6:.1f} us",
+                  flush=True)
         if args.max_segments >= 3:
             lib = PCSLagrangianLibrary(LENGTHS[3], cache_dir=tmp)
             coef = lib.coefficients_from_parameters(1070.0, 0.02, 1e4, 1e3, np.full(9, 0.05))
             q, qd, qdd = states(lib, 200)
             t_psi3 = best_of(lambda: lib.euler_lagrange_matrix(q, qd, qdd), repeat=3)
             t0 = time.perf_counter()
-            dyn = lib.compile_dynamics(coef)
+            dyn = lib.forward_model(coef).terms
             t_compile3 = time.perf_counter() - t0
             t_call3 = best_of(lambda: dyn(q[5], qd[5]), repeat=3, number=200)
-            print(f"m=3: compile_dynamics call {t_call3 * 1e6:.1f} us", flush=True)
+            print(f"m=3: forward_model().terms call {t_call3 * 1e6:.1f} us", flush=True)
     pcs_lagrangian._MEMORY.clear()
 
     import os
@@ -159,11 +160,12 @@ def main() -> None:
         "one are merged. The `physical` basis (7 functions per segment, one per lumped unknown) is the same "
         "Lagrangian grouped by unknown.",
         "",
-        "Evaluation (4000 samples; `compile_dynamics` single-sample call = M(q) and bias(q, qd) for explicit "
-        "integration; the budget for a 7 s rollout at 10x real time with ~40 000 RK stages is ~15 us):",
+        "Evaluation (4000 samples; forward model = `lib.forward_model(coef)`, the `CallableModel` a monomial model "
+        "rolls out with (before the refactor: `compile_dynamics`); its single-sample call `terms(q, qd)` = M(q) and "
+        "bias(q, qd); the budget for a 7 s rollout at 10x real time with ~40 000 RK stages is ~15 us):",
         "",
         "| segments | n_psi | Psi(q, qd, qdd) 4000 samples [ms] | transform 4000 [ms] | mass_matrix 4000 [ms] | "
-        "compile_dynamics build [s] | compile_dynamics call [us] |",
+        "forward_model build [s] | terms call [us] |",
         "|---|---|---|---|---|---|---|",
     ]
     for m, npsi, t_psi, t_feat, t_mass, t_comp, t_call in eval_rows:

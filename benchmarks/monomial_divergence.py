@@ -25,7 +25,10 @@ SVD; training data of a larger bending range (``bend_amplitude`` 80 or 120
 instead of 40: scenario variants built here, defaults untouched); the SG 25
 derivative errors scaled by 0.01-0.3 (how accurate must the derivatives be?);
 10 kHz data with SG 25 inside the holds; actuation ramped instead of held
-between the 10 ms random forces; the physical basis on the same SG 25 data.
+between the 10 ms random forces; the physical basis on the same SG 25 data; and
+the package's defaults (``EulerLagrangeRegressor()``: physical library with
+rest strains, weak form over windows of 160 samples, q̇ from SG 7/3, no q̈) on
+the same recordings.
 A robot summary (inertial share of the forces, linearised time constants, the
 positive-definiteness margin of M) is written below the table.
 
@@ -36,8 +39,8 @@ Usage::
     .venv/bin/python benchmarks/monomial_divergence.py [--rows sg25 exact ...] [--no-write]
 
 ``--rows`` with no names re-renders the cached rows.  A diverging row takes ~10 s,
-a row whose model rolls out the full 7 s ~90 s (monomial models roll out on the
-Python path); all rows ~15 min on one core.
+a row whose monomial model rolls out the full 7 s ~1-2 min (scipy's RK45
+restarted at every held sample); all rows ~15-20 min on one core.
 """
 
 from __future__ import annotations
@@ -55,8 +58,10 @@ import numpy as np
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.integrators import DivergenceError  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
+from _rollout import validate  # noqa: E402
+
+from pcs_sindy.formulations import jump_free as _jump_free  # noqa: E402
+from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
@@ -109,7 +114,20 @@ ROWS = {
     # the same random holding forces every 10 ms, but ramped linearly between them instead of held
     "sg25-ramped": ("SG 25/3, actuation ramped (not held) between the 10 ms random forces", {"ramped": True}),
     "sg25-ramped-physical": ("SG 25/3, ramped actuation, physical basis", {"ramped": True, "basis": "physical"}),
+    # the package's defaults on the same recordings (their own derivatives: SG 7/3 for qd, no qdd)
+    "default": ("EulerLagrangeRegressor() (physical, rest strains, weak form over 160 samples, SG 7/3 for qd)",
+                {"default": True}),
 }
+
+
+def _regressor(opts, window, jump_free):
+    """The estimator of a row: the defaults, or the strong form with the row's library and differentiation."""
+    if opts.get("default"):
+        return EulerLagrangeRegressor()
+    # "physical" = the physical library as before the refactor: 8 unknowns per segment, no rest strains
+    library = PhysicalPCSLibrary(rest_strain=False) if opts.get("basis") == "physical" else "monomial"
+    return EulerLagrangeRegressor(library=library, formulation="strong", window_length=window, polyorder=3,
+                                  exclude_force_jumps=jump_free)
 
 
 def _ramped_training(scenario, seed=0):
@@ -137,7 +155,7 @@ def _relative_rms(est, true):
 
 def run_row(name, rollout=True):
     _, opts = ROWS[name]
-    window = int(opts.get("window", 25))
+    window = int(opts.get("window", 7 if opts.get("default") else 25))
     base = get_scenario("two_segment")
     val = base.generate(seed=0).validation
     variant = {k: opts[k] for k in ("bend_amplitude", "dt") if k in opts}
@@ -165,7 +183,7 @@ def run_row(name, rollout=True):
         # derivatives from the fast samples; regress on the jump-free ones at 1 kHz (keeps Psi small)
         step = int(round(1e-3 / dt))
         sel = [
-            np.flatnonzero(EulerLagrangeRegressor._jump_free(r.tau, window) & (np.arange(len(r.t)) % step == 0))
+            np.flatnonzero(_jump_free(r.tau, window) & (np.arange(len(r.t)) % step == 0))
             for r in train
         ]
         pick = lambda arrs: [a[i] for a, i in zip(arrs, sel, strict=True)]  # noqa: E731
@@ -173,23 +191,25 @@ def run_row(name, rollout=True):
         jump_free = False
     # noise-free strains straight from the simulator: no pose -> strain estimation step in the way
     X = [StrainTrajectory(q, np.arange(len(q)) * dt, segment_lengths=L) for q in qs]
-    model = EulerLagrangeRegressor(
-        window_length=window, polyorder=3, exclude_force_jumps=jump_free, basis=opts.get("basis", "monomial")
-    )
+    model = _regressor(opts, window, jump_free)
+    strong = not opts.get("default")
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        model.fit(X, taus, qd=qd, qdd=qdd)
+        if strong:
+            model.fit(X, taus, qd=qd, qdd=qdd)
+        else:  # the weak form differentiates q itself (SG 7/3 for qd, the qd_sg of this row)
+            model.fit(X, taus)
     fit_time = time.perf_counter() - t0
     lib = model.full_library_
-    monomial = opts.get("basis", "monomial") == "monomial"
+    monomial = strong and opts.get("basis", "monomial") == "monomial"
     pi_true = None
     if monomial:
         pi_true = lib.coefficients_from_parameters(
             robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
         )
     # the regression actually solved (same rows as fit)
-    keep = [model._jump_free(t, window) if jump_free else np.ones(len(t), bool) for t in taus]
+    keep = [_jump_free(t, window) if jump_free else np.ones(len(t), bool) for t in taus]
     cat = lambda arrs: np.concatenate([a[k] for a, k in zip(arrs, keep, strict=True)])  # noqa: E731
     psi = np.asarray(lib.euler_lagrange_matrix(cat([x.q for x in X]), cat(qd), cat(qdd)), dtype=float)
     psi = psi.reshape(-1, psi.shape[-1])
@@ -199,9 +219,12 @@ def run_row(name, rollout=True):
         coef = np.linalg.lstsq(psi, target, rcond=None)[0]
         model.coef_ = coef
         model.model_coef_ = coef[model.column_map_]
+        model.__dict__.pop("_forward", None)  # the forward model is built from model_coef_ on first use
     tn = np.linalg.norm(target)
     s = np.linalg.svd(psi, compute_uv=False)
     s_scaled = np.linalg.svd(psi / np.linalg.norm(psi, axis=0), compute_uv=False)
+    # the strong-form regression above is not the one a weak-form fit solved: no residual or condition number
+    res_fit = float(np.linalg.norm(target - psi @ coef) / tn) if strong else None
     not_pd = lambda q: float(np.mean(~(np.linalg.eigvalsh(model.mass_matrix(q))[:, 0] > 0)))  # noqa: E731
     k_idx = np.asarray(lib.stiffness_index_)
     m_val = robot.mass_matrix(val.q)
@@ -215,12 +238,12 @@ def run_row(name, rollout=True):
         ),
         "qdd_err": _relative_rms(
             [a[k] for a, k in zip(qdd, keep, strict=True)], [a[k] for a, k in zip(qdd_true, keep, strict=True)]
-        ),
+        ) if strong else None,
         "coef_err": float(np.linalg.norm(coef - pi_true) / np.linalg.norm(pi_true)) if monomial else None,
-        "res_fit": float(np.linalg.norm(target - psi @ coef) / tn),
+        "res_fit": res_fit,
         "res_true": float(np.linalg.norm(target - psi @ pi_true) / tn) if monomial else None,
-        "cond": float(s[0] / s[-1]),
-        "cond_scaled": float(s_scaled[0] / s_scaled[-1]),
+        "cond": float(s[0] / s[-1]) if strong else None,
+        "cond_scaled": float(s_scaled[0] / s_scaled[-1]) if strong else None,
         "n_coef": int(psi.shape[1]),
         "not_pd_train": not_pd(np.concatenate([x.q for x in X])),
         "not_pd_val": not_pd(val.q),
@@ -233,18 +256,11 @@ def run_row(name, rollout=True):
         "k_rel": ((-2 * coef[k_idx] if monomial else model.stiffness_) / robot.stiffness - 1).tolist(),
         "fit_time": fit_time,
         "warnings": [str(w.message)[:100] for w in caught],
+        "removed": list(model.removed_strains_),
     }
     if rollout:
-        n = robot.n_q
-        t0 = time.perf_counter()
-        try:
-            sim = model.simulate(np.zeros(n), np.zeros(n), val.tau, val.t)
-            tip = sim.poses(np.array([robot.kinematics.total_length]))
-            e_p, e_th = end_effector_errors(tip, val.poses_true[:, -1:, :])
-            row.update(e_p=e_p, e_theta=e_th, diverged_at=None)
-        except DivergenceError as err:
-            row.update(e_p=None, e_theta=None, diverged_at=err.t)
-        row["rollout_time"] = time.perf_counter() - t0
+        row.update(validate(model, val, robot.kinematics.total_length))
+    row["loadavg"] = os.getloadavg()[0]
     return row
 
 
@@ -278,16 +294,24 @@ def _f(v, spec):
 
 
 def render(rows):
+    removed = {ROWS[r["row"]][0]: r["removed"] for r in rows if r.get("removed")}
+    loads = [r["loadavg"] for r in rows if "loadavg" in r]
+    removed_text = ("no strain was removed in any row" if not removed else
+                    "strains removed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in removed.items()))
     lines = [
-        "two_segment, 8 noise-free training recordings (true strains from the simulator, no pose step), monomial "
-        "`PCSLagrangianLibrary` (258 columns) unless the row says physical basis, default StiffnessThresholdOptimizer "
-        "(no strain was removed in any row); rows are computed by separate `--rows NAME` runs and cached, "
-        "`--rows` alone re-renders them; rollout of the default scenario's 7 s "
-        "validation from rest (adaptive Dormand–Prince 5(4), rtol 1e-6). Derivative errors: relative RMS error against "
-        "the simulator's exact qd and qdd, worst strain (all six in the notes below). "
+        "two_segment, 8 noise-free training recordings (true strains from the simulator, no pose step), "
+        "`EulerLagrangeRegressor(library=\"monomial\", formulation=\"strong\", window_length=..., polyorder=3)` "
+        "(the monomial `PCSLagrangianLibrary`, 258 columns) unless the row says physical basis "
+        "(`library=PhysicalPCSLibrary(rest_strain=False)`, 16 unknowns) or `EulerLagrangeRegressor()`, default "
+        f"StiffnessThresholdOptimizer ({removed_text}); rows are computed by separate `--rows NAME` runs and cached, "
+        "`--rows` alone re-renders them; rollout of the default scenario's 7 s validation from rest "
+        "(`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)`: scipy's RK45 restarted at every held sample for "
+        "monomial models, the compiled Dormand–Prince 5(4) for physical ones). Derivative errors: relative RMS error "
+        "against the simulator's exact qd and qdd, worst strain (all six in the notes below). "
         "coef err: ‖π̂ − π‖/‖π‖ against the true coefficients. Residual: ‖τ − Ψπ‖/‖τ‖ of the regression solved, "
         "with the fitted and with the TRUE coefficients. M err val: median over the validation states of "
-        "‖M̂(q) − M(q)‖_F/‖M(q)‖_F.",
+        "‖M̂(q) − M(q)‖_F/‖M(q)‖_F.  Fit and rollout times are not reported (shared 2-core machine; 1-minute load "
+        + (f"average {min(loads):.1f}–{max(loads):.1f} while the rows ran)." if loads else "average not recorded)."),
         "",
         "| variant | bend range train / val [1/m] | qd err | qdd err | coef err | residual fit / true π | M err val | "
         "cond Ψ (scaled) | M not PD train / val | stiffness error (be1, sh1, ax1, be2, sh2, ax2) | rollout |",
@@ -301,8 +325,9 @@ def render(rows):
                 f"e_p^EE {1e3 * r['e_p']:.3g} mm, e_θ^EE {r['e_theta']:.3g} rad")
         lines.append(
             f"| {ROWS[r['row']][0]} | {max(tr[0], tr[3]):.0f} / {max(va[0], va[3]):.0f} | {max(r['qd_err']):.2f} | "
-            f"{max(r['qdd_err']):.2f} | {_f(r['coef_err'], '.3g')} | {r['res_fit']:.3g} / {_f(r['res_true'], '.3g')} "
-            f"| {_f(r.get('mass_err_val'), '.3g')} | {r['cond']:.2g} ({r['cond_scaled']:.2g}) | "
+            f"{_f(r['qdd_err'] and max(r['qdd_err']), '.2f')} | {_f(r['coef_err'], '.3g')} | "
+            f"{_f(r['res_fit'], '.3g')} / {_f(r['res_true'], '.3g')} "
+            f"| {_f(r.get('mass_err_val'), '.3g')} | {_f(r['cond'], '.2g')} ({_f(r['cond_scaled'], '.2g')}) | "
             f"{r['not_pd_train']:.1%} / {r['not_pd_val']:.1%} | {', '.join(f'{v:+.0%}' for v in r['k_rel'])} | "
             f"{roll} |"
         )
@@ -310,7 +335,7 @@ def render(rows):
     for r in rows:
         lines.append(
             f"- {ROWS[r['row']][0]}: qd {', '.join(f'{v:.2f}' for v in r['qd_err'])}; "
-            f"qdd {', '.join(f'{v:.2f}' for v in r['qdd_err'])}"
+            f"qdd {', '.join(f'{v:.2f}' for v in r['qdd_err']) if r['qdd_err'] else 'not used'}"
         )
     return "\n".join(lines)
 
@@ -320,7 +345,7 @@ Findings (numbers from the rows above):
 
 1. What diverges: the identified mass matrix. With SG 25/3 the fitted M(q) is indefinite on 25.8 % of the training
    and 44.2 % of the validation states and the rollout leaves at t = 0.189 s.  It is not the library: on the same 8
-   recordings with the simulator's exact q̇, q̈ the same regression recovers π to 4e-11 and the 7 s rollout matches
+   recordings with the simulator's exact q̇, q̈ the same regression recovers π to ~1e-11 and the 7 s rollout matches
    the simulator to ~1e-6 mm.
 2. Why: the Savitzky–Golay derivatives are wrong, not slightly but entirely.  On this robot SG 25/3 at 1 kHz misses
    86-100 % (relative RMS) of q̈ and 22-51 % of q̇: the robot has sub-millisecond time constants (0.095, 0.76 ms) and
@@ -356,9 +381,11 @@ Findings (numbers from the rows above):
      dynamic-identification benchmark (25.8 % indefinite, +1472 % on be_1, divergence at 0.19 s).
 5. What fixes it: a basis that keeps M positive definite.  The physical basis (16 bounded unknowns) on the very same
    SG 25 data is PD everywhere and rolls out (20.5 mm; 21.4 mm with ramped actuation), and with SG 7 jump-free or the
-   weak form reaches 8.29 / 0.024 mm (dynamic-identification section).  The monomial basis works only with
-   derivatives good to a few per cent (exact, or a PD constraint on M in the fit, not implemented); keep `sg25`
-   monomial as the seed-reproduction row and recommend `basis="physical", formulation="weak"`.
+   weak form reaches 8.29 / 0.024 mm (dynamic-identification section); the defaults `EulerLagrangeRegressor()`
+   (physical, weak form over 160 samples) reach 0.032 mm on these recordings (last row).  The monomial basis
+   works only with derivatives good to a few per cent (exact, or a PD constraint on M in the fit, not implemented);
+   keep `sg25` monomial as the seed-reproduction row (`EulerLagrangeRegressor.seed_method()`) and recommend the
+   defaults `EulerLagrangeRegressor()` (physical library, weak form).
 """
 
 

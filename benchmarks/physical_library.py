@@ -2,7 +2,10 @@
 
 Times, for 1, 2, 3 and 5 segments: the Euler–Lagrange matrix ``Psi`` on 4000
 samples, its weak (integral) form on the same samples, and one call of the
-single-sample dynamics from ``compile_dynamics`` (the inner loop of a rollout).
+single-sample dynamics of the compiled forward model (``lib.forward_model(coef).terms(q, qd)``: M and
+bias at one state, the inner loop of a rollout or a controller).  The library is
+``PhysicalPCSLibrary(lengths, rest_strain=False)``: 8 unknowns per segment (line
+density, rotary inertia, 3 stiffnesses, 3 dampings), as before the refactor.
 
 Run: ``.venv/bin/python benchmarks/physical_library.py``
 """
@@ -17,7 +20,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.library.physical import PhysicalPCSLibrary, sliding_windows  # noqa: E402
+from pcs_sindy.formulations import sliding_windows  # noqa: E402
+from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 
 from _results import write_section  # noqa: E402
 
@@ -57,7 +61,7 @@ def main() -> None:
     rows = []
     load_before = os.getloadavg()[0]
     for m, lengths in LENGTHS.items():
-        lib = PhysicalPCSLibrary(lengths)
+        lib = PhysicalPCSLibrary(lengths, rest_strain=False)
         n = 3 * m
         scale = np.tile([40.0, 0.25, 0.25], m)
         q = rng.uniform(-1, 1, (N_SAMPLES, n)) * scale
@@ -72,7 +76,9 @@ def main() -> None:
         t_bump = best_of(
             lambda: lib.integrated_euler_lagrange_matrix(t, q, qd, windows, test_function="bump"), 3
         )
-        f = lib.compile_dynamics(coef)
+        f = lib.forward_model(coef).terms
+        q = np.ascontiguousarray(q)
+        qd = np.ascontiguousarray(qd)
         for k in range(50):
             f(q[k], qd[k])
         n_calls = 2000
@@ -86,20 +92,22 @@ def main() -> None:
         t_op = reference_op_time()
         rows.append((m, lib.n_coefficients_, t_psi, t_weak, t_bump, t_call, t_call / t_op))
         print(f"m={m}: n_coef={lib.n_coefficients_}, Psi {t_psi:.3f} s, weak {t_weak:.3f} s, bump {t_bump:.3f} s, "
-              f"compile_dynamics call {t_call * 1e6:.0f} us = {t_call / t_op:.0f} tiny ops")
+              f"forward_model().terms call {t_call * 1e6:.1f} us = {t_call / t_op:.0f} tiny ops")
     load_after = os.getloadavg()[0]
     body = [
         "Euler–Lagrange matrix of `PhysicalPCSLibrary` (numeric, Gauss–Legendre 16 nodes per segment) on "
         f"{N_SAMPLES} random samples; weak form on the same samples with windows of 20 intervals (plain and "
-        "bump-weighted); one call of the single-sample dynamics returned by `compile_dynamics` (M and bias, for a "
-        "rollout). Best of 3.",
+        "bump-weighted); one call of the single-sample dynamics `PhysicalPCSLibrary.forward_model(coef).terms(q, qd)` "
+        "(M and bias at one state, the compiled `LumpedPCSModel` a rollout or a controller calls; before the "
+        "refactor: the numpy closure of `compile_dynamics`). Library `PhysicalPCSLibrary(lengths, rest_strain=False)`. "
+        "Best of 3.",
         "",
         "| segments | coefficients | Psi, 4000 samples [s] | weak form [s] | weak form, bump [s] "
-        "| compile_dynamics call [µs] | call / tiny numpy op |",
+        "| terms call [µs] | call / tiny numpy op |",
         "|---|---|---|---|---|---|---|",
     ]
     for m, nc, tp, tw, tb, tc, ratio in rows:
-        body.append(f"| {m} | {nc} | {tp:.3f} | {tw:.3f} | {tb:.3f} | {tc * 1e6:.0f} | {ratio:.0f} |")
+        body.append(f"| {m} | {nc} | {tp:.3f} | {tw:.3f} | {tb:.3f} | {tc * 1e6:.2f} | {ratio:.2f} |")
     body += [
         "",
         f"1-minute load average of the machine during the run: {load_before:.1f} → {load_after:.1f} "

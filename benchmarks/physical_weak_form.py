@@ -6,13 +6,15 @@ order of magnitude closed-form IK gives for σ_p = 0.5 mm / σ_θ = 1° on marke
 7–10 cm apart; a stand-in — the pose-level study is benchmarks/noise_robustness.py).
 Bounded least squares (``lsq_linear`` with ``lower_bounds_``) on the rows of
 all recordings; reported: relative error of the identified parameters
-(``rotary_inertia="tied"``: rhoA, stiffness, damping per strain).
+(``PhysicalPCSLibrary(rotary_inertia="tied", rest_strain=False)``: rhoA,
+stiffness, damping per strain).
 
 Run: ``.venv/bin/python benchmarks/physical_weak_form.py``
 """
 
 from __future__ import annotations
 
+import os
 import sys
 import time
 from pathlib import Path
@@ -22,7 +24,8 @@ from scipy.optimize import lsq_linear
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.library.physical import PhysicalPCSLibrary, integrate_forces, sliding_windows  # noqa: E402
+from pcs_sindy.formulations import integrate_forces, sliding_windows  # noqa: E402
+from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402
@@ -63,11 +66,12 @@ def main() -> None:
     scenario = get_scenario("two_segment")
     data = scenario.generate(seed=0, validation=False)
     robot = scenario.robot
-    lib = PhysicalPCSLibrary(robot.segment_lengths, rotary_inertia="tied")
+    lib = PhysicalPCSLibrary(robot.segment_lengths, rotary_inertia="tied", rest_strain=False)
     true = lib.coefficients_from_parameters(robot.density, None, robot.youngs_modulus, robot.shear_modulus,
                                             robot.damping)
     sigma = np.tile(STRAIN_SIGMA, robot.n_segments)
     results = {}
+    load_start = os.getloadavg()[0]
     for level in LEVELS:
         for name, build in METHODS.items():
             errs, secs = [], []
@@ -92,7 +96,8 @@ def main() -> None:
     body = [
         __doc__.split("Run:")[0].strip(),
         "",
-        f"Noise seeds {list(SEEDS)}; errors pooled over seeds and parameters.",
+        f"Noise seeds {list(SEEDS)}; errors pooled over seeds and parameters.  1-minute load average of the shared "
+        f"2-core machine: {load_start:.1f} at the start, {os.getloadavg()[0]:.1f} at the end.",
         "",
         "| noise level | method | median rel. error | max rel. error | max stiffness error | max mass error "
         "| build+fit [s] |",

@@ -2,10 +2,12 @@
 
 For the one-, two- and three-segment scenarios, the true parameters in a
 ``PhysicalPCSLibrary`` are rolled out over the 7 s validation actuation (1 kHz,
-held per sample) from rest through ``LumpedModel.rollout`` (the compiled path of
-``EulerLagrangeRegressor.simulate``), with
+held per sample) from rest through the compiled forward model
+(``pcs_sindy.forward.LumpedPCSModel.simulate``, what ``lib.forward_model(coef)``
+returns and ``EulerLagrangeRegressor.simulate`` calls) with a fixed quadrature
+rule (``fast_quadrature=None``), with
 
-- ``dopri5``: explicit Dormand–Prince 5(4) at the estimator's default tolerances
+- ``dopri5``: explicit Dormand–Prince 5(4) at the estimator's former default tolerances
   (rtol 1e-6, atol 1e-9);
 - ``rosenbrock``: the Rosenbrock-W method ROS34PW2 with fixed steps of a half
   and a third of the sample period, and adaptive (rtol 3e-5, atol 3e-8);
@@ -30,7 +32,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy._jit_rollout import LumpedModel  # noqa: E402
+from pcs_sindy.forward import LumpedPCSModel  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
@@ -47,7 +49,7 @@ CONFIGS = [
 
 
 def _library(robot):
-    lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
+    lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity, rest_strain=False)
     coef = lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus,
                                             robot.damping)
     return lib, coef
@@ -56,10 +58,11 @@ def _library(robot):
 _COLD = """
 import time, numpy as np
 t0 = time.perf_counter()
-from pcs_sindy._jit_rollout import LumpedModel
-m = LumpedModel((0.1,), np.ones(3, bool), [0.3], [1e-5], [[0.0, -3.0]], [1e-2, 10.0, 10.0], [1e-4, 1e-2, 1e-2])
-m.rollout(np.zeros(6), np.arange(3) * 1e-3, np.zeros((3, 3)))
-m.rollout(np.zeros(6), np.arange(3) * 1e-3, np.zeros((3, 3)), method="rosenbrock")
+from pcs_sindy.forward import LumpedPCSModel
+from pcs_sindy.kinematics import PlanarPCS
+m = LumpedPCSModel(PlanarPCS((0.1,)), [0.3], [1e-5], [[0.0, -3.0]], [1e-2, 10.0, 10.0], [1e-4, 1e-2, 1e-2])
+m.simulate(np.zeros(3), np.zeros(3), np.arange(3) * 1e-3, np.zeros((3, 3)), method="dopri5")
+m.simulate(np.zeros(3), np.zeros(3), np.arange(3) * 1e-3, np.zeros((3, 3)), method="rosenbrock")
 print(time.perf_counter() - t0)
 """
 
@@ -84,21 +87,24 @@ def main() -> None:
         t, tau = val.t, val.tau
         duration = t[-1] - t[0]
         n = robot.n_q
-        y0 = np.zeros(2 * n)
+        z = np.zeros(n)
         lib, coef = _library(robot)
+        lp = lib.lumped_from_coef(coef)
         kappa_l = float((np.abs(val.q[:, 0::3]) * np.asarray(robot.segment_lengths)).max())
-        for nq in (None, 8):
-            model = LumpedModel.from_library(lib, coef, n_quadrature=nq)
+        for nq in (16, 8):
+            # one fixed rule per row (the regressor's model switches from 8 to 16 nodes past |kappa L| = 6)
+            model = LumpedPCSModel(lib.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
+                                   lp["rest_force"], n_quadrature=nq, fast_quadrature=None)
             for method, setting, kw in CONFIGS:
                 t0 = time.perf_counter()
-                model.rollout(y0, t, tau, **kw)
+                model.simulate(z, z, t, tau, **kw)
                 first = time.perf_counter() - t0
                 stats: dict = {}
                 t0, c0 = time.perf_counter(), time.process_time()
-                y = model.rollout(y0, t, tau, stats=stats, **kw)
+                sim = model.simulate(z, z, t, tau, stats=stats, **kw)
                 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-                err = np.abs(y[:, :n] - val.q).max(axis=0) / np.abs(val.q).max(axis=0)
-                row = dict(case=name, nodes=model.wts.shape[1], method=method, setting=setting, first=first,
+                err = np.abs(sim.q - val.q).max(axis=0) / np.abs(val.q).max(axis=0)
+                row = dict(case=name, nodes=nq, method=method, setting=setting, first=first,
                            wall=wall, cpu=cpu, rt=duration / wall, rt_cpu=duration / cpu, steps=stats["n_steps"],
                            rej=stats["n_rejected"], evals=stats["n_evaluations"],
                            us=1e6 * cpu / stats["n_evaluations"], err=float(err.max()), kl=kappa_l)
@@ -107,9 +113,11 @@ def main() -> None:
     load1 = os.getloadavg()[0]
     body = [
         f"7 s validation actuation of each scenario (seed 0, {t.size} samples at 1 kHz, held per sample), true "
-        "parameters in a `PhysicalPCSLibrary`, from rest, through `LumpedModel.rollout` (the compiled path of "
-        "`EulerLagrangeRegressor.simulate(..., method=...)`).  `dopri5`: explicit Dormand–Prince 5(4) at the "
-        "estimator's default tolerances; `rosenbrock`: the L-stable Rosenbrock-W method ROS34PW2 (order 3) with "
+        "parameters in a `PhysicalPCSLibrary`, from rest, through `LumpedPCSModel.simulate` (the compiled forward "
+        "model of `PhysicalPCSLibrary.forward_model(coef)` that `EulerLagrangeRegressor.simulate(..., method=...)` "
+        "calls) with one fixed quadrature rule per row (`fast_quadrature=None`).  `dopri5`: explicit Dormand–Prince "
+        "5(4) at the tolerances that were the estimator's defaults before the refactor (rtol 1e-6, atol 1e-9); "
+        "`rosenbrock`: the L-stable Rosenbrock-W method ROS34PW2 (order 3) with "
         "the structural Jacobian [[0, I], [-M⁻¹K, -M⁻¹D]], fixed steps of dt/2 and dt/3 (dt = 1 ms) or adaptive.  "
         "'first' = first call in the process (numba kernels loaded from the on-disk cache when warm).  "
         f"Compilation with a cold cache (fresh process, empty NUMBA_CACHE_DIR, import + one tiny rollout per method): "
@@ -121,10 +129,10 @@ def main() -> None:
         "(itself Radau IIA with fixed 0.5 ms steps: 9.6e-7 from a tight reference on the first 0.2 s of "
         "two_segment, section simulation_speed; its error on three_segment is not measured).  "
         "Nodes: Gauss–Legendre nodes per segment (the library's rule has 16); the largest |κ L| of the validation "
-        "run is given per scenario.  `EulerLagrangeRegressor.simulate` uses 8 nodes while |κ_i L_i| <= 6 (8 nodes "
-        "reproduce 16 to <= 1e-10 relative there: tests/test_rollout_jit.py) and the library's rule beyond, so its "
-        'cost is the 8-node rows.  Recommended: `method="rosenbrock", rtol=3e-5, atol=3e-8` (error controlled); '
-        "fixed steps are not (three_segment).",
+        "run is given per scenario.  `EulerLagrangeRegressor.simulate` uses 8 nodes while |κ_i L_i| <= 6 "
+        "(`LumpedPCSModel(fast_quadrature=8, fast_max_bend=6)`) and the library's rule beyond, so its cost is the "
+        '8-node rows.  `method="rosenbrock", rtol=3e-5, atol=3e-8` is the default of `simulate` for physical models; '
+        "fixed steps are not error controlled (three_segment).",
         "",
         "| scenario (max abs(κL)) | nodes | method | setting | first call [s] | wall [s] | CPU [s] | x real time "
         "(wall) | x real time (CPU) | steps (rejected) | rhs calls | µs CPU / rhs call | rel. error vs simulator |",

@@ -123,6 +123,7 @@ def closed_loop_costs(name: str, repeats: int = 5, calls: int = 500) -> tuple[st
 
 def main() -> None:
     rng = np.random.default_rng(0)
+    load_start = os.getloadavg()[0]
     cold, warm = compile_times()
     print("compile", cold, warm, flush=True)
     # load the compiled kernels (numba cache) before timing
@@ -188,7 +189,8 @@ def main() -> None:
 
     body = "\n".join(
         [
-            "Times in seconds (CPU time of the process in parentheses; the machine was shared).  The same",
+            f"Times in seconds (CPU time of the process in parentheses; the 2-core machine was shared: 1-minute load "
+            f"average {load_start:.1f} at the start, {os.getloadavg()[0]:.1f} at the end).  The same",
             "benchmark before the simulator's split (own DOP853/RK45 loops then): section",
             "simulation_speed_before_split above.",
             "Robots: docs/method.md one_segment, two_segment, three_segment; 4 and 5 segments repeat",
