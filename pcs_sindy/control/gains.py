@@ -66,8 +66,15 @@ def discretise(
 
 
 def force_scales(lin: Any, scales: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``|K_ii| s_i``: the generalised force that holds each strain at its typical magnitude (n,)."""
-    return np.maximum(np.abs(np.diag(lin.stiffness)) * scales, 1e-300)
+    """``|K_ii| s_i``: the generalised force that holds each strain at its typical magnitude (n,).
+
+    Floored at 1e-3 of the largest: a strain the model holds with (almost) no
+    stiffness (an identified stiffness of 0, where a low-dimensional model
+    absorbs the shape of a robot that is not piecewise constant strain) would
+    otherwise get a vanishing scale that wrecks every problem scaled by it.
+    """
+    f = np.abs(np.diag(lin.stiffness)) * scales
+    return np.maximum(f, max(1e-3 * float(np.max(f)), 1e-300))
 
 
 def lqr_gains(
