@@ -33,7 +33,16 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["force_scales", "lqr_gains", "open_loop_decay", "integral_gain", "loop_poles", "as_gain_matrix", "check_positive", "discretise"]
+__all__ = [
+    "force_scales",
+    "lqr_gains",
+    "open_loop_decay",
+    "integral_gain",
+    "loop_poles",
+    "as_gain_matrix",
+    "check_positive",
+    "discretise",
+]
 
 
 def check_positive(value: Any, name: str, *, allow_zero: bool = False, allow_inf: bool = False) -> float:
