@@ -62,7 +62,6 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 import time
 import warnings
@@ -71,22 +70,21 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from control import video_poses  # noqa: E402  (rendered and extracted once, cached)
+
 from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory  # noqa: E402
 from pcs_sindy.actuation import PressureActuation, TendonActuation  # noqa: E402
-from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.control import TipRegulator, closed_loop  # noqa: E402
 from pcs_sindy.control.closed_loop import plant_equilibrium  # noqa: E402
 from pcs_sindy.control.statics import model_tip  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.metrics import end_effector_errors  # noqa: E402
-from pcs_sindy.simulation import PCSRobot, get_scenario, render_video  # noqa: E402
+from pcs_sindy.simulation import PCSRobot, get_scenario  # noqa: E402
 from pcs_sindy.simulation import TendonActuation as PlantTendons  # noqa: E402
 from pcs_sindy.simulation.scenarios import Scenario  # noqa: E402
-from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
 from _results import write_section  # noqa: E402
 
-CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "control"
 FIGURES = Path(__file__).resolve().parents[1] / "docs"
 SEED = 0
 NOISE = (1e-4, float(np.deg2rad(0.5)))
@@ -165,26 +163,6 @@ def true_model(robot, design_offset: float | None = None):
 
 
 # ----------------------------------------------------------------------------- identification
-def video_poses(scenario, data) -> tuple[list[np.ndarray], float]:
-    folder = CACHE / f"{scenario.name}-seed{SEED}"
-    cached = folder / "extracted.npz"
-    if cached.exists():
-        with np.load(cached) as z:
-            return [z[f"p{k}"] for k in range(len(data.train))], float(z["seconds"])
-    folder.mkdir(parents=True, exist_ok=True)
-    camera = Camera.fit_robot(float(scenario.robot.kinematics.total_length))
-    start = time.perf_counter()
-    paths = []
-    for k, rec in enumerate(data.train):
-        paths.append(str(folder / f"train{k}.avi"))
-        render_video(rec.poses_true, paths[-1], camera, fps=1.0 / rec.dt)
-    trajs = MarkerPoseExtractor(n_markers=scenario.n_markers, on_missing="interpolate").transform(paths)
-    seconds = time.perf_counter() - start
-    poses = [tr.poses for tr in trajs]
-    np.savez(cached, seconds=seconds, **{f"p{k}": p for k, p in enumerate(poses)})
-    return poses, seconds
-
-
 def identify(scenario, source: str, threshold: float, actuations: dict, noise) -> dict:
     """Fusion and one identified model per actuation term, from the training recordings of ``source``."""
     data = scenario.generate(seed=SEED, noise=noise if source == "noisy" else None)
@@ -471,7 +449,7 @@ def fine_section(n: int, figs: dict) -> tuple[list[str], list[str]]:
                     extra.append(
                         f"| {label} | model tip vs robot tip at the end (state) | – | max {1e3 * max(offs):.3f} | – |"
                     )
-            if "shared" in label and segs == 3:
+            if "shared" in label:
                 # the same model regulating its own tip at the fitted strains, not the measured one
                 run = regulate(
                     robot,
