@@ -341,16 +341,17 @@ class TipRegulator(Controller):
         return self
 
     def _free_gain(self, free: NDArray[np.bool_]) -> NDArray[np.float64]:
-        """``S_W^+`` over the inputs ``free`` (zero rows for the others), least squares when they are too few."""
+        """``S_W^+`` over the inputs ``free`` (zero rows for the others); damped for a subset."""
         key = free.tobytes()
         gain = self._gains.get(key)
         if gain is None:
             S = self.sensitivity_[:, free]
             SW = S * self._u_weight[free]
             gain = np.zeros((free.size, 2))
-            # damped least squares: with few or nearly parallel free inputs the plain inverse explodes
+            # a subset is damped (least squares): few or nearly parallel free inputs would explode the inverse
             full = (self.sensitivity_ * self._u_weight) @ self.sensitivity_.T
-            gain[free] = SW.T @ np.linalg.inv(S @ SW.T + _DAMPING * np.trace(full) * np.eye(2))
+            damping = 0.0 if free.all() else _DAMPING * np.trace(full)
+            gain[free] = SW.T @ np.linalg.inv(S @ SW.T + damping * np.eye(2))
             self._gains[key] = gain
         return gain
 
