@@ -30,9 +30,9 @@ Tasks, all at 1 kHz against ``PCSRobot.advance`` (fixed 0.5 ms Radau steps):
    RMSE over t >= 1 s, for ``ComputedTorqueController`` with law ``pd_plus``
    (default), ``computed_torque`` (bandwidth 40 rad/s) and ``pid``; state and 100 Hz noisy poses;
 4. ``TipRegulator`` to 10 tip targets: two_segment with generalised forces
-   bounded to ±1 (identified model), and two_segment_tendon (tensions in
-   [0, 16] N) with the TRUE model wrapped in ``ActuatedModel`` — identified
-   tendon models are the subject of issue 11;
+   bounded to ±1 (identified model); tip regulation through tendons and
+   chambers with identified actuated models is the next section
+   (``benchmarks/control_actuated.py``);
 5. per-step cost of every controller, the state map and one camera frame through the fusion.
 
 Rendered videos and extracted poses are cached under ``$PCS_SINDY_CACHE/control``.
@@ -54,14 +54,17 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.control import (ComputedTorqueController, SetpointRegulator, TipReference,  # noqa: E402
-                               TipRegulator, closed_loop, tip_circle)
+from pcs_sindy.control import (  # noqa: E402
+    ComputedTorqueController,
+    SetpointRegulator,
+    TipReference,
+    TipRegulator,
+    closed_loop,
+    tip_circle,
+)
 from pcs_sindy.control.closed_loop import plant_equilibrium  # noqa: E402
 from pcs_sindy.control.estimation import StateMap, frame_strains  # noqa: E402
-from pcs_sindy.control.models import ActuatedModel  # noqa: E402
 from pcs_sindy.control.tracking import StrainReference  # noqa: E402
 from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
@@ -69,6 +72,8 @@ from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "control"
 SEED = 0
@@ -80,8 +85,11 @@ FIGURES = Path(__file__).resolve().parents[1] / "docs"
 
 def true_model(robot):
     lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
-    return lib.forward_model(lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus,
-                                                              robot.shear_modulus, robot.damping))
+    return lib.forward_model(
+        lib.coefficients_from_parameters(
+            robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+        )
+    )
 
 
 def video_poses(scenario, data) -> tuple[list[np.ndarray], float]:
@@ -114,14 +122,15 @@ def identify(source: str) -> dict:
     else:
         poses = [r.poses for r in data.train]
         pose_std = NOISE if source == "noisy" else (5e-4, float(np.deg2rad(1.0)))
-    trajs = [PoseTrajectory(p, t=r.t) for p, r in zip(poses, data.train)]
+    trajs = [PoseTrajectory(p, t=r.t) for p, r in zip(poses, data.train, strict=True)]
     fusion = KinematicFusion(pose_std=pose_std).fit(trajs)
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model = EulerLagrangeRegressor().fit(fusion.transform(trajs), [r.tau for r in data.train])
-    info.update(fit=time.perf_counter() - start, lengths=list(fusion.segment_lengths_),
-                removed=list(model.removed_strains_))
+    info.update(
+        fit=time.perf_counter() - start, lengths=list(fusion.segment_lengths_), removed=list(model.removed_strains_)
+    )
     return dict(fusion=fusion, model=model, info=info)
 
 
@@ -157,17 +166,35 @@ def run_setpoints(robot, models: dict, targets: list[dict], observe: str) -> dic
             res_rows = []
             for k, target in enumerate(targets):
                 ctrl = SetpointRegulator(entry["model"], **kw)
-                res = closed_loop(robot, ctrl, model_setpoint(entry, target), t, observe=observe,
-                                  fusion=entry.get("fusion"), pose_noise=NOISE, camera_rate=CAMERA_RATE, seed=k)
+                res = closed_loop(
+                    robot,
+                    ctrl,
+                    model_setpoint(entry, target),
+                    t,
+                    observe=observe,
+                    fusion=entry.get("fusion"),
+                    pose_noise=NOISE,
+                    camera_rate=CAMERA_RATE,
+                    seed=k,
+                )
                 err = np.linalg.norm(res.tip - target["tip"], axis=1)
-                res_rows.append(dict(final=float(err[t >= t[-1] - window].mean()), settle=res.settling_time(),
-                                     peak=float(res.peak_command().max()), travel=float(np.linalg.norm(
-                                         target["tip"] - res.tip[0])), step=res.step_time, result=res))
+                res_rows.append(
+                    dict(
+                        final=float(err[t >= t[-1] - window].mean()),
+                        settle=res.settling_time(),
+                        peak=float(res.peak_command().max()),
+                        travel=float(np.linalg.norm(target["tip"] - res.tip[0])),
+                        step=res.step_time,
+                        result=res,
+                    )
+                )
             rows[label] = res_rows
             fin = np.array([r["final"] for r in res_rows])
             st = np.array([r["settle"] for r in res_rows])
-            print(f"  set-point {observe} {label}: final max {1e3 * fin.max():.4f} mm, settle max {st.max():.3f} s",
-                  flush=True)
+            print(
+                f"  set-point {observe} {label}: final max {1e3 * fin.max():.4f} mm, settle max {st.max():.3f} s",
+                flush=True,
+            )
     return rows
 
 
@@ -189,8 +216,16 @@ def run_tracking(robot, models: dict, q_rest) -> tuple[list[str], dict]:
             for law, kw in laws:
                 ctrl = ComputedTorqueController(entry["model"], law=law, **kw)
                 try:
-                    res = closed_loop(robot, ctrl, sref, t, observe=observe, fusion=entry.get("fusion"),
-                                      pose_noise=NOISE, camera_rate=CAMERA_RATE)
+                    res = closed_loop(
+                        robot,
+                        ctrl,
+                        sref,
+                        t,
+                        observe=observe,
+                        fusion=entry.get("fusion"),
+                        pose_noise=NOISE,
+                        camera_rate=CAMERA_RATE,
+                    )
                     res.tip_reference = path(t)
                     cells.append(f"{1e3 * res.tip_rmse(1.0):.3f} ({1e3 * res.tip_error[t >= 1.0].max():.2f})")
                     keep[(name, observe, law)] = res
@@ -210,44 +245,28 @@ def run_tip_regulation(robot, entry: dict, q_rest, n: int, rng) -> list[str]:
         target = tip0 + rng.uniform(-1, 1, 2) * [0.05, 0.03] + [0.0, -0.02]
         k += 1
         try:
-            res = closed_loop(robot, TipRegulator(entry["model"], input_bounds=(-1.0, 1.0)), target, t,
-                              fusion=entry.get("fusion"))
+            res = closed_loop(
+                robot, TipRegulator(entry["model"], input_bounds=(-1.0, 1.0)), target, t, fusion=entry.get("fusion")
+            )
         except ValueError as err:
             if "not reachable" in str(err):
                 continue
             raise
         out.append((res.final_tip_error(), res.settling_time(), float(res.peak_command().max())))
-    return [f"{len(out)} reachable targets ({k} drawn): final tip error max {1e3 * max(o[0] for o in out):.4f} mm "
-            f"(mean {1e3 * np.mean([o[0] for o in out]):.4f}), 2 % settling max {max(o[1] for o in out):.3f} s, "
-            f"peak command max {max(o[2] for o in out):.3f}"]
-
-
-def run_tendon(n: int, rng) -> list[str]:
-    scenario = get_scenario("two_segment_tendon")
-    robot = scenario.robot
-    model = ActuatedModel(true_model(robot), robot.actuation_matrix, robot.n_inputs, (0.0, 16.0), scenario.actuation)
-    q_rest = plant_equilibrium(robot, np.zeros(robot.n_inputs))
-    t = np.arange(2001) * 1e-3
-    rows = []
-    for k in range(n):
-        u = rng.uniform(0.0, 12.0, 4) * (rng.uniform(size=4) < 0.6)
-        q = plant_equilibrium(robot, u, q_rest)
-        target = robot.kinematics.forward_kinematics(q, [robot.kinematics.total_length])[0, :2]
-        res = closed_loop(robot, TipRegulator(model), target, t)
-        rows.append((res.final_tip_error(), res.settling_time(), float(res.u.min()), float(res.u.max())))
-    fin = [r[0] for r in rows]
-    return [f"{n} targets (equilibria under random tensions in [0, 12] N, each tendon slack with probability 0.4): "
-            f"final tip error max {1e3 * max(fin):.4f} mm (mean {1e3 * np.mean(fin):.4f}), 2 % settling max "
-            f"{max(r[1] for r in rows):.3f} s, smallest tension commanded {min(r[2] for r in rows):.3g} N, "
-            f"largest {max(r[3] for r in rows):.3g} N"]
+    return [
+        f"{len(out)} reachable targets ({k} drawn): final tip error max {1e3 * max(o[0] for o in out):.4f} mm "
+        f"(mean {1e3 * np.mean([o[0] for o in out]):.4f}), 2 % settling max {max(o[1] for o in out):.3f} s, "
+        f"peak command max {max(o[2] for o in out):.3f}"
+    ]
 
 
 def step_costs(robot, entry: dict, q_rest) -> list[str]:
     """Median wall time per call over many calls (after warm-up)."""
     t = np.arange(20001) * 1e-3
     fm = entry["model"].forward_model()
-    sm = StateMap(fm.kinematics, robot.kinematics, entry["fusion"].marker_arc_lengths_,
-                  robot.kinematics.marker_arc_lengths(20))
+    sm = StateMap(
+        fm.kinematics, robot.kinematics, entry["fusion"].marker_arc_lengths_, robot.kinematics.marker_arc_lengths(20)
+    )
     qp = np.asarray(q_rest) + 0.01
     q = np.ascontiguousarray(sm(qp, np.zeros(6))[0])
     qd = np.full(q.size, 0.1)
@@ -257,8 +276,11 @@ def step_costs(robot, entry: dict, q_rest) -> list[str]:
         ("SetpointRegulator", SetpointRegulator(entry["model"]), q),
         ("TipRegulator", TipRegulator(entry["model"], input_bounds=(-1, 1)), tip0 + [0.02, -0.01]),
         ("ComputedTorqueController pd_plus", ComputedTorqueController(entry["model"]), circle),
-        ("ComputedTorqueController computed_torque", ComputedTorqueController(entry["model"], law="computed_torque"),
-         circle),
+        (
+            "ComputedTorqueController computed_torque",
+            ComputedTorqueController(entry["model"], law="computed_torque"),
+            circle,
+        ),
     ]
     lines = []
     for name, ctrl, ref in controllers:
@@ -278,29 +300,37 @@ def step_costs(robot, entry: dict, q_rest) -> list[str]:
     tic = time.perf_counter()
     for k in range(2000):
         sm(qp + 1e-6 * k, np.full(6, 0.1))
-    lines.append(f"| StateMap (plant state → model strains across segmentations) | "
-                 f"{1e6 * (time.perf_counter() - tic) / 2000:.1f} | |")
+    lines.append(
+        f"| StateMap (plant state → model strains across segmentations) | "
+        f"{1e6 * (time.perf_counter() - tic) / 2000:.1f} | |"
+    )
     frame = robot.kinematics.forward_kinematics(qp, robot.kinematics.marker_arc_lengths(20))
     tic = time.perf_counter()
     for _ in range(200):
         frame_strains(entry["fusion"], frame)
-    lines.append(f"| one camera frame through `KinematicFusion.transform_frame` (`frame_strains`) | "
-                 f"{1e6 * (time.perf_counter() - tic) / 200:.1f} | |")
+    lines.append(
+        f"| one camera frame through `KinematicFusion.transform_frame` (`frame_strains`) | "
+        f"{1e6 * (time.perf_counter() - tic) / 200:.1f} | |"
+    )
     qa, qda = np.asarray(q_rest, dtype=float), np.zeros(6)
     for _ in range(50):
         qa, qda = robot.advance(qa, qda, np.zeros(6) + 1e-3, 1e-3)
     tic = time.perf_counter()
     for _ in range(1000):
         qa, qda = robot.advance(qa, qda, np.zeros(6) + 1e-3, 1e-3)
-    lines.append(f"| PCSRobot.advance, one 1 ms period (the plant, for reference) | "
-                 f"{1e6 * (time.perf_counter() - tic) / 1000:.1f} | |")
+    lines.append(
+        f"| PCSRobot.advance, one 1 ms period (the plant, for reference) | "
+        f"{1e6 * (time.perf_counter() - tic) / 1000:.1f} | |"
+    )
     return lines
 
 
 def setpoint_table(rows: dict, true_rows: list | None) -> list[str]:
-    out = ["| model | final tip error max / mean [mm] | 2 % settling max / mean [s] | peak command max [N or N·m] "
-           "| targets with settling within 10 % of the true model's | max |final error − true's| [mm] |",
-           "|---|---|---|---|---|---|"]
+    out = [
+        "| model | final tip error max / mean [mm] | 2 % settling max / mean [s] | peak command max [N or N·m] "
+        "| targets with settling within 10 % of the true model's | max |final error − true's| [mm] |",
+        "|---|---|---|---|---|---|",
+    ]
     for label, rs in rows.items():
         fin = np.array([r["final"] for r in rs])
         st = np.array([r["settle"] for r in rs])
@@ -312,8 +342,10 @@ def setpoint_table(rows: dict, true_rows: list | None) -> list[str]:
             dfin = f"{1e3 * np.max(np.abs(fin - fin_t)):.4f}"
         else:
             within, dfin = "–", "–"
-        out.append(f"| {label} | {1e3 * fin.max():.4f} / {1e3 * fin.mean():.4f} | {st.max():.3f} / {st.mean():.3f} | "
-                   f"{pk.max():.3f} | {within} | {dfin} |")
+        out.append(
+            f"| {label} | {1e3 * fin.max():.4f} / {1e3 * fin.mean():.4f} | {st.max():.3f} / {st.mean():.3f} | "
+            f"{pk.max():.3f} | {within} | {dfin} |"
+        )
     return out
 
 
@@ -326,8 +358,16 @@ def figures(setpoint_runs: dict, tracking_runs: dict) -> list[str]:
     from pcs_sindy.control.plots import plot_commands, plot_strains, plot_tip_error, plot_tip_path
 
     names = []
-    keys = [k for k in (("poses", "state", "pd_plus"), ("true", "state", "pd_plus"), ("poses", "state", "pid"),
-                        ("poses", "poses", "pd_plus")) if k in tracking_runs]
+    keys = [
+        k
+        for k in (
+            ("poses", "state", "pd_plus"),
+            ("true", "state", "pd_plus"),
+            ("poses", "state", "pid"),
+            ("poses", "poses", "pd_plus"),
+        )
+        if k in tracking_runs
+    ]
     if keys:
         fig, axes = plt.subplots(1, 3, figsize=(15, 4.5))
         runs = [tracking_runs[k] for k in keys]
@@ -358,8 +398,9 @@ def figures(setpoint_runs: dict, tracking_runs: dict) -> list[str]:
 
 def main() -> None:
     parser = argparse.ArgumentParser()
-    parser.add_argument("--sources", nargs="+", default=["poses", "noisy", "video"],
-                        choices=["poses", "noisy", "video"])
+    parser.add_argument(
+        "--sources", nargs="+", default=["poses", "noisy", "video"], choices=["poses", "noisy", "video"]
+    )
     parser.add_argument("--targets", type=int, default=10)
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args()
@@ -372,8 +413,10 @@ def main() -> None:
         models[source] = identify(source)
         info = models[source]["info"]
         extra = f", rendering + extraction {info['video_seconds']:.0f} s" if "video_seconds" in info else ""
-        ident_lines.append(f"- {source}: fused segments {', '.join(f'{1e3 * v:.2f}' for v in info['lengths'])} mm, "
-                           f"fit {info['fit']:.2f} s, strains removed: {info['removed'] or 'none'}{extra}")
+        ident_lines.append(
+            f"- {source}: fused segments {', '.join(f'{1e3 * v:.2f}' for v in info['lengths'])} mm, "
+            f"fit {info['fit']:.2f} s, strains removed: {info['removed'] or 'none'}{extra}"
+        )
     models["true"] = dict(model=true_model(robot), fusion=None, info={})
     rng = np.random.default_rng(SEED)
     targets = setpoint_targets(robot, q_rest, args.targets, rng)
@@ -388,43 +431,77 @@ def main() -> None:
     print("tip regulation", flush=True)
     first = args.sources[0]
     tip_lines = run_tip_regulation(robot, models[first], q_rest, args.targets, np.random.default_rng(SEED + 1))
-    tendon_lines = run_tendon(args.targets, np.random.default_rng(SEED + 2))
     print("step costs", flush=True)
     cost_lines = step_costs(robot, models[first], q_rest)
     figs = figures(sp_state, track_runs)
 
-    per_target = ["| target | tip travel [mm] | " + " | ".join(f"{k} final [mm] / settle [s]" for k in sp_state) + " |",
-                  "|---|---|" + "---|" * len(sp_state)]
+    per_target = [
+        "| target | tip travel [mm] | " + " | ".join(f"{k} final [mm] / settle [s]" for k in sp_state) + " |",
+        "|---|---|" + "---|" * len(sp_state),
+    ]
     for k in range(len(targets)):
-        per_target.append(f"| {k} | {1e3 * travel[k]:.1f} | " + " | ".join(
-            f"{1e3 * sp_state[lab][k]['final']:.4f} / {sp_state[lab][k]['settle']:.3f}" for lab in sp_state) + " |")
+        per_target.append(
+            f"| {k} | {1e3 * travel[k]:.1f} | "
+            + " | ".join(
+                f"{1e3 * sp_state[lab][k]['final']:.4f} / {sp_state[lab][k]['settle']:.3f}" for lab in sp_state
+            )
+            + " |"
+        )
     doc = __doc__.split("Usage::")[0].strip().split("\n\n", 1)[1]
-    body = "\n".join([
-        doc, "",
-        "Identified models:", "", *ident_lines, "",
-        f"### Set-point regulation, exact state ({len(targets)} targets, targets: true static equilibria; "
-        "set-points of identified models: fused strains of the target poses)", "",
-        *setpoint_table(sp_state, sp_state.get("true")), "",
-        "Per target:", "", *per_target, "",
-        f"### Set-point regulation from marker poses at {CAMERA_RATE:.0f} Hz, 0.1 mm / 0.5° noise", "",
-        *setpoint_table(sp_poses, None), "",
-        "### Tracking a 3 cm (diameter) tip circle at 0.5 Hz: tip RMSE over t ≥ 1 s (max) [mm]", "",
-        "| model | observation | pd_plus (default) | computed_torque (40 rad/s) | pid |", "|---|---|---|---|---|",
-        *track_lines, "",
-        "### Tip regulation (TipRegulator)", "",
-        f"- two_segment, generalised forces bounded to ±1, {first} model: " + tip_lines[0],
-        "- two_segment_tendon, TRUE model through `ActuatedModel` (identified tendon models: issue 11): "
-        + tendon_lines[0], "",
-        "### Per-step cost (two segments; median and 99th percentile of 20000 calls) [µs]", "",
-        "| step | median | 99 % |", "|---|---|---|", *cost_lines, "",
-        "The PAC robot (`pac_one_segment`) has kinematics only in the simulator (no dynamics): it cannot be "
-        "simulated in closed loop, so it is not regulated here.",
-        "", *(f"![{f}]({f})" for f in figs),
-    ])
+    body = "\n".join(
+        [
+            doc,
+            "",
+            "Identified models:",
+            "",
+            *ident_lines,
+            "",
+            f"### Set-point regulation, exact state ({len(targets)} targets, targets: true static equilibria; "
+            "set-points of identified models: fused strains of the target poses)",
+            "",
+            *setpoint_table(sp_state, sp_state.get("true")),
+            "",
+            "Per target:",
+            "",
+            *per_target,
+            "",
+            f"### Set-point regulation from marker poses at {CAMERA_RATE:.0f} Hz, 0.1 mm / 0.5° noise",
+            "",
+            *setpoint_table(sp_poses, None),
+            "",
+            "### Tracking a 3 cm (diameter) tip circle at 0.5 Hz: tip RMSE over t ≥ 1 s (max) [mm]",
+            "",
+            "| model | observation | pd_plus (default) | computed_torque (40 rad/s) | pid |",
+            "|---|---|---|---|---|",
+            *track_lines,
+            "",
+            "### Tip regulation (TipRegulator)",
+            "",
+            f"- two_segment, generalised forces bounded to ±1, {first} model: " + tip_lines[0],
+            "- through tendons and chambers, identified actuated models: see *Tip regulation through actuators "
+            "with identified models* below.",
+            "",
+            "### Per-step cost (two segments; median and 99th percentile of 20000 calls) [µs]",
+            "",
+            "| step | median | 99 % |",
+            "|---|---|---|",
+            *cost_lines,
+            "",
+            "The PAC robot (`pac_one_segment`) has kinematics only in the simulator (no dynamics): it cannot be "
+            "simulated in closed loop; a finely segmented robot with a stiffness gradient stands in for it in the "
+            "next section.",
+            "",
+            *(f"![{f}]({f})" for f in figs),
+        ]
+    )
     print(body)
     if not args.no_write:
-        write_section("control", "Model-based control with identified models (two_segment)", body,
-                      "nice -n 10 .venv/bin/python benchmarks/control.py")
+        write_section(
+            "control",
+            "Model-based control with identified models (two_segment)",
+            body,
+            "nice -n 10 .venv/bin/python benchmarks/control.py",
+        )
 
 
 if __name__ == "__main__":

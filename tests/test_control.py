@@ -227,10 +227,11 @@ def test_tip_regulation_through_tendons_never_commands_a_negative_tension():
     model = ActuatedModel(true_model(robot), robot.actuation_matrix, robot.n_inputs, (0.0, 16.0), scenario.actuation)
     q_target = plant_equilibrium(robot, np.array([0.0, 7.5, 0.0, 0.02]))
     target = robot.kinematics.forward_kinematics(q_target, [0.17])[0, :2]
-    t = np.arange(1501) * 1e-3
+    t = np.arange(2001) * 1e-3
     res = closed_loop(robot, TipRegulator(model), target, t)
     assert res.u.min() >= 0.0 and res.u.max() <= 16.0
-    assert res.final_tip_error() < 2e-4
+    # two tendons slack at the target: the integral corrects through the others (active set), to the micrometre
+    assert res.final_tip_error() < 2e-5
     np.testing.assert_allclose(res.tip_reference[-1], target)
 
 

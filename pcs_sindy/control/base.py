@@ -98,8 +98,15 @@ class Controller(ABC):
         """Prepare the task ``reference`` over the control times ``t`` from the model state ``(q0, qd0)``."""
 
     @abstractmethod
-    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+    def step(
+        self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64], tip: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
         """Command (p,) for control time ``t_[k]`` from the measured modelled strains and rates (n,).
 
-        The hot path: no checks; ``q`` and ``qd`` are float arrays of the n modelled strains.
+        The hot path: no checks; ``q`` and ``qd`` are float arrays of the n
+        modelled strains.  ``tip``: the measured tip position (2,) when the
+        observer has one (the camera's last marker; :func:`~.closed_loop.closed_loop`
+        passes it), else None; controllers that regulate the tip use it
+        instead of the model's tip at ``q``, which differs from the robot's
+        where the robot is not piecewise constant strain.
         """

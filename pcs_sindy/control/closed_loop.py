@@ -21,6 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from . import _kinematics
 from .base import check_time_grid
 from .estimation import PoseEstimator, StateMap
 
@@ -210,6 +211,8 @@ def closed_loop(
         ``"state"``: the exact state, in the model's strains (:class:`~.estimation.StateMap`).
         ``"poses"``: the plant's marker poses every ``1 / camera_rate`` s with
         Gaussian noise, through ``fusion`` (:class:`~.estimation.PoseEstimator`).
+        Either way the controller also gets the measured tip (the last
+        marker's position: exact, or of the latest noisy frame).
     q0, qd0 : array_like (3m_plant,), optional
         Initial plant state; default its equilibrium without input, at rest.
     camera_rate : float
@@ -316,20 +319,31 @@ def closed_loop(
     QM, QDM = np.empty((T, kin.n_active)), np.empty((T, kin.n_active))
     frame_times, frames = [], []
     spent = 0.0
+    # the measured tip given to the controller: the last marker (the tip unless marker_arc_lengths say otherwise)
+    geo_plant = (
+        np.asarray(plant.kinematics.segment_lengths, dtype=float),
+        np.asarray(plant.kinematics.base_pose, dtype=float),
+        np.array([s_plant[-1]]),
+    )
+    last_marker = np.empty((1, 3))
+    tip_seen = np.empty(2)
     for k in tqdm(range(T), desc="closed loop", disable=not progress, leave=False):
         Q[k], QD[k] = q, qd
         if observe == "poses":
             if k % n_sub == 0:
                 frame = _camera_noise(plant.kinematics.forward_kinematics(q, s_plant)[None], sig[0], sig[1], rng)[0]
                 estimator.update(t[k], frame)
+                tip_seen[:] = frame[-1, :2]
                 frame_times.append(t[k])
                 frames.append(frame)
             qm, qdm = estimator(t[k])
         else:
             qm, qdm = state_map(q, qd)
+            _kinematics.marker_poses(q, *geo_plant, last_marker)
+            tip_seen[:] = last_marker[0, :2]
         QM[k], QDM[k] = qm, qdm
         tic = time.perf_counter()
-        u = controller.step(k, qm, qdm)
+        u = controller.step(k, qm, qdm, tip_seen)
         spent += time.perf_counter() - tic
         U[k] = u
         if k < T - 1:

@@ -33,7 +33,16 @@ import numpy as np
 import scipy.linalg as sla
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["force_scales", "lqr_gains", "integral_gain", "loop_poles", "as_gain_matrix", "check_positive", "discretise"]
+__all__ = [
+    "force_scales",
+    "lqr_gains",
+    "open_loop_decay",
+    "integral_gain",
+    "loop_poles",
+    "as_gain_matrix",
+    "check_positive",
+    "discretise",
+]
 
 
 def check_positive(value: Any, name: str, *, allow_zero: bool = False, allow_inf: bool = False) -> float:
@@ -66,8 +75,15 @@ def discretise(
 
 
 def force_scales(lin: Any, scales: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``|K_ii| s_i``: the generalised force that holds each strain at its typical magnitude (n,)."""
-    return np.maximum(np.abs(np.diag(lin.stiffness)) * scales, 1e-300)
+    """``|K_ii| s_i``: the generalised force that holds each strain at its typical magnitude (n,).
+
+    Floored at 1e-3 of the largest: a strain the model holds with (almost) no
+    stiffness (an identified stiffness of 0, where a low-dimensional model
+    absorbs the shape of a robot that is not piecewise constant strain) would
+    otherwise get a vanishing scale that wrecks every problem scaled by it.
+    """
+    f = np.abs(np.diag(lin.stiffness)) * scales
+    return np.maximum(f, max(1e-3 * float(np.max(f)), 1e-300))
 
 
 def lqr_gains(
@@ -77,6 +93,7 @@ def lqr_gains(
     effort: float,
     scales: NDArray[np.float64],
     input_scales: NDArray[np.float64] | None = None,
+    decay: float | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """``(Kp, Kd)`` of the rule of this module: ``u = -Kp dq - Kd dq'``.
 
@@ -96,6 +113,9 @@ def lqr_gains(
         Design for the inputs ``u`` of ``tau = A u`` (``A = lin.input_matrix``)
         scaled by these; default: design for the forces ``tau`` (n, n),
         scaled by :func:`force_scales`.
+    decay : float, optional
+        The prescribed degree of stability when it differs from ``rate``
+        (which then only scales the rates); ``0`` is the plain LQR.
 
     Returns
     -------
@@ -109,7 +129,7 @@ def lqr_gains(
         Ad, Bd = discretise(lin, dt, lin.input_matrix)
         u_scale = np.asarray(input_scales, dtype=float)
     Tx = np.concatenate([scales, scales * rate])
-    grow = np.exp(rate * dt)
+    grow = np.exp((rate if decay is None else decay) * dt)
     A = grow * Ad * (Tx[None, :] / Tx[:, None])
     B = grow * Bd * (u_scale[None, :] / Tx[:, None])
     Q = np.diag(np.concatenate([np.ones(n), np.zeros(n)]))
@@ -117,6 +137,14 @@ def lqr_gains(
     P = sla.solve_discrete_are(A, B, Q, R)
     F = np.linalg.solve(R + B.T @ P @ B, B.T @ P @ A) * (u_scale[:, None] / Tx[None, :])
     return F[:, :n], F[:, n:]
+
+
+def open_loop_decay(lin: Any) -> float:
+    """Decay rate [1/s] of the slowest mode of the linearisation without feedback (negative if unstable)."""
+    n = lin.q.size
+    Minv = np.linalg.inv(lin.mass)
+    A = np.block([[np.zeros((n, n)), np.eye(n)], [-Minv @ lin.stiffness, -Minv @ lin.damping]])
+    return float(-np.max(np.linalg.eigvals(A).real))
 
 
 def integral_gain(lin: Any, kp: NDArray[np.float64], integral_rate: float) -> NDArray[np.float64]:

@@ -36,6 +36,10 @@ __all__ = [
 ]
 
 
+#: fraction of the training strains' span by which a model's default strain limits extend beyond them
+STRAIN_RANGE_MARGIN = 0.1
+
+
 def as_forward_model(model: Any) -> Any:
     """The forward model of ``model`` (anything with ``forward_model()``) or ``model`` itself.
 
@@ -67,16 +71,20 @@ def strain_limits(model: Any, fm: Any, limits: ArrayLike | None = None) -> NDArr
 
     ``limits`` as given: a scalar per strain type is not accepted; pass
     ``(n,)`` symmetric bounds or ``(2, n)`` lower/upper bounds on the
-    modelled strains.  Default: the model's ``strain_range_`` when it has one,
-    else the strain ranges the package's data cover (docs/method.md,
+    modelled strains.  Default: the range of the model's training strains
+    (``strain_range_``) widened by ``STRAIN_RANGE_MARGIN`` (10 %) of its span
+    on either side, when the model has one (a model extrapolates a little, not
+    far); else the strain ranges the package's data cover (docs/method.md,
     bending ±60 1/m, shear and axial ±0.3).
     """
     n = fm.kinematics.n_active
     if limits is None:
-        limits = getattr(model, "strain_range_", None)
-        if limits is None:
+        rng = getattr(model, "strain_range_", None)
+        if rng is None:
             s = strain_scales(fm.kinematics)
             return np.stack([-s, s])
+        rng = np.asarray(rng, dtype=float)
+        limits = rng + STRAIN_RANGE_MARGIN * np.array([-1.0, 1.0])[:, None] * (rng[1] - rng[0])
     arr = np.asarray(limits, dtype=float)
     if arr.shape == (n,):
         arr = np.stack([-np.abs(arr), np.abs(arr)])

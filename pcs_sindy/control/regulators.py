@@ -42,11 +42,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import _kinematics
 from .base import Controller
-from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains
+from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains, open_loop_decay
 from .models import InputMap, check_strains, linearise, static_forces, strain_scales
 from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
 
 __all__ = ["SetpointRegulator", "TipRegulator"]
+
+#: how long [s] the tip must stay slower than ``integral_speed`` to count as at rest
+_REST_TIME = 0.1
+#: Tikhonov damping of the integral's gain over a subset of free inputs, relative to the full set's
+_DAMPING = 1e-2
 
 
 class SetpointRegulator(Controller):
@@ -176,7 +181,9 @@ class SetpointRegulator(Controller):
         self.reference_strains_ = np.broadcast_to(q_ref, (self.t_.size, n)).copy()
         return self
 
-    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+    def step(
+        self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64], tip: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
         e = self.setpoint_ - q
         z = self._z
         # conditional integration: a strain integrates only near its set-point
@@ -202,11 +209,24 @@ class TipRegulator(Controller):
         span of its bounds, else the input exerting the strains' typical forces;
         :func:`~.statics.input_scales`); the offset also keeps every input within its bounds.
     integral_band : float, default 5e-3
-        The integral acts only while the tip error is within this distance [m]
-        (conditional integration: the transient of a large move winds nothing up).
+        The integral acts while the tip error is within this distance [m]
+        (conditional integration: the transient of a large move winds
+        nothing up) ...
+    integral_speed : float, default 0.02
+        ... and always once the tip, having moved, has come to rest: its speed
+        (``J q̇`` of the model) stayed below this [m/s] for 0.1 s.  A model
+        whose equilibrium misses the target by more than the band (a
+        low-dimensional model of a robot that is not piecewise constant
+        strain) is then still corrected; the box keeps the integral from winding up.
     rate, effort : float
         The rule of :mod:`pcs_sindy.control.gains`, here for the inputs:
         ``(Fq, Fd)`` stabilise the model's equilibrium ``q*`` through ``A(q*)``.
+        With fewer inputs than modelled strains (tendons, chambers) the
+        prescribed decay rate is capped at the decay rate of the slowest mode
+        of the model's open loop at ``q*`` (``rate_``): such inputs cannot
+        speed up every strain, and demanding it of a weakly controllable one
+        (the shear of a tendon robot) makes the gains huge and the loop
+        fragile to camera-rate, noisy observation (docs/control.md).
     on_unreachable : {"raise", "nearest"}, default "raise"
         A target the model cannot reach within its input bounds and strain
         range raises ValueError (with the nearest reachable tip), or is
@@ -225,6 +245,14 @@ class TipRegulator(Controller):
         ``d tip / d u`` of the model's equilibria at ``u*``.
     fq_, fd_ : ndarray (p, n)
         Strain and rate feedback on the inputs.
+    rate_ : float
+        The prescribed decay rate the gains were designed with.
+
+    Notes
+    -----
+    The tip error is that of the measured tip when :meth:`step` is given one
+    (closed loops pass the camera's last marker, or the plant's tip when the
+    state is observed), else that of the model's tip at the measured strains.
     """
 
     def __init__(
@@ -235,6 +263,7 @@ class TipRegulator(Controller):
         *,
         integral_limit: float = 0.25,
         integral_band: float = 5e-3,
+        integral_speed: float = 0.02,
         rate: float = 10.0,
         effort: float = 1.0,
         on_unreachable: str = "raise",
@@ -246,6 +275,7 @@ class TipRegulator(Controller):
         self.ki = ki
         self.integral_limit = integral_limit
         self.integral_band = integral_band
+        self.integral_speed = integral_speed
         self.rate = rate
         self.effort = effort
         self.on_unreachable = on_unreachable
@@ -260,6 +290,7 @@ class TipRegulator(Controller):
         ki = check_positive(self.ki, "ki", allow_zero=True)
         i_lim = check_positive(self.integral_limit, "integral_limit", allow_zero=True, allow_inf=True)
         band = check_positive(self.integral_band, "integral_band", allow_inf=True)
+        speed = check_positive(self.integral_speed, "integral_speed", allow_zero=True, allow_inf=True)
         rate = check_positive(self.rate, "rate")
         effort = check_positive(self.effort, "effort")
         if self.on_unreachable not in ("raise", "nearest"):
@@ -278,13 +309,23 @@ class TipRegulator(Controller):
         S = tip_jacobian(fm, eq.q) @ dq_du
         self.sensitivity_ = S
         u_scale = input_scales(lin, self.input_bounds_, strain_scales(fm.kinematics))
-        SW = S * u_scale**2
-        self._gain = SW.T @ np.linalg.inv(S @ SW.T)
-        self.fq_, self.fd_ = lqr_gains(lin, self.dt_, rate, effort, strain_scales(fm.kinematics), u_scale)
+        self._u_weight = u_scale**2
+        self._gains: dict[bytes, NDArray[np.float64]] = {}
+        self._gain = self._free_gain(np.ones(self.n_inputs_, dtype=bool))
+        n = eq.q.size
+        self.rate_ = rate if self.n_inputs_ >= n else float(np.clip(open_loop_decay(lin), 0.0, rate))
+        self.fq_, self.fd_ = lqr_gains(
+            lin, self.dt_, rate, effort, strain_scales(fm.kinematics), u_scale, decay=self.rate_
+        )
         # the strain feedback regulates about the equilibrium the integral offset moves to
         self._shift = np.eye(self.n_inputs_) + self.fq_ @ dq_du
         self._kp, self._ki = kp, ki
         self._band2 = band**2
+        self._speed2 = speed**2
+        self._settled = False
+        self._moved = False
+        self._slow = 0
+        self._probe = np.zeros(3)
         self._w = np.zeros(self.n_inputs_)
         # the offset keeps u* + w inside the bounds and within integral_limit of its own scale
         self._w_lo = np.maximum(self.input_bounds_[0] - eq.u, -i_lim * u_scale)
@@ -299,20 +340,55 @@ class TipRegulator(Controller):
         self.reference_strains_ = np.broadcast_to(eq.q, (self.t_.size, eq.q.size)).copy()
         return self
 
+    def _free_gain(self, free: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """``S_W^+`` over the inputs ``free`` (zero rows for the others); damped for a subset."""
+        key = free.tobytes()
+        gain = self._gains.get(key)
+        if gain is None:
+            S = self.sensitivity_[:, free]
+            SW = S * self._u_weight[free]
+            gain = np.zeros((free.size, 2))
+            # a subset is damped (least squares): few or nearly parallel free inputs would explode the inverse
+            full = (self.sensitivity_ * self._u_weight) @ self.sensitivity_.T
+            damping = 0.0 if free.all() else _DAMPING * np.trace(full)
+            gain[free] = SW.T @ np.linalg.inv(S @ SW.T + damping * np.eye(2))
+            self._gains[key] = gain
+        return gain
+
     def tip(self, q: NDArray[np.float64]) -> NDArray[np.float64]:
         """The model's tip position (2,) at modelled strains ``q`` (compiled)."""
         self._qfull[self._mask] = q
         _kinematics.tip_pose(self._qfull, self._lengths, self._base, self._pose)
         return self._pose[:2]
 
-    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
-        e = self.target_ - self.tip(q)
+    def step(
+        self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64], tip: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
+        here = self.tip(q)
+        e = self.target_ - (here if tip is None else tip)
         eq = self.equilibrium_
         # integral action as an input offset kept inside the input box (projected), so a bounded
         # input never winds up and an antagonist takes over where one input rests on its bound
         w = self._w
-        if e[0] * e[0] + e[1] * e[1] <= self._band2:
-            w += (self.dt_ * self._ki) * (self._gain @ e)
+        inside = e[0] * e[0] + e[1] * e[1] <= self._band2
+        if not (inside or self._settled):
+            # tip speed J qd by a directional difference of the compiled tip; at rest = slow for _REST_TIME
+            h = 1e-4
+            self._qfull[self._mask] = q + h * qd
+            _kinematics.tip_pose(self._qfull, self._lengths, self._base, self._probe)
+            vx, vy = (self._probe[0] - here[0]) / h, (self._probe[1] - here[1]) / h
+            if vx * vx + vy * vy > self._speed2:
+                self._moved, self._slow = True, 0
+            else:
+                self._slow += 1
+            self._settled = self._moved and self._slow * self.dt_ >= _REST_TIME
+        if inside or self._settled:
+            dw = self._gain @ e
+            # inputs resting on their box and pushed further out leave the correction to the others
+            blocked = ((w <= self._w_lo) & (dw < 0)) | ((w >= self._w_hi) & (dw > 0))
+            if blocked.any():
+                dw = self._free_gain(~blocked) @ e
+            w += (self.dt_ * self._ki) * dw
             np.minimum(np.maximum(w, self._w_lo, out=w), self._w_hi, out=w)
         u = eq.u + self._shift @ w - self.fq_ @ (q - eq.q) - self.fd_ @ qd
         if self._kp:

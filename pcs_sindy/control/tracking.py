@@ -279,7 +279,9 @@ class ComputedTorqueController(Controller):
         self._z = np.zeros(n)
         return self
 
-    def step(self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64]) -> NDArray[np.float64]:
+    def step(
+        self, k: int, q: NDArray[np.float64], qd: NDArray[np.float64], tip: NDArray[np.float64] | None = None
+    ) -> NDArray[np.float64]:
         e = self.q_ref_[k] - q
         ed = self.qd_ref_[k] - qd
         if self._law == 0:
