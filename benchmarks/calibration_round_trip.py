@@ -26,14 +26,15 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from _results import write_section  # noqa: E402
-from test_calibration import DIST, K, PATTERN, PLANE_R, PLANE_T, SIZE, SQUARE, board_views  # noqa: E402
+from test_calibration import DIST, PATTERN, PLANE_R, PLANE_T, SIZE, SQUARE, K, board_views  # noqa: E402
 
 from pcs_sindy.calibration import calibrate_camera  # noqa: E402
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import render_frames  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 
 def main() -> None:
@@ -54,22 +55,31 @@ def main() -> None:
             e = np.linalg.norm(traj.poses[..., :2] - truth[..., :2], axis=-1) * true.pixels_per_metre
             errs.append(f"{np.sqrt(np.mean(e**2)):.3f} / {e.max():.3f}")
         fx_err = 100 * (cal.camera_matrix[0][0] / K[0, 0] - 1)
-        rows.append(f"| {n_views} + 1 | {report['rms_reprojection_px']:.3f} | {fx_err:+.2f} | " + " | ".join(errs) + " |")
+        rows.append(
+            f"| {n_views} + 1 | {report['rms_reprojection_px']:.3f} | {fx_err:+.2f} | " + " | ".join(errs) + " |"
+        )
         print(rows[-1], flush=True)
-    body = "\n".join([
-        __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
-        "",
-        f"{truth.shape[0]} frames (the first straight), true plane scale {true.pixels_per_metre:.0f} px/m.",
-        "",
-        "| board views (+ plane view) | board reprojection rms [px] | fx error [%] | marker error rms / max [px], base "
-        "frame given | ..., base frame found in the footage | ..., no lens model |",
-        "|---|---|---|---|---|---|",
-        *rows,
-        "",
-        "Target (issue 13): marker error after calibration <= 0.1 px rms on rendered distorted frames.",
-    ])
-    write_section("calibration_round_trip", "Lens calibration round trip", body,
-                  ".venv/bin/python benchmarks/calibration_round_trip.py")
+    body = "\n".join(
+        [
+            __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
+            "",
+            f"{truth.shape[0]} frames (the first straight), true plane scale {true.pixels_per_metre:.0f} px/m.",
+            "",
+            "| board views (+ plane view) | board reprojection rms "
+            "[px] | fx error [%] | marker error rms / max [px], base "
+            "frame given | ..., base frame found in the footage | ..., no lens model |",
+            "|---|---|---|---|---|---|",
+            *rows,
+            "",
+            "Target (issue 13): marker error after calibration <= 0.1 px rms on rendered distorted frames.",
+        ]
+    )
+    write_section(
+        "calibration_round_trip",
+        "Lens calibration round trip",
+        body,
+        ".venv/bin/python benchmarks/calibration_round_trip.py",
+    )
 
 
 def _straight(truth: np.ndarray) -> np.ndarray:

@@ -37,12 +37,12 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera, camera_json_path  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import Nuisances, render_frames, render_video  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 NUISANCE_SETS = {
     "none": (),
@@ -73,7 +73,7 @@ def measure(paths: list[str], truths: list[np.ndarray], ppm: float, hidden: list
     elapsed = time.perf_counter() - start
     total = complete = extracted = filled = occluded = 0
     pos, ang, chosen = [], [], []
-    for r, (tr, truth, diag) in enumerate(zip(trajs, truths, ex.diagnostics_)):
+    for r, (tr, truth, diag) in enumerate(zip(trajs, truths, ex.diagnostics_, strict=True)):
         T = truth.shape[0]
         ok = np.setdiff1d(np.arange(T), diag["frames_repaired"])
         total += T
@@ -86,17 +86,30 @@ def measure(paths: list[str], truths: list[np.ndarray], ppm: float, hidden: list
         ang.append(np.abs(tr.poses[ok, :, 2] - truth[ok, :, 2]).ravel())
         chosen.append(diag["binarisation"]["chosen"].split(" ")[0])
     pos, ang = np.concatenate(pos), np.degrees(np.concatenate(ang))
-    return dict(total=total, complete=complete, extracted=extracted, filled=filled, occluded=occluded,
-                pos_rms=1e3 * float(np.sqrt(np.mean(pos**2))), pos_max=1e3 * float(pos.max()),
-                ang_rms=float(np.sqrt(np.mean(ang**2))), ang_max=float(ang.max()),
-                px_rms=ppm * float(np.sqrt(np.mean(pos**2))), fps=total / elapsed,
-                chosen=", ".join(f"{c} x{chosen.count(c)}" for c in sorted(set(chosen))))
+    return dict(
+        total=total,
+        complete=complete,
+        extracted=extracted,
+        filled=filled,
+        occluded=occluded,
+        pos_rms=1e3 * float(np.sqrt(np.mean(pos**2))),
+        pos_max=1e3 * float(pos.max()),
+        ang_rms=float(np.sqrt(np.mean(ang**2))),
+        ang_max=float(ang.max()),
+        px_rms=ppm * float(np.sqrt(np.mean(pos**2))),
+        fps=total / elapsed,
+        chosen=", ".join(f"{c} x{chosen.count(c)}" for c in sorted(set(chosen))),
+    )
 
 
 def row(label: str, m: dict) -> str:
-    return (f"| {label} | {m['total']} | {100 * m['complete'] / m['total']:.1f} | {100 * m['extracted'] / m['total']:.1f} | "
-            f"{m['filled']} ({m['occluded']}) | {m['pos_rms']:.4f} / {m['pos_max']:.3f} | {m['px_rms']:.3f} | {m['ang_rms']:.3f} / "
-            f"{m['ang_max']:.2f} | {m['chosen']} | {m['fps']:.0f} |")
+    return (
+        f"| {label} | {m['total']} | {100 * m['complete'] / m['total']:.1f} "
+        f"| {100 * m['extracted'] / m['total']:.1f} | "
+        f"{m['filled']} ({m['occluded']}) | {m['pos_rms']:.4f} / "
+        f"{m['pos_max']:.3f} | {m['px_rms']:.3f} | {m['ang_rms']:.3f} / "
+        f"{m['ang_max']:.2f} | {m['chosen']} | {m['fps']:.0f} |"
+    )
 
 
 def degraded(tmp: Path, n_frames: int, n_rec: int) -> tuple[list[str], dict]:
@@ -126,12 +139,22 @@ def outlined_on_floor(tmp: Path, n_frames: int) -> tuple[str, dict]:
     cam = Camera.fit_robot(0.1, (1500, 1180))
     lowest = cam.to_pixels(truth[..., :2])[..., 1].max(axis=1)
     level = float(np.percentile(lowest, 40)) / cam.image_size[1]  # the robot reaches the floor in 60 % of the frames
-    nz = Nuisances(lighting_gradient=0.4, gradient_angle=0.3, vignetting=0.25, noise=3.0, floor=150.0, floor_level=level, seed=3)
+    nz = Nuisances(
+        lighting_gradient=0.4, gradient_angle=0.3, vignetting=0.25, noise=3.0, floor=150.0, floor_level=level, seed=3
+    )
     folder = tmp / "outlined_floor"
     folder.mkdir()
     for start in range(0, truth.shape[0], 100):
-        frames = render_frames(truth[start : start + 100], cam, marker_style="outline", colour=True,
-                               marker_colour=(190, 90, 30), body_colour=(215, 215, 225), nuisances=nz, first_frame=start)
+        frames = render_frames(
+            truth[start : start + 100],
+            cam,
+            marker_style="outline",
+            colour=True,
+            marker_colour=(190, 90, 30),
+            body_colour=(215, 215, 225),
+            nuisances=nz,
+            first_frame=start,
+        )
         for j, f in enumerate(frames):
             cv2.imwrite(str(folder / f"frame_{start + j:05d}.jpg"), f, [cv2.IMWRITE_JPEG_QUALITY, 90])
     cam.to_json(camera_json_path(folder), extra={"fps": 1000.0})
@@ -146,9 +169,12 @@ def main() -> None:
     parser.add_argument("--recordings", type=int, default=4, help="recordings (and nuisance draws) per set")
     args = parser.parse_args()
     cv2.setNumThreads(1)
-    header = ("| footage | frames | complete [%] | extracted [%] | markers filled (of them hidden by the occluder) | "
-              "position error rms / max [mm] | "
-              "rms [px] | angle error rms / max [deg] | binarisation chosen | fps |\n|---|---|---|---|---|---|---|---|---|---|")
+    header = (
+        "| footage | frames | complete [%] | extracted [%] | markers filled (of them hidden by the occluder) | "
+        "position error rms / max [mm] | "
+        "rms [px] | angle error rms / max [deg] | binarisation "
+        "chosen | fps |\n|---|---|---|---|---|---|---|---|---|---|"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         rows, info = degraded(Path(tmp), args.frames, args.recordings)
         floor_row, _ = outlined_on_floor(Path(tmp), 2 * args.frames)
@@ -158,30 +184,37 @@ def main() -> None:
         f"Targets (issue 13), all nuisances combined: complete frames {100 * allc['complete'] / allc['total']:.1f} % "
         f"(target >= 99 %; {allc['occluded']} of the {allc['total'] - allc['complete']} incomplete frames have the "
         f"occluder's hidden marker; extracted {100 * allc['extracted'] / allc['total']:.1f} %), position error "
-        f"{allc['pos_rms']:.4f} mm rms at {info['ppm']:.0f} px/m (target <= 0.1 mm), angle {allc['ang_rms']:.3f} deg rms "
+        f"{allc['pos_rms']:.4f} mm rms at {info['ppm']:.0f} px/m "
+        f"(target <= 0.1 mm), angle {allc['ang_rms']:.3f} deg rms "
         "(target <= 1 deg)."
     )
-    body = "\n".join([
-        __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
-        "",
-        f"### Degraded two_segment footage ({args.recordings} recordings x {args.frames} frames per row, "
-        f"{info['ppm']:.0f} px/m)",
-        "",
-        header,
-        *rows,
-        "",
-        "### Outlined markers on a floor (one_segment, 1500x1180 JPEG frames)",
-        "",
-        header,
-        floor_row,
-        "",
-        verdict,
-        "",
-        "fps: frames per second of wall time for the whole set (decoding included, one process); the renderer's "
-        "MJPG compresses every video, so 'none' is not lossless.",
-    ])
-    path = write_section("degraded_footage", "Extraction on degraded footage (default settings)", body,
-                         f".venv/bin/python benchmarks/degraded_footage.py --frames {args.frames} --recordings {args.recordings}")
+    body = "\n".join(
+        [
+            __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
+            "",
+            f"### Degraded two_segment footage ({args.recordings} recordings x {args.frames} frames per row, "
+            f"{info['ppm']:.0f} px/m)",
+            "",
+            header,
+            *rows,
+            "",
+            "### Outlined markers on a floor (one_segment, 1500x1180 JPEG frames)",
+            "",
+            header,
+            floor_row,
+            "",
+            verdict,
+            "",
+            "fps: frames per second of wall time for the whole set (decoding included, one process); the renderer's "
+            "MJPG compresses every video, so 'none' is not lossless.",
+        ]
+    )
+    path = write_section(
+        "degraded_footage",
+        "Extraction on degraded footage (default settings)",
+        body,
+        f".venv/bin/python benchmarks/degraded_footage.py --frames {args.frames} --recordings {args.recordings}",
+    )
     print(verdict)
     print(f"written to {path}")
 

@@ -89,19 +89,30 @@ CONFIGS = {
     "sg25": lambda: EulerLagrangeRegressor.seed_method(),
     # short window, samples whose window straddles a force jump left out
     "sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library="monomial", formulation="strong", window_length=7, polyorder=3, exclude_force_jumps=True),
+        library="monomial", formulation="strong", window_length=7, polyorder=3, exclude_force_jumps=True
+    ),
     # the same with the physical library (8 lumped unknowns per segment)
     "sg7-jumpfree-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, polyorder=3,
-        exclude_force_jumps=True),
+        library=PhysicalPCSLibrary(**_PHYSICAL),
+        formulation="strong",
+        window_length=7,
+        polyorder=3,
+        exclude_force_jumps=True,
+    ),
     "sg25-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25, polyorder=3),
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25, polyorder=3
+    ),
     "sg7o4-jumpfree-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, polyorder=4,
-        exclude_force_jumps=True),
+        library=PhysicalPCSLibrary(**_PHYSICAL),
+        formulation="strong",
+        window_length=7,
+        polyorder=4,
+        exclude_force_jumps=True,
+    ),
     # weak (bump-weighted window integral) form: no qdd; SG 7 only for qd, held forces integrated exactly
     "weak40-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", window_length=7, weak_window=40, weak_stride=20),
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", window_length=7, weak_window=40, weak_stride=20
+    ),
     # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
 }
@@ -171,13 +182,13 @@ def render(rows):
         "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; "
         "`-physical` = `library=PhysicalPCSLibrary(rest_strain=False)` (8 unknowns per segment — line density, rotary "
         "inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of the monomial one; "
-        "`weak40-physical` = the same library with `formulation=\"weak\"`: regression on bump-weighted integrals over "
+        '`weak40-physical` = the same library with `formulation="weak"`: regression on bump-weighted integrals over '
         "windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, held forces integrated exactly; "
         "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "
         "q̇ from Savitzky–Golay 7/3, and `PhysicalPCSLibrary()`, which also identifies a constant force per strain: "
         "11 unknowns per segment); removal = "
         "`StiffnessThresholdOptimizer(threshold=1.0)` (seed bounds 12.6 N m², 168 N, 126 kN), no removal = "
-        "`threshold=np.inf`; rollout of the 7 s validation from rest, `simulate(..., method=\"dopri5\", rtol=1e-6, "
+        '`threshold=np.inf`; rollout of the 7 s validation from rest, `simulate(..., method="dopri5", rtol=1e-6, '
         "atol=1e-9)` for every row (compiled Dormand–Prince 5(4) for the physical library, scipy's RK45 restarted "
         "at every held sample for the monomial one), tip pose vs. noise-free truth.",
         "",
@@ -224,7 +235,7 @@ def render(rows):
         "",
         "Notes: `--cases` with no names re-renders the cached rows.  Ground-truth data come from the scenarios' "
         "default simulator (compiled Radau IIA).  Fit and rollout times are wall times on a shared 2-core machine; "
-        "`load` is the 1-minute load average when the row was measured."
+        "`load` is the 1-minute load average when the row was measured.",
     ]
     return "\n".join(lines)
 
@@ -234,8 +245,9 @@ def main(argv=None):
     parser.add_argument("--cases", nargs="*", default=[c for c, _ in CASES])
     parser.add_argument("--noise", nargs="*", default=["none", "seed"], choices=["none", "seed"])
     parser.add_argument("--configs", nargs="*", default=DEFAULT_CONFIGS, choices=list(CONFIGS))
-    parser.add_argument("--simulator-method", default=None,
-                        help="integrator of the ground-truth data (e.g. lsoda for stiff robots)")
+    parser.add_argument(
+        "--simulator-method", default=None, help="integrator of the ground-truth data (e.g. lsoda for stiff robots)"
+    )
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     rows = json.loads(CACHE.read_text()) if CACHE.exists() else []

@@ -74,10 +74,16 @@ SOURCES = {
 # "weak" and "strong": the physical library as before the refactor (no rest strains, rotary inertia identified);
 # "default": EulerLagrangeRegressor() with no arguments
 CONFIGS = {
-    "weak": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="weak",
-                                           window_length=15, weak_window=40, weak_stride=20),
-    "strong": lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), formulation="strong",
-                                             window_length=7, exclude_force_jumps=True),
+    "weak": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(rest_strain=False),
+        formulation="weak",
+        window_length=15,
+        weak_window=40,
+        weak_stride=20,
+    ),
+    "strong": lambda: EulerLagrangeRegressor(
+        library=PhysicalPCSLibrary(rest_strain=False), formulation="strong", window_length=7, exclude_force_jumps=True
+    ),
     "default": lambda: EulerLagrangeRegressor(),
 }
 SEED = 0
@@ -137,8 +143,17 @@ def run_source(name: str, source: str, configs: list[str]) -> list[dict]:
     base = dict(case=name, source=source, true_lengths=list(map(float, kin.segment_lengths)))
     if source == "exact":
         return _fit_rows(
-            scenario, data, configs, dict(base, found_lengths=base["true_lengths"], fusion_time=0.0, fusion_cpu=0.0,
-                                          fusion_e_p_dist=None, fusion_e_theta_dist=None),
+            scenario,
+            data,
+            configs,
+            dict(
+                base,
+                found_lengths=base["true_lengths"],
+                fusion_time=0.0,
+                fusion_cpu=0.0,
+                fusion_e_p_dist=None,
+                fusion_e_theta_dist=None,
+            ),
             [StrainTrajectory(r.q, r.t, segment_lengths=kin.segment_lengths) for r in data.train],
         )
     if source == "video":
@@ -175,8 +190,7 @@ def _fit_rows(scenario, data, configs: list[str], base: dict, strains: list) -> 
         rows.append(row)
         if n_found != kin.n_segments:
             row["skipped"] = (
-                f"fusion found {n_found} segments, the actuation acts on {kin.n_segments}: "
-                "the forces cannot be mapped"
+                f"fusion found {n_found} segments, the actuation acts on {kin.n_segments}: the forces cannot be mapped"
             )
             continue
         model = CONFIGS[config]()
@@ -214,7 +228,7 @@ def _wc(row: dict, stage: str) -> str:
 def render(rows: list[dict]) -> str:
     lines = [
         "Training data: `generate(seed=0)` (8 × 0.5 s at 1 kHz, forces held 10 ms, 20 markers + base); validation: "
-        "the 7 s sinusoidal recording, rolled out from rest (`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)`: "
+        'the 7 s sinusoidal recording, rolled out from rest (`simulate(..., method="dopri5", rtol=1e-6, atol=1e-9)`: '
         "the compiled adaptive Dormand–Prince 5(4)), tip pose vs. the noise-free truth. "
         "Sources: " + "; ".join(f"`{k}` = {v}" for k, v in SOURCES.items()) + ". "
         "Videos: 640×480 MJPG `.avi` + camera JSON (`render_video`, `Camera.fit_robot(L)`), read back by "

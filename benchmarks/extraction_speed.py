@@ -27,12 +27,12 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera, camera_json_path  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import Nuisances, render_frames, render_video  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 N_RECORDINGS = 4
 
@@ -44,10 +44,14 @@ def timed(fn):
 
 
 def errors(trajs, truths, ppm: float) -> str:
-    pos = np.concatenate([np.linalg.norm(tr.poses[..., :2] - tt[..., :2], axis=-1).ravel() for tr, tt in zip(trajs, truths)])
-    ang = np.concatenate([np.abs(tr.poses[..., 2] - tt[..., 2]).ravel() for tr, tt in zip(trajs, truths)])
-    return (f"{ppm * pos.max():.3f} / {ppm * np.sqrt(np.mean(pos**2)):.3f} | "
-            f"{np.degrees(ang.max()):.3f} / {np.degrees(np.sqrt(np.mean(ang**2))):.3f}")
+    pos = np.concatenate(
+        [np.linalg.norm(tr.poses[..., :2] - tt[..., :2], axis=-1).ravel() for tr, tt in zip(trajs, truths, strict=True)]
+    )
+    ang = np.concatenate([np.abs(tr.poses[..., 2] - tt[..., 2]).ravel() for tr, tt in zip(trajs, truths, strict=True)])
+    return (
+        f"{ppm * pos.max():.3f} / {ppm * np.sqrt(np.mean(pos**2)):.3f} | "
+        f"{np.degrees(ang.max()):.3f} / {np.degrees(np.sqrt(np.mean(ang**2))):.3f}"
+    )
 
 
 def small(tmp: Path, n_frames: int) -> list[str]:
@@ -56,22 +60,35 @@ def small(tmp: Path, n_frames: int) -> list[str]:
     cam = Camera.fit_robot(0.17, (640, 480))
     total = N_RECORDINGS * n_frames
     paths = [str(render_video(t, tmp / f"clean_{k}.avi", cam, fps=1000.0).video) for k, t in enumerate(truths)]
-    degraded = [str(render_video(t, tmp / f"degraded_{k}.avi", cam, fps=1000.0,
-                                 nuisances=Nuisances.random(k, n_frames, 20)).video) for k, t in enumerate(truths)]
+    degraded = [
+        str(
+            render_video(
+                t, tmp / f"degraded_{k}.avi", cam, fps=1000.0, nuisances=Nuisances.random(k, n_frames, 20)
+            ).video
+        )
+        for k, t in enumerate(truths)
+    ]
     rows = []
     cv2.setNumThreads(1)
     one = MarkerPoseExtractor(progress=False)
     one.transform(paths[:1])  # imports and caches outside the timing
     trajs, t_one = timed(lambda: one.transform(paths))
-    rows.append(f"| 640x480 MJPG file, 1 core | {total} | {total / t_one:.0f} | {errors(trajs, truths, cam.pixels_per_metre)} |")
+    rows.append(
+        f"| 640x480 MJPG file, 1 core | {total} | {total / t_one:.0f} | {errors(trajs, truths, cam.pixels_per_metre)} |"
+    )
     arrays = [render_frames(t, cam) for t in truths]
     arr = MarkerPoseExtractor(camera=cam, fps=1000.0, progress=False)
     trajs, t_arr = timed(lambda: arr.transform(arrays))
-    rows.append(f"| 640x480 frame arrays, 1 core | {total} | {total / t_arr:.0f} | {errors(trajs, truths, cam.pixels_per_metre)} |")
+    rows.append(
+        f"| 640x480 frame arrays, 1 core | {total} | {total / t_arr:.0f} "
+        f"| {errors(trajs, truths, cam.pixels_per_metre)} |"
+    )
     deg = MarkerPoseExtractor(progress=False, on_missing="interpolate")
     trajs, t_deg = timed(lambda: deg.transform(degraded))
-    rows.append(f"| 640x480 MJPG file, all nuisances, 1 core | {total} | {total / t_deg:.0f} | "
-                f"{errors(trajs, truths, cam.pixels_per_metre)} |")
+    rows.append(
+        f"| 640x480 MJPG file, all nuisances, 1 core | {total} | {total / t_deg:.0f} | "
+        f"{errors(trajs, truths, cam.pixels_per_metre)} |"
+    )
     cv2.setNumThreads(0)
     two = MarkerPoseExtractor(progress=False, n_jobs=2)
     two.transform(paths[:2])  # start the worker processes outside the timing
@@ -82,13 +99,14 @@ def small(tmp: Path, n_frames: int) -> list[str]:
 
 def large(tmp: Path, n_frames: int) -> list[str]:
     data = get_scenario("two_segment").generate(seed=0, validation=False)
-    truth = data.train[0].poses_true[: n_frames]
+    truth = data.train[0].poses_true[:n_frames]
     cam = Camera.fit_robot(0.17, (3000, 2360))
     folder = tmp / "large"
     folder.mkdir()
     for start in range(0, n_frames, 20):
-        for j, f in enumerate(render_frames(truth[start : start + 20], cam, nuisances=Nuisances(noise=2.0, seed=1),
-                                            first_frame=start)):
+        for j, f in enumerate(
+            render_frames(truth[start : start + 20], cam, nuisances=Nuisances(noise=2.0, seed=1), first_frame=start)
+        ):
             cv2.imwrite(str(folder / f"frame_{start + j:05d}.jpg"), f, [cv2.IMWRITE_JPEG_QUALITY, 92])
     cam.to_json(camera_json_path(folder), extra={"fps": 1000.0})
     files = sorted(folder.glob("*.jpg"))
@@ -128,8 +146,12 @@ def main() -> None:
         f"Load average at the end: {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (1/5/15 min; the 2 cores are shared "
         "with other jobs, so timings are upper bounds)."
     )
-    path = write_section("extraction_speed", "Marker extraction speed", body,
-                         f".venv/bin/python benchmarks/extraction_speed.py --frames {args.frames} --large-frames {args.large_frames}")
+    path = write_section(
+        "extraction_speed",
+        "Marker extraction speed",
+        body,
+        f".venv/bin/python benchmarks/extraction_speed.py --frames {args.frames} --large-frames {args.large_frames}",
+    )
     print(f"written to {path}")
 
 

@@ -160,7 +160,11 @@ def pac_rows(noise_label: str, noise, lines: list[str], sweep_lines: list[str], 
             if shape_fit == "least_squares" and chosen.n_segments > MAX_REFINED_SEGMENTS:
                 continue  # boundary refinement costs O(m^2) fits: skipped for the many-segment models
             fusion = KinematicFusion(
-                threshold=chosen.h, total_length=0.15, shape_fit=shape_fit, merge=merge, pose_std=std,
+                threshold=chosen.h,
+                total_length=0.15,
+                shape_fit=shape_fit,
+                merge=merge,
+                pose_std=std,
                 min_segment_markers=1 if merge == "runs" else 2,
             )
             e_p, e_th, _, seconds = evaluate(fusion, recs)

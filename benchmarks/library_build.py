@@ -28,8 +28,11 @@ def states(lib, n_samples, seed=0):
     rng = np.random.default_rng(seed)
     scale = np.tile([40.0, 0.3, 0.3], lib.kinematics.n_segments)[lib.kinematics.active_mask]
     n = lib.n_strains
-    return (rng.uniform(-1, 1, (n_samples, n)) * scale, rng.normal(size=(n_samples, n)) * scale * 5,
-            rng.normal(size=(n_samples, n)) * scale * 100)
+    return (
+        rng.uniform(-1, 1, (n_samples, n)) * scale,
+        rng.normal(size=(n_samples, n)) * scale * 5,
+        rng.normal(size=(n_samples, n)) * scale * 100,
+    )
 
 
 def best_of(fn, repeat=5, number=1):
@@ -75,10 +78,21 @@ def main() -> None:
             X = X / np.linalg.norm(X, axis=0)
             sv = np.linalg.svd(X, compute_uv=False)
             rank = int(np.sum(sv > 1e-10 * sv[0]))
-            phys = PCSLagrangianLibrary(lib.segment_lengths, active_strains=lib.active_strains, basis="physical",
-                                        cache_dir=tmp)
-            size_rows.append((name, SEED_SIZES[name], lib.n_lagrangian_, lib.n_strains, rank, lib.n_coefficients_,
-                              sv[0] / sv[-1], phys.n_lagrangian_))
+            phys = PCSLagrangianLibrary(
+                lib.segment_lengths, active_strains=lib.active_strains, basis="physical", cache_dir=tmp
+            )
+            size_rows.append(
+                (
+                    name,
+                    SEED_SIZES[name],
+                    lib.n_lagrangian_,
+                    lib.n_strains,
+                    rank,
+                    lib.n_coefficients_,
+                    sv[0] / sv[-1],
+                    phys.n_lagrangian_,
+                )
+            )
 
         # evaluation speed
         eval_rows = []
@@ -101,8 +115,9 @@ def main() -> None:
             t_call = best_of(call, repeat=5, number=2000)
             t_mass = best_of(lambda: lib.mass_matrix(q, coef), repeat=3)
             eval_rows.append((m, lib.n_coefficients_, t_psi, t_feat, t_mass, t_compile, t_call))
-            print(f"m={m}: Psi(4000) {t_psi * 1e3:.1f} ms, forward_model().terms call {t_call * 1e6:.1f} us",
-                  flush=True)
+            print(
+                f"m={m}: Psi(4000) {t_psi * 1e3:.1f} ms, forward_model().terms call {t_call * 1e6:.1f} us", flush=True
+            )
         if args.max_segments >= 3:
             lib = PCSLagrangianLibrary(LENGTHS[3], cache_dir=tmp)
             coef = lib.coefficients_from_parameters(1070.0, 0.02, 1e4, 1e3, np.full(9, 0.05))
@@ -174,10 +189,16 @@ def main() -> None:
             f"{t_call * 1e6:.1f} |"
         )
     if args.max_segments >= 3:
-        body.append(f"| 3 | 1107 | {t_psi3 * 1e3 * 20:.0f} (measured on 200 samples, x20) | – | – | {t_compile3:.3f} | "
-                    f"{t_call3 * 1e6:.1f} |")
-    write_section("library_build", "PCS Lagrangian library: build, cache and evaluation", "\n".join(body),
-                  "python benchmarks/library_build.py --max-segments " + str(args.max_segments))
+        body.append(
+            f"| 3 | 1107 | {t_psi3 * 1e3 * 20:.0f} (measured on 200 samples, x20) | – | – | {t_compile3:.3f} | "
+            f"{t_call3 * 1e6:.1f} |"
+        )
+    write_section(
+        "library_build",
+        "PCS Lagrangian library: build, cache and evaluation",
+        "\n".join(body),
+        "python benchmarks/library_build.py --max-segments " + str(args.max_segments),
+    )
 
 
 if __name__ == "__main__":

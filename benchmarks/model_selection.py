@@ -102,8 +102,14 @@ def run_search(name: str, source: str, noise_kind: str) -> dict:
         return row
     y = [r.tau for r in data.train]
     base = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer())
-    search = GridSearchCV(base, {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(n_splits=N_FOLDS),
-                          scoring=SCORERS, refit=False, error_score="raise")
+    search = GridSearchCV(
+        base,
+        {"optimizer__threshold": THRESHOLDS},
+        cv=GroupKFold(n_splits=N_FOLDS),
+        scoring=SCORERS,
+        refit=False,
+        error_score="raise",
+    )
     t0, c0 = time.perf_counter(), time.process_time()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UserWarning)  # identifiability notes of the small folds
@@ -120,8 +126,12 @@ def run_search(name: str, source: str, noise_kind: str) -> dict:
             warnings.simplefilter("ignore", UserWarning)
             model.fit(X, y)
         check = validate(model, data.validation, float(np.sum(lengths)))
-        refits[str(thr)] = dict(removed=list(model.removed_strains_), e_p=check["e_p"], diverged=check["diverged"],
-                                stiffness=[float(v) for v in model.stiffness_])
+        refits[str(thr)] = dict(
+            removed=list(model.removed_strains_),
+            e_p=check["e_p"],
+            diverged=check["diverged"],
+            stiffness=[float(v) for v in model.stiffness_],
+        )
     row["refits"] = refits
     row["loadavg"] = os.getloadavg()[0]
     print({k: v for k, v in row.items() if k != "refits"}, refits, flush=True)
@@ -146,8 +156,10 @@ def render(rows: list[dict]) -> str:
     for r in rows:
         truth = TRUTH[r["case"]]
         if r.get("skipped"):
-            lines.append(f"| {r['case']} | {r['source']} | {r['noise']} | {', '.join(truth)} | – | – | – | – | – | – | "
-                         f"– | {r['skipped']} | – |")
+            lines.append(
+                f"| {r['case']} | {r['source']} | {r['noise']} | {', '.join(truth)} | – | – | – | – | – | – | "
+                f"– | {r['skipped']} | – |"
+            )
             continue
         at1 = r["refits"]["1.0"]
         for m in SCORERS:
@@ -179,11 +191,18 @@ def render(rows: list[dict]) -> str:
             best = THRESHOLDS.index(r["chosen"][m])
             cells[best] = f"**{cells[best]}**"
             lines.append(f"| {r['case']} | {r['source']} | {r['noise']} | `{m}` | " + " | ".join(cells) + " |")
-    seed_noise = sorted({f"{r['case']}: σ_p = {1e3 * r['pose_noise'][0]:g} mm, "
-                         f"σ_θ = {np.rad2deg(r['pose_noise'][1]):g}°" for r in rows if r["noise"] == "seed"})
+    seed_noise = sorted(
+        {
+            f"{r['case']}: σ_p = {1e3 * r['pose_noise'][0]:g} mm, σ_θ = {np.rad2deg(r['pose_noise'][1]):g}°"
+            for r in rows
+            if r["noise"] == "seed"
+        }
+    )
     lines += [
         "",
-        "Strains: " + "; ".join(f"`{k}` = {v}" for k, v in SOURCES.items()) + "."
+        "Strains: "
+        + "; ".join(f"`{k}` = {v}" for k, v in SOURCES.items())
+        + "."
         + (f"  Noise: `seed` = the scenario's seed pose noise ({'; '.join(seed_noise)})." if seed_noise else "")
         + "  Wall times on a shared 2-core machine (`load`: 1-minute load average at the end of the search).",
     ]
@@ -192,8 +211,9 @@ def render(rows: list[dict]) -> str:
 
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--cases", nargs="*", default=sorted({c for c, _ in SEARCHES}),
-                        choices=sorted({c for c, _ in SEARCHES}))
+    parser.add_argument(
+        "--cases", nargs="*", default=sorted({c for c, _ in SEARCHES}), choices=sorted({c for c, _ in SEARCHES})
+    )
     parser.add_argument("--noise", nargs="*", default=["none", "seed"], choices=["none", "seed"])
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
@@ -207,9 +227,12 @@ def main(argv=None) -> None:
     body = render(rows)
     print(body)
     if not args.no_write and rows:
-        write_section("model_selection", "Model selection: GridSearchCV over the stiffness threshold", body,
-                      ".venv/bin/python benchmarks/model_selection.py "
-                      + " ".join(argv if argv is not None else sys.argv[1:]))
+        write_section(
+            "model_selection",
+            "Model selection: GridSearchCV over the stiffness threshold",
+            body,
+            ".venv/bin/python benchmarks/model_selection.py " + " ".join(argv if argv is not None else sys.argv[1:]),
+        )
 
 
 if __name__ == "__main__":

@@ -115,8 +115,10 @@ ROWS = {
     "sg25-ramped": ("SG 25/3, actuation ramped (not held) between the 10 ms random forces", {"ramped": True}),
     "sg25-ramped-physical": ("SG 25/3, ramped actuation, physical basis", {"ramped": True, "basis": "physical"}),
     # the package's defaults on the same recordings (their own derivatives: SG 7/3 for qd, no qdd)
-    "default": ("EulerLagrangeRegressor() (physical, rest strains, weak form over 160 samples, SG 7/3 for qd)",
-                {"default": True}),
+    "default": (
+        "EulerLagrangeRegressor() (physical, rest strains, weak form over 160 samples, SG 7/3 for qd)",
+        {"default": True},
+    ),
 }
 
 
@@ -126,8 +128,9 @@ def _regressor(opts, window, jump_free):
         return EulerLagrangeRegressor()
     # "physical" = the physical library as before the refactor: 8 unknowns per segment, no rest strains
     library = PhysicalPCSLibrary(rest_strain=False) if opts.get("basis") == "physical" else "monomial"
-    return EulerLagrangeRegressor(library=library, formulation="strong", window_length=window, polyorder=3,
-                                  exclude_force_jumps=jump_free)
+    return EulerLagrangeRegressor(
+        library=library, formulation="strong", window_length=window, polyorder=3, exclude_force_jumps=jump_free
+    )
 
 
 def _ramped_training(scenario, seed=0):
@@ -182,10 +185,7 @@ def run_row(name, rollout=True):
     if "dt" in opts:
         # derivatives from the fast samples; regress on the jump-free ones at 1 kHz (keeps Psi small)
         step = int(round(1e-3 / dt))
-        sel = [
-            np.flatnonzero(_jump_free(r.tau, window) & (np.arange(len(r.t)) % step == 0))
-            for r in train
-        ]
+        sel = [np.flatnonzero(_jump_free(r.tau, window) & (np.arange(len(r.t)) % step == 0)) for r in train]
         pick = lambda arrs: [a[i] for a, i in zip(arrs, sel, strict=True)]  # noqa: E731
         qs, qd, qdd, qd_true, qdd_true, taus = map(pick, (qs, qd, qdd, qd_true, qdd_true, taus))
         jump_free = False
@@ -238,7 +238,9 @@ def run_row(name, rollout=True):
         ),
         "qdd_err": _relative_rms(
             [a[k] for a, k in zip(qdd, keep, strict=True)], [a[k] for a, k in zip(qdd_true, keep, strict=True)]
-        ) if strong else None,
+        )
+        if strong
+        else None,
         "coef_err": float(np.linalg.norm(coef - pi_true) / np.linalg.norm(pi_true)) if monomial else None,
         "res_fit": res_fit,
         "res_true": float(np.linalg.norm(target - psi @ pi_true) / tn) if monomial else None,
@@ -275,8 +277,12 @@ def robot_facts():
     rms = lambda f: np.sqrt(np.mean(f**2, axis=0))  # noqa: E731
     n = robot.n_q
     m0 = robot.mass_matrix(np.zeros(n))
-    a = np.block([[np.zeros((n, n)), np.eye(n)],
-                  [-np.linalg.solve(m0, np.diag(robot.stiffness)), -np.linalg.solve(m0, np.diag(robot.damping))]])
+    a = np.block(
+        [
+            [np.zeros((n, n)), np.eye(n)],
+            [-np.linalg.solve(m0, np.diag(robot.stiffness)), -np.linalg.solve(m0, np.diag(robot.damping))],
+        ]
+    )
     ev = np.linalg.eigvals(a)
     d = np.sqrt(np.einsum("tii->ti", mass))
     normalised = np.linalg.eigvalsh(mass / d[:, :, None] / d[:, None, :])[:, 0]
@@ -296,16 +302,19 @@ def _f(v, spec):
 def render(rows):
     removed = {ROWS[r["row"]][0]: r["removed"] for r in rows if r.get("removed")}
     loads = [r["loadavg"] for r in rows if "loadavg" in r]
-    removed_text = ("no strain was removed in any row" if not removed else
-                    "strains removed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in removed.items()))
+    removed_text = (
+        "no strain was removed in any row"
+        if not removed
+        else "strains removed: " + "; ".join(f"{k}: {', '.join(v)}" for k, v in removed.items())
+    )
     lines = [
         "two_segment, 8 noise-free training recordings (true strains from the simulator, no pose step), "
-        "`EulerLagrangeRegressor(library=\"monomial\", formulation=\"strong\", window_length=..., polyorder=3)` "
+        '`EulerLagrangeRegressor(library="monomial", formulation="strong", window_length=..., polyorder=3)` '
         "(the monomial `PCSLagrangianLibrary`, 258 columns) unless the row says physical basis "
         "(`library=PhysicalPCSLibrary(rest_strain=False)`, 16 unknowns) or `EulerLagrangeRegressor()`, default "
         f"StiffnessThresholdOptimizer ({removed_text}); rows are computed by separate `--rows NAME` runs and cached, "
         "`--rows` alone re-renders them; rollout of the default scenario's 7 s validation from rest "
-        "(`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)`: scipy's RK45 restarted at every held sample for "
+        '(`simulate(..., method="dopri5", rtol=1e-6, atol=1e-9)`: scipy\'s RK45 restarted at every held sample for '
         "monomial models, the compiled Dormand–Prince 5(4) for physical ones). Derivative errors: relative RMS error "
         "against the simulator's exact qd and qdd, worst strain (all six in the notes below). "
         "coef err: ‖π̂ − π‖/‖π‖ against the true coefficients. Residual: ‖τ − Ψπ‖/‖τ‖ of the regression solved, "
@@ -321,8 +330,11 @@ def render(rows):
         tr, va = r["train_range"], r["val_range"]
         roll = "–"
         if "diverged_at" in r:
-            roll = f"diverged at {r['diverged_at']:.3g} s" if r["diverged_at"] is not None else (
-                f"e_p^EE {1e3 * r['e_p']:.3g} mm, e_θ^EE {r['e_theta']:.3g} rad")
+            roll = (
+                f"diverged at {r['diverged_at']:.3g} s"
+                if r["diverged_at"] is not None
+                else (f"e_p^EE {1e3 * r['e_p']:.3g} mm, e_θ^EE {r['e_theta']:.3g} rad")
+            )
         lines.append(
             f"| {ROWS[r['row']][0]} | {max(tr[0], tr[3]):.0f} / {max(va[0], va[3]):.0f} | {max(r['qd_err']):.2f} | "
             f"{_f(r['qdd_err'] and max(r['qdd_err']), '.2f')} | {_f(r['coef_err'], '.3g')} | "

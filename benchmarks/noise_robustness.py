@@ -61,15 +61,19 @@ CONFIGS = {
     "monomial sg25": lambda: EulerLagrangeRegressor.seed_method(),
     # monomial library with the actuation-aware option (samples whose window straddles a force jump left out)
     "monomial sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library="monomial", formulation="strong", window_length=7, exclude_force_jumps=True),
+        library="monomial", formulation="strong", window_length=7, exclude_force_jumps=True
+    ),
     # physical library, strong form
     "physical sg25": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25),
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25
+    ),
     "physical sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, exclude_force_jumps=True),
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, exclude_force_jumps=True
+    ),
     # physical library, weak form: no qdd, held forces integrated exactly
     "physical weak40": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", weak_window=40, weak_stride=20, window_length=7),
+        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", weak_window=40, weak_stride=20, window_length=7
+    ),
     # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
 }
@@ -179,17 +183,17 @@ def render(rows, configs):
     lines = [
         __doc__.split("Usage::")[0].strip(),
         "",
-        "Configurations: `monomial` = the seed's symbolic monomial library (`library=\"monomial\"`; `monomial sg25` = "
+        'Configurations: `monomial` = the seed\'s symbolic monomial library (`library="monomial"`; `monomial sg25` = '
         "`EulerLagrangeRegressor.seed_method()`), `physical` = `library=PhysicalPCSLibrary(rest_strain=False)` "
         "(8 unknowns per segment, known gravity, bounded least squares); `sg25` = strong form with "
         "Savitzky–Golay 25/3 (the seed's differentiation); `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose "
         "window straddles a force jump left out (`exclude_force_jumps=True`, the actuation-aware option, the only "
-        "derivative-light option of the monomial library); `weak40` = `formulation=\"weak\"` (bump-weighted window "
+        'derivative-light option of the monomial library); `weak40` = `formulation="weak"` (bump-weighted window '
         "integrals over 40 samples, stride 20: no q̈, held forces integrated exactly, q̇ from Savitzky–Golay 7/3); "
         "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "
         "q̇ from Savitzky–Golay 7/3, `PhysicalPCSLibrary()`, which also identifies a constant force per strain).  "
         "Every model is rolled out with "
-        "`simulate(..., method=\"dopri5\", rtol=1e-6, atol=1e-9)` (the compiled Dormand–Prince 5(4) for the "
+        '`simulate(..., method="dopri5", rtol=1e-6, atol=1e-9)` (the compiled Dormand–Prince 5(4) for the '
         "physical library, scipy's RK45 restarted at every held sample for the monomial one).",
         "",
         "Cells: median e_p^EE [mm] over the noise seeds that rolled out (min–max in brackets); "
@@ -293,11 +297,22 @@ def plot(rows, configs, path):
                 if bad:
                     fails.append(sp)
             x_off = np.asarray(xs) + (k - 2.5) * 0.01
-            line = ax.errorbar(x_off, meds, yerr=[np.subtract(meds, lo), np.subtract(hi, meds)], marker=markers[config],
-                               capsize=3, label=config)
+            line = ax.errorbar(
+                x_off,
+                meds,
+                yerr=[np.subtract(meds, lo), np.subtract(hi, meds)],
+                marker=markers[config],
+                capsize=3,
+                label=config,
+            )
             if fails:
-                ax.scatter(np.asarray(fails) + (k - 2.5) * 0.01, [top] * len(fails), marker="x", s=60,
-                           color=line[0].get_color())
+                ax.scatter(
+                    np.asarray(fails) + (k - 2.5) * 0.01,
+                    [top] * len(fails),
+                    marker="x",
+                    s=60,
+                    color=line[0].get_color(),
+                )
         ax.axhline(5.0, color="grey", ls=":", lw=1, label="issue 6 target (two_segment, 0.5 mm): 5 mm")
         ax.set_yscale("log")
         ax.set_title(case)
@@ -317,15 +332,25 @@ def main(argv=None):
     parser.add_argument("--sigmas", nargs="*", type=float, default=list(SIGMA_P_MM))
     parser.add_argument("--seeds", nargs="*", type=int, default=list(NOISE_SEEDS))
     parser.add_argument("--budget", type=float, default=20.0, help="wall-clock seconds per rollout")
-    parser.add_argument("--redo", nargs="*", default=[], choices=["timeout", "diverged", "fit failed", "ok"],
-                        help="recompute cached rows of the selected cases/configs with these statuses")
+    parser.add_argument(
+        "--redo",
+        nargs="*",
+        default=[],
+        choices=["timeout", "diverged", "fit failed", "ok"],
+        help="recompute cached rows of the selected cases/configs with these statuses",
+    )
     parser.add_argument("--no-write", action="store_true")
     args = parser.parse_args(argv)
     rows = json.loads(CACHE.read_text()) if CACHE.exists() else []
     rows = [
-        r for r in rows
-        if not (r["status"] in args.redo and r["case"] in args.cases and r["config"] in args.configs
-                and r["sigma_p_mm"] in args.sigmas)
+        r
+        for r in rows
+        if not (
+            r["status"] in args.redo
+            and r["case"] in args.cases
+            and r["config"] in args.configs
+            and r["sigma_p_mm"] in args.sigmas
+        )
     ]
     done = {_key(r) for r in rows}
     data_cache: dict = {}

@@ -73,9 +73,7 @@ def main() -> None:
         lib.euler_lagrange_matrix(q[:10], qd[:10], qdd[:10])  # warm-up
         t_psi = best_of(lambda: lib.euler_lagrange_matrix(q, qd, qdd), 3)
         t_weak = best_of(lambda: lib.integrated_euler_lagrange_matrix(t, q, qd, windows), 3)
-        t_bump = best_of(
-            lambda: lib.integrated_euler_lagrange_matrix(t, q, qd, windows, test_function="bump"), 3
-        )
+        t_bump = best_of(lambda: lib.integrated_euler_lagrange_matrix(t, q, qd, windows, test_function="bump"), 3)
         f = lib.forward_model(coef).terms
         q = np.ascontiguousarray(q)
         qd = np.ascontiguousarray(qd)
@@ -91,8 +89,10 @@ def main() -> None:
         t_call = min(per_call)
         t_op = reference_op_time()
         rows.append((m, lib.n_coefficients_, t_psi, t_weak, t_bump, t_call, t_call / t_op))
-        print(f"m={m}: n_coef={lib.n_coefficients_}, Psi {t_psi:.3f} s, weak {t_weak:.3f} s, bump {t_bump:.3f} s, "
-              f"forward_model().terms call {t_call * 1e6:.1f} us = {t_call / t_op:.0f} tiny ops")
+        print(
+            f"m={m}: n_coef={lib.n_coefficients_}, Psi {t_psi:.3f} s, weak {t_weak:.3f} s, bump {t_bump:.3f} s, "
+            f"forward_model().terms call {t_call * 1e6:.1f} us = {t_call / t_op:.0f} tiny ops"
+        )
     load_after = os.getloadavg()[0]
     body = [
         "Euler–Lagrange matrix of `PhysicalPCSLibrary` (numeric, Gauss–Legendre 16 nodes per segment) on "

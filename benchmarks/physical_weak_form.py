@@ -50,13 +50,15 @@ METHODS = {
         integrate_forces(r.t, r.tau, sliding_windows(len(r.t), 10)),
     ),
     "weak, bump windows of 40 (stride 20), SG 15 for q̇": lambda lib, r, q, dt: (
-        lib.integrated_euler_lagrange_matrix(r.t, q, sg(q, 15, dt, 1), sliding_windows(len(r.t), 40, 20),
-                                             test_function="bump"),
+        lib.integrated_euler_lagrange_matrix(
+            r.t, q, sg(q, 15, dt, 1), sliding_windows(len(r.t), 40, 20), test_function="bump"
+        ),
         integrate_forces(r.t, r.tau, sliding_windows(len(r.t), 40, 20), test_function="bump"),
     ),
     "weak, bump windows of 80 (stride 40), SG 25 for q, q̇": lambda lib, r, q, dt: (
-        lib.integrated_euler_lagrange_matrix(r.t, sg(q, 25, dt), sg(q, 25, dt, 1), sliding_windows(len(r.t), 80, 40),
-                                             test_function="bump"),
+        lib.integrated_euler_lagrange_matrix(
+            r.t, sg(q, 25, dt), sg(q, 25, dt, 1), sliding_windows(len(r.t), 80, 40), test_function="bump"
+        ),
         integrate_forces(r.t, r.tau, sliding_windows(len(r.t), 80, 40), test_function="bump"),
     ),
 }
@@ -67,8 +69,9 @@ def main() -> None:
     data = scenario.generate(seed=0, validation=False)
     robot = scenario.robot
     lib = PhysicalPCSLibrary(robot.segment_lengths, rotary_inertia="tied", rest_strain=False)
-    true = lib.coefficients_from_parameters(robot.density, None, robot.youngs_modulus, robot.shear_modulus,
-                                            robot.damping)
+    true = lib.coefficients_from_parameters(
+        robot.density, None, robot.youngs_modulus, robot.shear_modulus, robot.damping
+    )
     sigma = np.tile(STRAIN_SIGMA, robot.n_segments)
     results = {}
     load_start = os.getloadavg()[0]
@@ -90,8 +93,13 @@ def main() -> None:
                 secs.append(time.perf_counter() - t0)
                 errs.append(np.abs(coef - true) / true)
             errs = np.array(errs)
-            results[(level, name)] = (np.median(errs), np.max(errs), np.max(errs[:, lib.stiffness_index_]),
-                                      np.max(errs[:, [0, lib.euler_lagrange_names().index("rhoA_2")]]), np.mean(secs))
+            results[(level, name)] = (
+                np.median(errs),
+                np.max(errs),
+                np.max(errs[:, lib.stiffness_index_]),
+                np.max(errs[:, [0, lib.euler_lagrange_names().index("rhoA_2")]]),
+                np.mean(secs),
+            )
             print(level, name, results[(level, name)], flush=True)
     body = [
         __doc__.split("Run:")[0].strip(),
@@ -105,8 +113,12 @@ def main() -> None:
     ]
     for (level, name), (med, mx, st, ms, sec) in results.items():
         body.append(f"| {level} | {name} | {med:.3f} | {mx:.3f} | {st:.3f} | {ms:.3f} | {sec:.1f} |")
-    write_section("physical_weak_form", "Physical library: strong vs weak form under strain noise (two_segment)",
-                  "\n".join(body), ".venv/bin/python benchmarks/physical_weak_form.py")
+    write_section(
+        "physical_weak_form",
+        "Physical library: strong vs weak form under strain noise (two_segment)",
+        "\n".join(body),
+        ".venv/bin/python benchmarks/physical_weak_form.py",
+    )
 
 
 if __name__ == "__main__":

@@ -41,8 +41,13 @@ def main() -> None:
         fusion = KinematicFusion(threshold=0.2, total_length=total)
         strains = fusion.fit(trajs).transform(trajs)
         for config, rest in (("weak40", False), ("weak40", True), ("EulerLagrangeRegressor()", True)):
-            model = EulerLagrangeRegressor() if config != "weak40" else EulerLagrangeRegressor(
-                library=PhysicalPCSLibrary(rest_strain=rest), weak_window=40, weak_stride=20)
+            model = (
+                EulerLagrangeRegressor()
+                if config != "weak40"
+                else EulerLagrangeRegressor(
+                    library=PhysicalPCSLibrary(rest_strain=rest), weak_window=40, weak_stride=20
+                )
+            )
             start = time.perf_counter()
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
@@ -76,8 +81,12 @@ def main() -> None:
             f"{os.getloadavg()[0]:.1f} at the end (fit times are wall times).",
         ]
     )
-    write_section("rest_length", "Rest length estimated vs measured, and identified rest strains", body,
-                  ".venv/bin/python benchmarks/rest_length.py")
+    write_section(
+        "rest_length",
+        "Rest length estimated vs measured, and identified rest strains",
+        body,
+        ".venv/bin/python benchmarks/rest_length.py",
+    )
 
 
 if __name__ == "__main__":

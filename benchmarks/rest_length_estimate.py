@@ -20,17 +20,16 @@ import sys
 import time
 from pathlib import Path
 
-import numpy as np
-
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from _results import write_section  # noqa: E402
 from test_rest_length import soft_hanging_robot  # noqa: E402  (the same robot as the test)
 
 from pcs_sindy.rest_length import estimate_rest_length  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 
 def row(label: str, truth: float, target: float, poses, taus) -> str:
@@ -57,18 +56,25 @@ def main() -> None:
         rows.append(row(label, 0.17, 0.5, poses, [r.tau for r in data.train]))
     poses, taus, hanging = soft_hanging_robot()
     rows.append(row(f"soft one-segment robot, {100 * hanging:.1f} % stretched hanging", 0.1, 1.0, poses, taus))
-    body = "\n".join([
-        __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
-        "",
-        "| case | true rest length [mm] | kinematic [mm] | corrected [mm] | segment lengths [mm] | target | time [s] |",
-        "|---|---|---|---|---|---|---|",
-        *rows,
-        "",
-        "The kinematic standard error covers the scatter between recordings, not the bias of a mean stretch: "
-        "poses alone cannot tell a constant stretch from length.",
-    ])
-    write_section("rest_length_estimate", "Rest length without being told", body,
-                  ".venv/bin/python benchmarks/rest_length_estimate.py")
+    body = "\n".join(
+        [
+            __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
+            "",
+            "| case | true rest length [mm] | kinematic [mm] | "
+            "corrected [mm] | segment lengths [mm] | target | time [s] |",
+            "|---|---|---|---|---|---|---|",
+            *rows,
+            "",
+            "The kinematic standard error covers the scatter between recordings, not the bias of a mean stretch: "
+            "poses alone cannot tell a constant stretch from length.",
+        ]
+    )
+    write_section(
+        "rest_length_estimate",
+        "Rest length without being told",
+        body,
+        ".venv/bin/python benchmarks/rest_length_estimate.py",
+    )
 
 
 if __name__ == "__main__":

@@ -50,8 +50,9 @@ CONFIGS = [
 
 def _library(robot):
     lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity, rest_strain=False)
-    coef = lib.coefficients_from_parameters(robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus,
-                                            robot.damping)
+    coef = lib.coefficients_from_parameters(
+        robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+    )
     return lib, coef
 
 
@@ -93,8 +94,17 @@ def main() -> None:
         kappa_l = float((np.abs(val.q[:, 0::3]) * np.asarray(robot.segment_lengths)).max())
         for nq in (16, 8):
             # one fixed rule per row (the regressor's model switches from 8 to 16 nodes past |kappa L| = 6)
-            model = LumpedPCSModel(lib.kinematics, lp["rhoA"], lp["rhoI"], lp["rhoAg"], lp["stiffness"], lp["damping"],
-                                   lp["rest_force"], n_quadrature=nq, fast_quadrature=None)
+            model = LumpedPCSModel(
+                lib.kinematics,
+                lp["rhoA"],
+                lp["rhoI"],
+                lp["rhoAg"],
+                lp["stiffness"],
+                lp["damping"],
+                lp["rest_force"],
+                n_quadrature=nq,
+                fast_quadrature=None,
+            )
             for method, setting, kw in CONFIGS:
                 t0 = time.perf_counter()
                 model.simulate(z, z, t, tau, **kw)
@@ -104,10 +114,23 @@ def main() -> None:
                 sim = model.simulate(z, z, t, tau, stats=stats, **kw)
                 wall, cpu = time.perf_counter() - t0, time.process_time() - c0
                 err = np.abs(sim.q - val.q).max(axis=0) / np.abs(val.q).max(axis=0)
-                row = dict(case=name, nodes=nq, method=method, setting=setting, first=first,
-                           wall=wall, cpu=cpu, rt=duration / wall, rt_cpu=duration / cpu, steps=stats["n_steps"],
-                           rej=stats["n_rejected"], evals=stats["n_evaluations"],
-                           us=1e6 * cpu / stats["n_evaluations"], err=float(err.max()), kl=kappa_l)
+                row = dict(
+                    case=name,
+                    nodes=nq,
+                    method=method,
+                    setting=setting,
+                    first=first,
+                    wall=wall,
+                    cpu=cpu,
+                    rt=duration / wall,
+                    rt_cpu=duration / cpu,
+                    steps=stats["n_steps"],
+                    rej=stats["n_rejected"],
+                    evals=stats["n_evaluations"],
+                    us=1e6 * cpu / stats["n_evaluations"],
+                    err=float(err.max()),
+                    kl=kappa_l,
+                )
                 rows.append(row)
                 print(row, flush=True)
     load1 = os.getloadavg()[0]
@@ -144,8 +167,12 @@ def main() -> None:
             f"| {r['wall']:.3f} | {r['cpu']:.3f} | {r['rt']:.1f} | {r['rt_cpu']:.1f} | {r['steps']} ({r['rej']}) "
             f"| {r['evals']} | {r['us']:.2f} | {r['err']:.1e} |"
         )
-    write_section("rollout_speed", "Compiled rollout speed and accuracy (issue 4)", "\n".join(body),
-                  ".venv/bin/python benchmarks/rollout_speed.py")
+    write_section(
+        "rollout_speed",
+        "Compiled rollout speed and accuracy (issue 4)",
+        "\n".join(body),
+        ".venv/bin/python benchmarks/rollout_speed.py",
+    )
 
 
 if __name__ == "__main__":

@@ -32,8 +32,13 @@ from _results import write_section  # noqa: E402
 
 ONE = dict(L=[0.1], rho=[1070], E=[1e4], G=[1e3], D=[1e-5, 1.5e-1, 1.5e-1])
 TWO = dict(L=[0.07, 0.1], rho=[1070, 1049], E=[1e4, 9e3], G=[1e3, 3e3], D=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2])
-THREE = dict(L=[0.05, 0.1, 0.06], rho=[1240, 1049, 1070], E=[1e4, 6e4, 8e4], G=[1e3, 3e3, 5e3],
-             D=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2])
+THREE = dict(
+    L=[0.05, 0.1, 0.06],
+    rho=[1240, 1049, 1070],
+    E=[1e4, 6e4, 8e4],
+    G=[1e3, 3e3, 5e3],
+    D=[5e-5, 4e-2, 5e-2, 5e-5, 5e-3, 5e-2, 5e-5, 5e-3, 5e-2],
+)
 
 
 def robot_with(m: int) -> PCSRobot:
@@ -84,8 +89,9 @@ def compile_times() -> tuple[str, str]:
     with tempfile.TemporaryDirectory() as cache:
         env = dict(os.environ, NUMBA_CACHE_DIR=cache)
         for _ in range(2):
-            res = subprocess.run([sys.executable, "-c", COMPILE_SNIPPET], env=env, capture_output=True, text=True,
-                                 check=True)
+            res = subprocess.run(
+                [sys.executable, "-c", COMPILE_SNIPPET], env=env, capture_output=True, text=True, check=True
+            )
             w, c = (float(v) for v in res.stdout.split())
             rows.append(f"{w:.1f} ({c:.1f})")
     return rows[0], rows[1]
@@ -138,35 +144,38 @@ def main() -> None:
         tau = random_hold(rng, m, t)
         sim, w_fx, c_fx = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau))
         st = [sim.metadata["counts"][k] for k in ("steps", "newton_iterations", "jacobians")]
-        _, w_ad, c_ad = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-6,
-                                                     atol=1e-8))
-        rows.append(f"| {m} | {w_id * 1e3:.1f} ({c_id * 1e3:.1f}) | {w_fx:.2f} ({c_fx:.2f}) | "
-                    f"{st[0]} / {st[1]} / {st[2]} | {w_ad:.2f} ({c_ad:.2f}) |")
+        _, w_ad, c_ad = timed(lambda: robot.simulate(np.zeros(3 * m), np.zeros(3 * m), t, tau, rtol=1e-6, atol=1e-8))
+        rows.append(
+            f"| {m} | {w_id * 1e3:.1f} ({c_id * 1e3:.1f}) | {w_fx:.2f} ({c_fx:.2f}) | "
+            f"{st[0]} / {st[1]} / {st[2]} | {w_ad:.2f} ({c_ad:.2f}) |"
+        )
         print(rows[-1], flush=True)
 
     two = robot_with(2)
     t7 = np.arange(7001) * 1e-3
     tau7 = sinusoid(rng, 2, t7)
     long_rows = []
-    for label, kw in [("radau, step=1e-3", dict(step=1e-3)),
-                      ("radau, step=5e-4 (default)", {})]:
+    for label, kw in [("radau, step=1e-3", dict(step=1e-3)), ("radau, step=5e-4 (default)", {})]:
         _, w, c = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), t7, tau7, **kw))
         long_rows.append(f"| {label} | {w:.1f} | {c:.1f} |")
         print(long_rows[-1], flush=True)
 
     # accuracy of the fast settings on the first 0.2 s of the same run
     ts, taus = t7[:201], tau7[:201]
-    ref, w_ref, c_ref = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, method="dop853",
-                                                   rtol=1e-11, atol=1e-14))
+    ref, w_ref, c_ref = timed(
+        lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, method="dop853", rtol=1e-11, atol=1e-14)
+    )
     q_ref = ref.q
     span = np.ptp(q_ref, axis=0)
     acc_rows = []
-    for label, kw in [("radau, error control rtol 1e-10, atol 1e-13", dict(rtol=1e-10, atol=1e-13)),
-                      ("radau, error control rtol 1e-6, atol 1e-8", dict(rtol=1e-6, atol=1e-8)),
-                      ("radau, step=1e-3", dict(step=1e-3)),
-                      ("radau, step=5e-4 (default)", {}),
-                      ("dopri5 (scipy), rtol 1e-6, atol 1e-8", dict(method="dopri5", rtol=1e-6, atol=1e-8)),
-                      ("bdf (scipy), rtol 1e-6, atol 1e-8", dict(method="bdf", rtol=1e-6, atol=1e-8))]:
+    for label, kw in [
+        ("radau, error control rtol 1e-10, atol 1e-13", dict(rtol=1e-10, atol=1e-13)),
+        ("radau, error control rtol 1e-6, atol 1e-8", dict(rtol=1e-6, atol=1e-8)),
+        ("radau, step=1e-3", dict(step=1e-3)),
+        ("radau, step=5e-4 (default)", {}),
+        ("dopri5 (scipy), rtol 1e-6, atol 1e-8", dict(method="dopri5", rtol=1e-6, atol=1e-8)),
+        ("bdf (scipy), rtol 1e-6, atol 1e-8", dict(method="bdf", rtol=1e-6, atol=1e-8)),
+    ]:
         sim, w, c = timed(lambda: two.simulate(np.zeros(6), np.zeros(6), ts, taus, **kw))
         q = sim.q
         err = float(np.max(np.abs(q - q_ref).max(axis=0) / span))
@@ -239,8 +248,9 @@ def main() -> None:
             "the compilation is paid once per machine (cache in pcs_sindy/simulation/__pycache__ or $NUMBA_CACHE_DIR).",
         ]
     )
-    path = write_section("simulation_speed", "Ground-truth simulator speed", body,
-                         ".venv/bin/python benchmarks/simulation_speed.py")
+    path = write_section(
+        "simulation_speed", "Ground-truth simulator speed", body, ".venv/bin/python benchmarks/simulation_speed.py"
+    )
     print(f"written to {path}")
 
 

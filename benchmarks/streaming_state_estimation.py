@@ -28,14 +28,14 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from _results import write_section  # noqa: E402
-
 from pcs_sindy.camera import Camera  # noqa: E402
 from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import Nuisances, render_frames  # noqa: E402
 from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+
+from _results import write_section  # noqa: E402
 
 
 def run(frames: np.ndarray, cam: Camera, fusion: KinematicFusion, q_true: np.ndarray) -> tuple[str, np.ndarray]:
@@ -54,8 +54,10 @@ def run(frames: np.ndarray, cam: Camera, fusion: KinematicFusion, q_true: np.nda
         qs.append(q)
     t = 1e3 * np.asarray(times)
     err = np.abs(np.asarray(qs) - q_true)
-    text = (f"{len(frames)} | {np.median(t):.2f} | {np.percentile(t, 99):.2f} | {t.max():.2f} | {failed} | "
-            f"{err[:, 0::3].max():.3f} / {err[:, 1::3].max():.4f} / {err[:, 2::3].max():.4f}")
+    text = (
+        f"{len(frames)} | {np.median(t):.2f} | {np.percentile(t, 99):.2f} | {t.max():.2f} | {failed} | "
+        f"{err[:, 0::3].max():.3f} / {err[:, 1::3].max():.4f} / {err[:, 2::3].max():.4f}"
+    )
     return text, np.asarray(qs)
 
 
@@ -78,28 +80,39 @@ def main() -> None:
     for label, nz in (("clean", None), ("every nuisance", Nuisances.random(5, n, 20))):
         frames = render_frames(truth, cam, nuisances=nz)
         text, _ = run(frames, cam, fusion, q_true)
-        batch = fusion.transform(MarkerPoseExtractor(camera=cam, fps=1000.0, progress=False, on_missing="interpolate")
-                                 .transform([frames]))[0].q
+        batch = fusion.transform(
+            MarkerPoseExtractor(camera=cam, fps=1000.0, progress=False, on_missing="interpolate").transform([frames])
+        )[0].q
         berr = np.abs(batch - q_true)
-        rows.append(f"| {label} | {text} | {berr[:, 0::3].max():.3f} / {berr[:, 1::3].max():.4f} / {berr[:, 2::3].max():.4f} |")
+        rows.append(
+            f"| {label} | {text} | {berr[:, 0::3].max():.3f} / {berr[:, 1::3].max():.4f} / {berr[:, 2::3].max():.4f} |"
+        )
         print(rows[-1], flush=True)
     load = os.getloadavg() if hasattr(os, "getloadavg") else (float("nan"),) * 3
-    body = "\n".join([
-        __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
-        "",
-        f"{fusion.n_segments_} segments, lengths {', '.join(f'{1e3 * v:.1f}' for v in fusion.segment_lengths_)} mm; "
-        f"camera {cam.pixels_per_metre:.0f} px/m.",
-        "",
-        "| footage | frames | extraction + fusion per frame, median [ms] | 99th percentile [ms] | max [ms] | frames "
-        "failed | strain error max, streaming (bending 1/m / shear / axial) | batch path, same frames |",
-        "|---|---|---|---|---|---|---|---|",
-        *rows,
-        "",
-        "Target (issue 12, part 3): extraction + fusion <= 5 ms per 640x480 frame on 1 core.  "
-        f"Load average at the end: {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (shared 2-core machine).",
-    ])
-    write_section("streaming_state_estimation", "State estimation at camera rate (streaming)", body,
-                  f".venv/bin/python benchmarks/streaming_state_estimation.py --seconds {args.seconds:g}")
+    body = "\n".join(
+        [
+            __doc__.split("Run:")[0].split("\n\n", 1)[1].strip(),
+            "",
+            f"{fusion.n_segments_} segments, lengths "
+            f"{', '.join(f'{1e3 * v:.1f}' for v in fusion.segment_lengths_)} mm; "
+            f"camera {cam.pixels_per_metre:.0f} px/m.",
+            "",
+            "| footage | frames | extraction + fusion per frame, "
+            "median [ms] | 99th percentile [ms] | max [ms] | frames "
+            "failed | strain error max, streaming (bending 1/m / shear / axial) | batch path, same frames |",
+            "|---|---|---|---|---|---|---|---|",
+            *rows,
+            "",
+            "Target (issue 12, part 3): extraction + fusion <= 5 ms per 640x480 frame on 1 core.  "
+            f"Load average at the end: {load[0]:.2f} / {load[1]:.2f} / {load[2]:.2f} (shared 2-core machine).",
+        ]
+    )
+    write_section(
+        "streaming_state_estimation",
+        "State estimation at camera rate (streaming)",
+        body,
+        f".venv/bin/python benchmarks/streaming_state_estimation.py --seconds {args.seconds:g}",
+    )
 
 
 if __name__ == "__main__":
