@@ -12,7 +12,11 @@ Each identified model: ``KinematicFusion()`` (rest length estimated, as a user
 without a measured length gets it) then ``EulerLagrangeRegressor()`` (the
 defaults).  Its segmentation differs from the plant's (e.g. 70.7 / 101.0 mm
 against 70 / 100 mm), so the exact state reaches it through the plant's marker
-poses (``StateMap``) and set-points are the fused strains of the target poses.
+poses (``StateMap``) and set-points are the fused strains of the target poses
+(``KinematicFusion.transform_frame``, relative to the fusion's fixed base: the
+median base of its training recordings; from video that base is 0.025 mm and
+0.15 mrad off the true one, which shifts the video model's set-points by about
+0.04 mm at the tip).
 
 Tasks, all at 1 kHz against ``PCSRobot.advance`` (fixed 0.5 ms Radau steps):
 
