@@ -24,13 +24,12 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from .camera import Camera
+from .camera import Camera, undistort_points
 from .frame_source import IMAGE_SUFFIXES, FrameSource
 
 __all__ = ["calibrate_camera", "find_board", "read_views"]
 
 _SUBPIX = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
-_UNDISTORT = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-12)
 _MIN_LENS_VIEWS = 3
 
 
@@ -144,7 +143,7 @@ def calibrate_camera(
         )
         # the plane's homography from its own view's corners, undistorted: the metric scale then
         # rests on that view alone rather than on the focal length shared by all views
-        ideal = cv2.undistortPoints(plane_pts.reshape(-1, 1, 2), K, dist, None, K, None, _UNDISTORT).reshape(-1, 2)
+        ideal = undistort_points(plane_pts.reshape(-1, 1, 2), K, dist, K, None).reshape(-1, 2)
         H, _ = cv2.findHomography(obj[:, :2].astype(np.float64), ideal, 0)
         camera = Camera.from_plane(H, size, K, dist.ravel(), base_frame=False)
         lens_rms: float | None = float(rms)

@@ -51,6 +51,33 @@ _UNDISTORT_CRITERIA = (cv2.TERM_CRITERIA_COUNT | cv2.TERM_CRITERIA_EPS, 100, 1e-
 _AXIS_STEP = 0.5  # pixels: half-length of the segment that carries an angle through the lens
 
 
+def undistort_points(
+    points: NDArray[np.float64], K: NDArray[np.float64], dist: NDArray[np.float64] | None, R: Any, P: Any
+) -> NDArray[np.float64]:
+    """``cv2.undistortPoints`` iterated to convergence.
+
+    OpenCV 4 takes the termination criteria through ``undistortPointsIter``;
+    OpenCV 5 dropped that name and takes them as ``undistortPoints``'s last argument.
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 1, 2)
+        Distorted pixel coordinates.
+    K, dist : ndarray
+        Camera matrix (3, 3) and distortion coefficients (or None).
+    R, P : ndarray (3, 3) or None
+        Rectification and new camera matrix, as in OpenCV.
+
+    Returns
+    -------
+    ndarray, shape (n, 1, 2)
+    """
+    iterate = getattr(cv2, "undistortPointsIter", None)
+    if iterate is not None:
+        return iterate(points, K, dist, R, P, _UNDISTORT_CRITERIA)
+    return cv2.undistortPoints(points, K, dist, None, R, P, _UNDISTORT_CRITERIA)
+
+
 def camera_json_path(recording: str | os.PathLike) -> Path:
     """Where the camera JSON of a recording lives.
 
@@ -310,7 +337,7 @@ class Camera:
             K = np.asarray(self.camera_matrix)
             dist = None if self.dist_coeffs is None else np.asarray(self.dist_coeffs)
             # R = H K maps normalised camera coordinates straight to rectified pixels
-            out = cv2.undistortPoints(flat, K, dist, None, H @ K, None, _UNDISTORT_CRITERIA)
+            out = undistort_points(flat, K, dist, H @ K, None)
         return out.reshape(pts.shape)
 
     def _rect_to_raw_points(self, pts: NDArray[np.float64]) -> NDArray[np.float64]:
