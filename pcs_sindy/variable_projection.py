@@ -46,8 +46,8 @@ def equation_weights(residual: NDArray[np.float64]) -> NDArray[np.float64]:
     Returns
     -------
     ndarray, shape (n,)
-        An equation without residual (exact fit) gets the largest finite weight
-        times 1e6 rather than an infinite one.
+        An equation without residual (an exact fit) gets 1e6 times the weight
+        of the worst-fitted equation rather than an infinite one.
     """
     r = np.asarray(residual, dtype=float)
     if r.ndim != 2 or not np.all(np.isfinite(r)):
