@@ -192,8 +192,8 @@ def run(name: str, source: str) -> list[str]:
         if isinstance(act, TendonActuation) and act.offset is None:
             err, rel_se = _offset_errors(model, scenario)
             ident = (
-                f"offsets [mm] {', '.join(f'{1e3 * v:+.2f}' for v in fitted.offsets_)}; max error "
-                f"{100 * np.max(np.abs(err)):.2f} % (reported std error {100 * rel_se.max():.2f} %)"
+                f"offsets [mm] {', '.join(f'{1e3 * v:+.3f}' for v in fitted.offsets_)}; max error "
+                f"{100 * np.max(np.abs(err)):.2g} % (reported std error {100 * rel_se.max():.2g} %)"
             )
         elif isinstance(act, PressureActuation):
             true = np.r_[scenario.robot.actuation.bending_gain, scenario.robot.actuation.axial_gain]
@@ -261,7 +261,7 @@ def main() -> None:
             f"two_segment_tendon, {N_DRAWS} draws of the pose noise (0.1 mm, 0.5 deg) on seed 0's recordings, "
             "fusion at h = 0.1:",
             "",
-            "| actuation model | offset errors d_1..d_4 [%] (mean ± sd over draws) | largest |error| [%] "
+            "| actuation model | offset errors d_1..d_4 [%] (mean ± sd over draws) | largest abs. error [%] "
             "| mean reported std error [%] | e_p^EE mean [mm] | e_p^EE max [mm] | fit [s] |",
             "|---|---|---|---|---|---|---|",
             *draws,
