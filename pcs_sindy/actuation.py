@@ -314,8 +314,11 @@ class TendonActuation(Actuation):
         Upper bound [m] of identified offsets.
     shared : bool, default False
         Identify one offset magnitude for all tendons (tendons routed at one
-        radius): a single parameter, far better determined from noisy data
-        than one per tendon (docs/results.md, "Identification from actuator inputs").
+        radius).  From the seed's pose noise both are determined to a few
+        tenths of a percent (docs/results.md, "Identification from actuator
+        inputs"); the regressor's ``identifiability_report()`` gives each
+        offset's standard error and says when the recordings do not
+        determine them, when one shared offset is the remedy.
 
     Attributes
     ----------

@@ -137,6 +137,7 @@ def report(info: dict | None, tol: float = 0.1) -> str:
     for nm, c, se, rel in zip(info["names"], info["coef"], info["standard_errors"], info["relative_standard_errors"]):
         flag = "" if rel <= tol else "  <- poorly determined"
         lines.append(f"{nm:<14} {c:>12.4g} {se:>12.3g} {rel:>11.2%}{flag}")
+    lines += _offset_lines(info, tol)
     lines.append(f"poorly determined (rel. error > {tol:.0%}): " + (", ".join(info["poorly_determined"]) or "none"))
     excited = info.get("poorly_excited_strains", [])
     lines.append(
@@ -144,3 +145,29 @@ def report(info: dict | None, tol: float = 0.1) -> str:
         + (", ".join(excited) if excited else "none")
     )
     return "\n".join(lines)
+
+
+def _offset_lines(info: dict, tol: float) -> list[str]:
+    """The actuation's nonlinear parameters (tendon offsets) of a variable-projection fit, if any."""
+    names = info.get("offset_names") or []
+    if not names:
+        return []
+    values, se = np.asarray(info["offsets"]), np.asarray(info["offset_standard_errors"])
+    rel = np.asarray(info["offset_relative_standard_errors"])
+    lines = ["actuation offsets (variable projection, each strain's equation weighted by its residual):"]
+    for nm, v, s, r in zip(names, values, se, rel):
+        flag = "" if r <= tol else "  <- poorly determined"
+        lines.append(f"{nm:<14} {v:>12.4g} {s:>12.3g} {r:>11.2%}{flag}")
+    corr = np.asarray(info.get("offset_correlation", np.eye(len(names))))
+    if len(names) > 1 and np.all(np.isfinite(corr)):
+        off = np.abs(corr - np.diag(np.diag(corr)))
+        i, j = np.unravel_index(np.argmax(off), off.shape)
+        lines.append(f"largest correlation between offsets: {corr[i, j]:+.3f} ({names[i]}, {names[j]})")
+    bad = [nm for nm, r in zip(names, rel) if not r <= tol]
+    if bad:
+        lines.append(
+            f"the recordings do not determine the offsets {', '.join(bad)} (std error above {tol:.0%} of the value): "
+            "identify one offset shared by all tendons (TendonActuation(shared=True)), give the measured offsets, "
+            "or record inputs that pull each tendon on its own"
+        )
+    return lines
