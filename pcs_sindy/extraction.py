@@ -413,6 +413,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "frames_repaired": repaired,
         "repair_reasons": {k: problems[k] for k in repaired},
         "markers_filled": {k: o.filled for k, o in enumerate(outcomes) if o is not None and o.filled},
+        "markers_partial": {k: o.rescued for k, o in enumerate(outcomes) if o is not None and o.rescued},
         "frames_complete": int(sum(1 for o in ok if not o.filled)),
         "frames_tracked": int(sum(o.tracked for o in ok)),
         "fallback_frames": {k: o.seg for k, o in enumerate(outcomes) if o is not None and o.seg != choice["chosen"]},
