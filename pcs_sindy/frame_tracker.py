@@ -5,8 +5,9 @@ segmentation and its fallbacks, the typical marker, the base, the spacing)
 and what the last frames showed; :meth:`FrameTracker.step` turns one frame
 into the pixel poses of the whole chain, tracking the previous frame's
 markers when that is unambiguous and chaining from the base otherwise,
-filling an isolated missing marker, and refusing chains that cannot be
-trusted.  Used by the batch extraction and by the streaming extractor.
+measuring a marker the chain lacks from a partial or faint component at its
+predicted pose, filling an isolated missing marker, and refusing chains that
+cannot be trusted.  Used by the batch extraction and by the streaming extractor.
 
 Knows nothing of dynamics.
 """
@@ -215,7 +216,7 @@ def _odd_shapes(
 # A second look at a marker the chain lacks, among all components of the frame: one at the place the chain
 # predicts, turned like the prediction and as thick as its neighbours, may be shorter (partly hidden: the
 # occluder cuts one end) or fainter (motion blur thins the fast tip below the threshold) than they are
-_RESCUE_TURN = np.deg2rad(20.0)
+_RESCUE_TURN = np.deg2rad(12.0)
 _RESCUE_SHORT = (0.8, 1.25)  # times the neighbours' short side
 _RESCUE_LONG = (0.3, 1.1)  # ... long side
 _RESCUE_AREA = (0.2, 1.1)  # ... area
