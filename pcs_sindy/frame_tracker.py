@@ -5,8 +5,9 @@ segmentation and its fallbacks, the typical marker, the base, the spacing)
 and what the last frames showed; :meth:`FrameTracker.step` turns one frame
 into the pixel poses of the whole chain, tracking the previous frame's
 markers when that is unambiguous and chaining from the base otherwise,
-filling an isolated missing marker, and refusing chains that cannot be
-trusted.  Used by the batch extraction and by the streaming extractor.
+measuring a marker the chain lacks from a partial or faint component at its
+predicted pose, filling an isolated missing marker, and refusing chains that
+cannot be trusted.  Used by the batch extraction and by the streaming extractor.
 
 Knows nothing of dynamics.
 """
@@ -91,10 +92,17 @@ class Detector:
 class FrameResult:
     """The outcome of one frame: raw pixel poses of the chain, or a problem."""
 
-    __slots__ = ("pix", "found", "filled", "tracked", "seg", "ignored")
+    __slots__ = ("pix", "found", "filled", "tracked", "seg", "ignored", "rescued")
 
     def __init__(
-        self, pix: NDArray[np.float64], found: int, filled: list[int], tracked: bool, seg: str, ignored: int
+        self,
+        pix: NDArray[np.float64],
+        found: int,
+        filled: list[int],
+        tracked: bool,
+        seg: str,
+        ignored: int,
+        rescued: list[int] | None = None,
     ) -> None:
         self.pix, self.found, self.filled, self.tracked, self.seg, self.ignored = (
             pix,
@@ -104,6 +112,7 @@ class FrameResult:
             seg,
             ignored,
         )
+        self.rescued = [] if rescued is None else rescued  # measured from a partial or faint component
 
 
 def _rematch(cands: NDArray[np.float64], match: NDArray[np.intp], spacing: float) -> NDArray[np.intp]:
@@ -144,7 +153,8 @@ def _order_frame(
     prev: NDArray[np.float64] | None,
     pred: NDArray[np.float64] | None,
     phi0: float | None,
-) -> tuple[NDArray[np.float64], list[int], int, bool]:
+    raw: NDArray[np.float64] | None = None,
+) -> tuple[NDArray[np.float64], list[int], int, list[int], bool]:
     """Order one frame's marker-shaped candidates into the chain; raises FrameProblem.
 
     The previous frame's markers are tracked first (cheap); when that is
@@ -157,7 +167,7 @@ def _order_frame(
             match = _rematch(cands, match, st["spacing"])
         if match is not None and np.count_nonzero(match < 0) <= 1:
             try:
-                return _finish(cands, match, st, phi0) + (True,)
+                return _finish(cands, match, st, phi0, raw) + (True,)
             except FrameProblem:
                 pass
     if len(cands) == 0:
@@ -171,7 +181,7 @@ def _order_frame(
     seq, err = chain_from_base(cands[:, :2], cands[:, AXIS], b, st["spacing"], st["first_dir"], st["n"], st["fill"])
     if err is not None:
         raise FrameProblem(err)
-    return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0) + (False,)
+    return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0, raw) + (False,)
 
 
 # How much a marker's area, long side and short side may differ (log ratio) from its chain
@@ -191,20 +201,96 @@ def _neighbour_median(values: NDArray[np.float64]) -> NDArray[np.float64]:
     return 0.5 * (np.take_along_axis(srt, lo[None], 0)[0] + np.take_along_axis(srt, hi[None], 0)[0])
 
 
-def _odd_shapes(cands: NDArray[np.float64], order: NDArray[np.intp], missing: NDArray[np.bool_]) -> NDArray[np.bool_]:
-    """Markers whose shape differs from their neighbours': partly hidden, or merged with something."""
+def _odd_shapes(
+    cands: NDArray[np.float64], order: NDArray[np.intp], missing: NDArray[np.bool_]
+) -> tuple[NDArray[np.bool_], NDArray[np.float64]]:
+    """Markers whose shape differs from their neighbours' (partly hidden, or merged with something), and
+    the neighbours' median area, long and short side of every marker (N + 1, 3)."""
     feats = np.where(missing[:, None], np.nan, cands[order][:, [AREA, LONG, SHORT]])
     with np.errstate(invalid="ignore", divide="ignore"):
         ref = np.stack([_neighbour_median(feats[:, c]) for c in range(3)], axis=1)
         dist = np.sqrt(np.sum((np.log(feats / ref) / _SHAPE_SCALE) ** 2, axis=1))
-        return dist > 1.0
+        return dist > 1.0, ref
 
 
-def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, Any], phi0: float | None) -> tuple:
-    """Angles, filled gaps and checks of an ordered chain (-1: missing): (pixel poses, filled, ignored)."""
+# A second look at a marker the chain lacks, among all components of the frame: one at the place the chain
+# predicts, turned like the prediction and as thick as its neighbours, may be shorter (partly hidden: the
+# occluder cuts one end) or fainter (motion blur thins the fast tip below the threshold) than they are
+_RESCUE_TURN = np.deg2rad(12.0)
+_RESCUE_SHORT = (0.8, 1.25)  # times the neighbours' short side
+_RESCUE_LONG = (0.3, 1.1)  # ... long side
+_RESCUE_AREA = (0.2, 1.1)  # ... area
+_PARTIAL = 0.8  # shorter than this share of the neighbours' long side: one end is hidden
+
+
+def _rescue(
+    raw: NDArray[np.float64],
+    pix: NDArray[np.float64],
+    missing: NDArray[np.bool_],
+    ref: NDArray[np.float64],
+    spacing: float,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_], list[int]]:
+    """Missing markers measured after all, from a component at their predicted pose: (pix, missing, rescued).
+
+    ``pix`` holds the chain's pixel poses with the missing ones filled from
+    their neighbours (the prediction), ``ref`` the neighbours' median area,
+    long and short side.  A partly hidden marker keeps its visible end and its
+    thickness: its centre lies half the hidden length beyond the visible
+    part's, towards the prediction (a uniform bar's centroid is midway between
+    its ends).  Taken only when exactly one component fits and its corrected
+    centre lands near the prediction.
+    """
+    pix, missing = pix.copy(), missing.copy()
+    rescued = []
+    tol = max(1.5, 0.12 * spacing)
+    for i in np.flatnonzero(missing):
+        area_nb, long_nb, short_nb = ref[i]
+        if not np.all(np.isfinite(ref[i])) or len(raw) == 0:
+            continue
+        phi = pix[i, 2]
+        axis = np.array([np.cos(phi), np.sin(phi)])
+        rel = raw[:, :2] - pix[i, :2]
+        along = rel @ axis
+        across = rel @ np.array([-axis[1], axis[0]])
+        ok = (np.abs(wrap_half_pi(raw[:, AXIS] - phi)) <= _RESCUE_TURN) & (np.abs(across) <= tol)
+        ok &= np.abs(along) <= 0.5 * long_nb
+        for col, ref_value, (lo, hi) in (
+            (SHORT, short_nb, _RESCUE_SHORT),
+            (LONG, long_nb, _RESCUE_LONG),
+            (AREA, area_nb, _RESCUE_AREA),
+        ):
+            ok &= (raw[:, col] >= lo * ref_value) & (raw[:, col] <= hi * ref_value)
+        fit = np.flatnonzero(ok)
+        if fit.size != 1:
+            continue
+        j = fit[0]
+        centre = raw[j, :2].copy()
+        if raw[j, LONG] < _PARTIAL * long_nb:
+            centre -= np.sign(along[j]) * 0.5 * (long_nb - raw[j, LONG]) * axis
+        if np.linalg.norm(centre - pix[i, :2]) > tol:
+            continue
+        pix[i] = (*centre, phi + float(wrap_half_pi(raw[j, AXIS] - phi)))
+        missing[i] = False
+        rescued.append(int(i))
+    return pix, missing, rescued
+
+
+def _finish(
+    cands: NDArray[np.float64],
+    order: NDArray[np.intp],
+    st: dict[str, Any],
+    phi0: float | None,
+    raw: NDArray[np.float64] | None = None,
+) -> tuple:
+    """Angles, filled gaps and checks of an ordered chain (-1: missing): (pixel poses, filled, ignored, rescued).
+
+    ``raw`` are all components of the frame (before the marker-shape test),
+    searched for the missing markers at their predicted poses (:func:`_rescue`).
+    """
     missing = order < 0
     # a marker much smaller or larger than its chain neighbours is partly hidden or merged: treat it as missing
-    missing = missing | _odd_shapes(cands, order, missing)
+    odd, ref = _odd_shapes(cands, order, missing)
+    missing = missing | odd
     if missing.any() and (not st["fill"] or not fillable(missing, st["base_pose"] is not None)):
         raise FrameProblem(f"marker(s) {np.flatnonzero(missing).tolist()} missing, merged or partly hidden")
     idx = order[~missing]
@@ -213,6 +299,9 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
     pix = np.zeros((len(order), 3))
     pix[~missing, :2], pix[~missing, 2] = pts, phi_det
     pix = fill_gaps(pix, missing, st["base_pose"])
+    rescued: list[int] = []
+    if missing.any() and raw is not None:
+        pix, missing, rescued = _rescue(raw, pix, missing, ref, st["spacing"])
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
     if zigzags(pix[:, 2]) >= 3:
@@ -228,7 +317,7 @@ def _finish(cands: NDArray[np.float64], order: NDArray[np.intp], st: dict[str, A
                 f"a second chain of {len(second[0])} markers besides the robot's (another robot in view? restrict "
                 "the view with roi=(x, y, width, height))"
             )
-    return pix, np.flatnonzero(missing).tolist(), others.size
+    return pix, np.flatnonzero(missing).tolist(), others.size, rescued
 
 
 class FrameTracker:
@@ -268,21 +357,24 @@ class FrameTracker:
         best = None
         order = [self.detectors[0]] + ([self.opened] if self.opened is not None else []) + self.detectors[1:]
         for d in order:
-            if best is not None and (d is not self.opened or not best[0][1]):
-                break  # done, unless the result filled a marker that the opened mask might recover
-            shaped = d.accept(d(frame))
+            if best is not None and (d is not self.opened or not (best[0][1] or best[0][3])):
+                # done, unless the result filled a marker, or took one from a partial component, that the
+                # opened mask might show whole (cut off a cable or a line of text it merged with)
+                break
+            raw = d(frame)
+            shaped = d.accept(raw)
             if d is self.detectors[0]:
                 n_found = len(shaped)
             try:
-                result = _order_frame(shaped, self.st, self.prev, pred, self.phi0)
+                result = _order_frame(shaped, self.st, self.prev, pred, self.phi0, raw)
             except FrameProblem as e:
                 err = err or str(e)
                 continue
-            if best is None or len(result[1]) < len(best[0][1]):
+            if best is None or (len(result[1]), len(result[3])) < (len(best[0][1]), len(best[0][3])):
                 best = (result, d, len(shaped))
         if best is not None:
-            (pix, filled, ignored, tracked), d, n_shaped = best
-            out = FrameResult(pix, n_shaped - ignored, filled, tracked, d.seg.describe(), ignored)
+            (pix, filled, ignored, rescued, tracked), d, n_shaped = best
+            out = FrameResult(pix, n_shaped - ignored, filled, tracked, d.seg.describe(), ignored, rescued)
             self.prev2, self.prev = self.prev, pix[:, :2]
             self.phi0 = pix[0, 2]
             if 0 not in filled:
