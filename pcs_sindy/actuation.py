@@ -291,6 +291,10 @@ class IdentityActuation(Actuation):
         return ["A = I (inputs are the generalised forces)"]
 
 
+#: how the offsets' outer problem weights the strains' equations (pcs_sindy.variable_projection)
+_WEIGHTINGS = ("residual", "none")
+
+
 class TendonActuation(Actuation):
     """Tendons from the base to termination arc lengths, at offsets along the cross-section axis.
 
@@ -319,6 +323,17 @@ class TendonActuation(Actuation):
         inputs"); the regressor's ``identifiability_report()`` gives each
         offset's standard error and says when the recordings do not
         determine them, when one shared offset is the remedy.
+    weighting : {"residual", "none"}, default "residual"
+        How the equations of the strains are weighted when the offsets are
+        identified.  ``"residual"``: each by the inverse RMS of its own
+        residual, iterated (feasible generalised least squares; measured best
+        when the model has the robot's segments, where the residual is
+        noise).  ``"none"``: plain least squares over all equations.  When
+        the model is coarser than the robot (a continuum, a stiffness that
+        varies along a segment) the residual is the model's own error and
+        neither rule is right in general: choose by rollout score, e.g.
+        ``GridSearchCV`` over ``actuation__weighting`` (docs/method.md,
+        "Actuation").
 
     Attributes
     ----------
@@ -345,12 +360,14 @@ class TendonActuation(Actuation):
         offset: ArrayLike | None = None,
         max_offset: float = 0.05,
         shared: bool = False,
+        weighting: str = "residual",
     ) -> None:
         self.end = end
         self.side = side
         self.offset = offset
         self.max_offset = max_offset
         self.shared = shared
+        self.weighting = weighting
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
         end = _vector(self.end, "end")
@@ -372,6 +389,8 @@ class TendonActuation(Actuation):
         }
         if not isinstance(self.shared, (bool, np.bool_)):
             raise ValueError(f"shared must be True or False; got {self.shared!r}")
+        if self.weighting not in _WEIGHTINGS:
+            raise ValueError(f"weighting must be one of {_WEIGHTINGS}; got {self.weighting!r}")
         if self.offset is None:
             names = ["d"] if self.shared else [f"d_{k + 1}" for k in range(p)]
             out.update(offset_names=names, offsets=side * min(0.01, 0.5 * self.max_offset))

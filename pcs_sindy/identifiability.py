@@ -154,7 +154,8 @@ def _offset_lines(info: dict, tol: float) -> list[str]:
         return []
     values, se = np.asarray(info["offsets"]), np.asarray(info["offset_standard_errors"])
     rel = np.asarray(info["offset_relative_standard_errors"])
-    lines = ["actuation offsets (variable projection, each strain's equation weighted by its residual):"]
+    how = "unweighted" if info.get("offset_weighting") == "none" else "each strain's equation weighted by its residual"
+    lines = [f"actuation offsets (variable projection, {how}):"]
     for nm, v, s, r in zip(names, values, se, rel):
         flag = "" if r <= tol else "  <- poorly determined"
         lines.append(f"{nm:<14} {v:>12.4g} {s:>12.3g} {r:>11.2%}{flag}")

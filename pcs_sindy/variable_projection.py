@@ -16,7 +16,8 @@ noise set them — through the densities and rotary inertias the equations share
 generalised least squares: each strain's equation is divided by the standard
 deviation of its own residual, estimated from the previous fit and iterated
 until the weights settle (feasible GLS; maximum likelihood for independent
-errors of one variance per equation).  See docs/method.md.
+errors of one variance per equation).  ``TendonActuation(weighting="none")``
+solves once with all equations weighted alike.  See docs/method.md.
 """
 
 from __future__ import annotations
@@ -83,8 +84,9 @@ def fit_offsets(
         ``offset_names``, ``offsets``, ``offset_standard_errors``,
         ``offset_relative_standard_errors``, ``offset_correlation`` (between
         the offsets, after the linear parameters are profiled out),
-        ``offset_fit_success`` and ``equation_weights`` (the weight of each
-        strain's equation in the outer problem).
+        ``offset_fit_success``, ``equation_weights`` (the weight of each
+        strain's equation in the outer problem) and ``offset_weighting``
+        (the actuation's ``weighting``: ``"none"`` solves once, unweighted).
     """
     rows = _form.library_rows(library, recordings, formulation)
     n_rows, n, n_lib = rows.shape
@@ -113,7 +115,9 @@ def fit_offsets(
     lo, hi = actuation.offset_bounds()
     d = np.clip(actuation.initial_offsets(), lo, hi)
     w = np.ones(n)
-    for _ in range(_MAX_PASSES):
+    weighting = getattr(actuation, "weighting", "residual")
+    passes = _MAX_PASSES if weighting == "residual" else 1
+    for k in range(passes):
         sol = least_squares(
             outer(w),
             d,
@@ -125,6 +129,8 @@ def fit_offsets(
             max_nfev=200,
         )
         d = sol.x
+        if k == passes - 1:
+            break
         w_new = equation_weights(sol.fun.reshape(n_rows, n) / w)
         if np.max(np.abs(w_new / w - 1)) < _SETTLED:
             break
@@ -143,5 +149,6 @@ def fit_offsets(
         "offset_correlation": corr,
         "offset_fit_success": bool(sol.success),
         "equation_weights": w.copy(),
+        "offset_weighting": weighting,
     }
     return d, info
