@@ -47,8 +47,8 @@ from .binarisation import (
 from .camera import Camera, camera_json_path, read_camera_json
 from .frame_source import FrameSource
 from .frame_tracker import Detector, FrameResult, FrameTracker
-from .marker_chain import link_chains
-from .markers import AREA, LONG, PIXELS, SHORT
+from .marker_chain import link_chains, track, wrap_half_pi
+from .markers import AREA, AXIS, LONG, PIXELS, SHORT
 from .trajectory import PoseTrajectory
 
 __all__ = ["extract_recording", "MarkerStream"]
@@ -445,6 +445,22 @@ class MarkerStream:
         scale comes from ``robot_length``).
     p : dict
         The extractor's validated parameters.
+    max_predicted : int
+        With ``on_missing="predict"``: the most markers of one frame that may
+        be predicted (see :meth:`MarkerPoseExtractor.stream`).
+    max_run : int
+        ... and the most consecutive frames with predicted markers.
+
+    Attributes
+    ----------
+    last : (N + 1, 3) array
+        The poses returned last.
+    last_predicted : list of int
+        Markers of the last frame predicted rather than measured (empty when
+        every marker was measured, filled or rescued).
+    diagnostics : dict
+        ``binarisation``, ``calibration`` (when the first frame set it),
+        ``frames_predicted`` and ``markers_predicted`` (counts so far).
 
     Notes
     -----
@@ -459,7 +475,9 @@ class MarkerStream:
     are never traversed again.
     """
 
-    def __init__(self, reference: NDArray[np.uint8], p: dict[str, Any]) -> None:
+    def __init__(
+        self, reference: NDArray[np.uint8], p: dict[str, Any], max_predicted: int = 2, max_run: int = 3
+    ) -> None:
         ref_img = np.asarray(reference)
         if ref_img.dtype != np.uint8 or ref_img.ndim not in (2, 3):
             raise ValueError(
@@ -500,7 +518,11 @@ class MarkerStream:
             "fill": p["fill_missing"],
         }
         self.tracker = FrameTracker([det] + fallbacks, st)
-        self.diagnostics = {"binarisation": choice}
+        self.diagnostics: dict[str, Any] = {"binarisation": choice, "frames_predicted": 0, "markers_predicted": 0}
+        self.predict = p["on_missing"] == "predict"
+        self.max_predicted, self.max_run = max_predicted, max_run
+        self.last_predicted: list[int] = []
+        self._run = 0  # consecutive frames with predicted markers
         out, _, err = self.tracker.step(self._prepare(ref_img))
         if out is None:
             raise ValueError(f"stream, reference frame: {err}")
@@ -514,6 +536,7 @@ class MarkerStream:
         self._branch = 2 * np.pi * np.round(first[0, 2] / (2 * np.pi))  # the base angle nearest 0, kept from now on
         self.n_frames = 1
         self.last = first - np.array([0.0, 0.0, self._branch])
+        self._history = [out.pix]  # pixel poses of the last two frames returned, oldest first
 
     def _prepare(self, frame: NDArray[np.uint8]) -> NDArray[np.uint8]:
         img = np.asarray(frame)
@@ -530,20 +553,72 @@ class MarkerStream:
     def update(self, frame: NDArray[np.uint8]) -> NDArray[np.float64]:
         """Poses (N + 1, 3) of the base and the markers in this frame, metres/radians in the base frame.
 
+        With ``on_missing="predict"``, a frame that cannot be extracted but
+        whose lost markers are few gets them predicted
+        (:attr:`last_predicted` names them).
+
         Raises
         ------
         ValueError
             When the frame's markers cannot be extracted (the message says
-            why); the next frame is then chained from the base again.
+            why) and cannot be predicted; the next frame is then chained from
+            the base again.
         """
-        out, n_found, err = self.tracker.step(self._prepare(frame))
+        img = self._prepare(frame)
+        out, n_found, err = self.tracker.step(img)
         k = self.n_frames
         self.n_frames += 1
+        self.last_predicted = []
         if out is None:
-            raise ValueError(
-                f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}"
-            )
-        poses = self.camera.from_rectified(self.camera.rectify(out.pix))
+            msg = f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}"
+            if not self.predict:
+                self._history = []
+                raise ValueError(msg)
+            pix = self._predict(img, msg)
+        else:
+            pix = out.pix
+            self._run = 0
+        self._history = [self._history[-1], pix] if self._history else [pix]
+        poses = self.camera.from_rectified(self.camera.rectify(pix))
         poses[:, 2] -= self._branch
         self.last = poses
         return poses
+
+    def _predict(self, img: NDArray[np.uint8], msg: str) -> NDArray[np.float64]:
+        """Pixel poses of a frame the tracker could not extract: the markers found where the last two frames
+        put them, the lost ones continued at constant velocity; raises ValueError (``msg`` and why) otherwise."""
+        hist, self._history = self._history, []  # a raise below leaves no history
+        if len(hist) < 2:
+            raise ValueError(f"{msg}; no markers predicted: the two frames before were not both extracted")
+        if self._run >= self.max_run:
+            raise ValueError(f"{msg}; no markers predicted: already {self._run} frames in a row predicted")
+        # constant velocity in pixels: at camera rate a marker moves a fraction of the spacing per frame
+        pred = 2.0 * hist[1] - hist[0]
+        det = self.tracker.detectors[0]
+        cands = det.accept(det(img))
+        match = track(hist[1][:, :2], pred[:, :2], cands[:, :2])
+        if match is None:
+            raise ValueError(f"{msg}; no markers predicted: the markers found do not match the prediction one to one")
+        lost = np.flatnonzero(match < 0)
+        if lost.size == 0:
+            # every marker is where it was expected, yet the tracker refused the frame (a chain that crosses
+            # itself, zigzags or faces against itself): its measurements are not to be trusted either
+            raise ValueError(f"{msg}; no markers predicted: none is lost, the frame failed the chain's checks")
+        if lost.size > self.max_predicted:
+            raise ValueError(
+                f"{msg}; no markers predicted: {lost.size} markers lost ({lost.tolist()}), at most "
+                f"{self.max_predicted} are predicted"
+            )
+        pix = pred.copy()
+        seen = match >= 0
+        pix[seen, :2] = cands[match[seen], :2]
+        # a marker's axis is known up to a half turn: take the branch nearest the prediction
+        pix[seen, 2] = pred[seen, 2] + wrap_half_pi(cands[match[seen], AXIS] - pred[seen, 2])
+        # the tracker follows the markers on from here instead of chaining the next frame from the base
+        self.tracker.prev2, self.tracker.prev = hist[1][:, :2], pix[:, :2]
+        self._run += 1
+        self._history = hist
+        self.last_predicted = lost.tolist()
+        self.diagnostics["frames_predicted"] += 1
+        self.diagnostics["markers_predicted"] += int(lost.size)
+        return pix
