@@ -158,7 +158,10 @@ def main() -> None:
             "a wall time far above the CPU time of the same frame is time the process waited for a core).  "
             "Failed frames (the two tip markers blurred together or lost at 2.8 px thickness) try every "
             "candidate segmentation and so cost about twice a tracked frame; a predicted frame adds one more "
-            "segmentation (the components matched to the prediction).",
+            "segmentation (the components matched to the prediction).  The frames that still fail with "
+            "predict lose more markers than max_predicted (both tip markers and a third near them, blurred "
+            "beyond matching) or follow such a frame (no two frames to predict from); the stream's default "
+            "stays on_missing='raise', so a controller opts in to poses that are partly predicted.",
         ]
     )
     write_section(

@@ -466,7 +466,8 @@ class MarkerStream:
     -----
     A frame costs one segmentation and a few small numpy operations (about
     a millisecond at 640x480); one the chosen segmentation cannot complete is
-    tried with the other candidates too, so costs about twice that.  The
+    tried with the other candidates too, so costs about twice that, and
+    one whose lost markers are predicted one segmentation more.  The
     per-frame path creates almost no objects that Python's garbage collector
     tracks, but a full collection triggered by the set-up's garbage (or by
     the caller's) traverses every object of the process, numba's compiled
@@ -519,7 +520,7 @@ class MarkerStream:
         }
         self.tracker = FrameTracker([det] + fallbacks, st)
         self.diagnostics: dict[str, Any] = {"binarisation": choice, "frames_predicted": 0, "markers_predicted": 0}
-        self.predict = p["on_missing"] == "predict"
+        self.on_missing = p["on_missing"]
         self.max_predicted, self.max_run = max_predicted, max_run
         self.last_predicted: list[int] = []
         self._run = 0  # consecutive frames with predicted markers
@@ -571,7 +572,7 @@ class MarkerStream:
         self.last_predicted = []
         if out is None:
             msg = f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}"
-            if not self.predict:
+            if self.on_missing != "predict":
                 self._history = []
                 raise ValueError(msg)
             pix = self._predict(img, msg)
