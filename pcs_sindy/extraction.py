@@ -466,8 +466,7 @@ class MarkerStream:
     -----
     A frame costs one segmentation and a few small numpy operations (about
     a millisecond at 640x480); one the chosen segmentation cannot complete is
-    tried with the other candidates too, so costs about twice that, and
-    one whose lost markers are predicted one segmentation more.  The
+    tried with the other candidates too, so costs about twice that.  The
     per-frame path creates almost no objects that Python's garbage collector
     tracks, but a full collection triggered by the set-up's garbage (or by
     the caller's) traverses every object of the process, numba's compiled
@@ -575,7 +574,7 @@ class MarkerStream:
             if self.on_missing != "predict":
                 self._history = []
                 raise ValueError(msg)
-            pix = self._predict(img, msg)
+            pix = self._predict(msg)
         else:
             pix = out.pix
             self._run = 0
@@ -585,7 +584,7 @@ class MarkerStream:
         self.last = poses
         return poses
 
-    def _predict(self, img: NDArray[np.uint8], msg: str) -> NDArray[np.float64]:
+    def _predict(self, msg: str) -> NDArray[np.float64]:
         """Pixel poses of a frame the tracker could not extract: the markers found where the last two frames
         put them, the lost ones continued at constant velocity; raises ValueError (``msg`` and why) otherwise."""
         hist, self._history = self._history, []  # a raise below leaves no history
@@ -595,8 +594,7 @@ class MarkerStream:
             raise ValueError(f"{msg}; no markers predicted: already {self._run} frames in a row predicted")
         # constant velocity in pixels: at camera rate a marker moves a fraction of the spacing per frame
         pred = 2.0 * hist[1] - hist[0]
-        det = self.tracker.detectors[0]
-        cands = det.accept(det(img))
+        cands = self.tracker.candidates  # of the chosen segmentation, as tracker.step found them
         match = track(hist[1][:, :2], pred[:, :2], cands[:, :2])
         if match is None:
             raise ValueError(f"{msg}; no markers predicted: the markers found do not match the prediction one to one")

@@ -336,6 +336,7 @@ class FrameTracker:
         self.detectors = detectors
         self.st = dict(state, base_pose=None)
         self.phi0 = None  # the base angle's branch, kept across failed frames so angles stay continuous
+        self.candidates: NDArray[np.float64] | None = None  # marker-shaped components of the last frame
         first = detectors[0]
         # markers thick enough to survive a 3 x 3 opening: frames with a marker that looks merged are tried
         # again with thin strokes cut off the binary mask
@@ -365,6 +366,7 @@ class FrameTracker:
             shaped = d.accept(raw)
             if d is self.detectors[0]:
                 n_found = len(shaped)
+                self.candidates = shaped  # kept for a caller that looks at a failed frame again
             try:
                 result = _order_frame(shaped, self.st, self.prev, pred, self.phi0, raw)
             except FrameProblem as e:
