@@ -13,9 +13,7 @@ import time
 
 import numpy as np
 
-from pcs_sindy.integration import SimulationError
-from pcs_sindy.metrics import end_effector_errors
-from pcs_sindy.trajectory import StrainTrajectory
+from pcs_sindy.core import SimulationError, StrainTrajectory, end_effector_errors
 
 ROLLOUT = dict(method="dopri5", rtol=1e-6, atol=1e-9)
 

@@ -71,13 +71,22 @@ from sklearn.model_selection import GridSearchCV, GroupKFold
 from tqdm import tqdm
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory, make_pcs_pipeline  # noqa: E402
-from pcs_sindy.actuation import LinearActuation, PressureActuation, TendonActuation  # noqa: E402
-from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
-from pcs_sindy.pipeline import recording_groups  # noqa: E402
+from pcs_sindy.core import (
+    Camera,  # noqa: E402
+    PoseTrajectory,
+    end_effector_errors,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+    StiffnessThresholdOptimizer,  # noqa: E402
+)
+from pcs_sindy.models import LinearActuation, PressureActuation, TendonActuation  # noqa: E402
+from pcs_sindy.pipeline import (
+    make_pcs_pipeline,
+    recording_groups,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
 from pcs_sindy.simulation.scenarios import add_pose_noise  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402

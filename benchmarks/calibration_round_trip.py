@@ -3,7 +3,7 @@
 A pinhole camera (fx = 900, fy = 905 px, k1 = -0.28, k2 = 0.11, small
 tangential terms, k3 = -0.02: about 9 px of distortion in the image corners)
 looks at the robot's plane tilted by ~5° from 0.45 m (~2000 px/m).
-``pcs_sindy.calibration.calibrate_camera`` gets N views of a 9x6 board
+``pcs_sindy.vision.calibration.calibrate_camera`` gets N views of a 9x6 board
 (12 mm squares) at random positions and tilts, plus one view lying in the
 robot's plane (anywhere in it); then the two_segment robot (20 markers,
 8 x 2 mm) is rendered through the true lens and extracted with the
@@ -28,11 +28,13 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_calibration import DIST, PATTERN, PLANE_R, PLANE_T, SIZE, SQUARE, K, board_views  # noqa: E402
 
-from pcs_sindy.calibration import calibrate_camera  # noqa: E402
-from pcs_sindy.camera import Camera  # noqa: E402
+from pcs_sindy.core import Camera  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.rendering import render_frames  # noqa: E402
-from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
+from pcs_sindy.vision import (
+    MarkerPoseExtractor,  # noqa: E402
+    calibrate_camera,  # noqa: E402
+)
 
 from _results import write_section  # noqa: E402
 

@@ -58,8 +58,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.control import (  # noqa: E402
+from pcs_sindy.control import (
     ComputedTorqueController,
     SetpointRegulator,
     TipReference,
@@ -70,11 +69,16 @@ from pcs_sindy.control import (  # noqa: E402
 from pcs_sindy.control.closed_loop import plant_equilibrium  # noqa: E402
 from pcs_sindy.control.estimation import StateMap, frame_strains  # noqa: E402
 from pcs_sindy.control.tracking import StrainReference  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
+from pcs_sindy.core import (
+    Camera,  # noqa: E402
+    PoseTrajectory,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion  # noqa: E402
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
-from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
 from _results import write_section  # noqa: E402

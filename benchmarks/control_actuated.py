@@ -72,15 +72,21 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from control import video_poses  # noqa: E402  (rendered and extracted once, cached)
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory  # noqa: E402
-from pcs_sindy.actuation import PressureActuation, TendonActuation  # noqa: E402
 from pcs_sindy.control import TipRegulator, closed_loop  # noqa: E402
 from pcs_sindy.control.closed_loop import plant_equilibrium  # noqa: E402
 from pcs_sindy.control.statics import model_tip  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
+from pcs_sindy.core import (
+    PoseTrajectory,
+    end_effector_errors,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+)
+from pcs_sindy.models import PressureActuation, TendonActuation  # noqa: E402
 from pcs_sindy.simulation import PCSRobot, get_scenario  # noqa: E402
-from pcs_sindy.simulation import TendonActuation as PlantTendons  # noqa: E402
+from pcs_sindy.simulation import Tendons as PlantTendons  # noqa: E402
 from pcs_sindy.simulation.scenarios import Scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402

@@ -39,9 +39,11 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.camera import Camera, camera_json_path  # noqa: E402
+from pcs_sindy.core import Camera  # noqa: E402
+from pcs_sindy.core.camera import camera_json_path
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.simulation.rendering import Nuisances, render_frames, render_video  # noqa: E402
+from pcs_sindy.simulation.nuisances import Nuisances  # noqa: E402
+from pcs_sindy.simulation.rendering import render_frames, render_video
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
 from _results import write_section  # noqa: E402

@@ -36,12 +36,14 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 from _rollout import validate  # noqa: E402
 
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
-from pcs_sindy.segmentation import fit_strains_least_squares  # noqa: E402
+from pcs_sindy.core import StrainTrajectory  # noqa: E402
+from pcs_sindy.fusion import fit_strains_least_squares  # noqa: E402
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+    StiffnessThresholdOptimizer,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

@@ -50,13 +50,18 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _rollout import validate  # noqa: E402
 
-from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import distributed_errors  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
+from pcs_sindy.core import (  # noqa: E402
+    Camera,  # noqa: E402
+    PoseTrajectory,
+    StrainTrajectory,
+    distributed_errors,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion  # noqa: E402
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario, render_video  # noqa: E402
-from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory  # noqa: E402
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
 from _results import write_section  # noqa: E402

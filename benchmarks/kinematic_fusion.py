@@ -34,8 +34,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.metrics import distributed_errors  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion, select_threshold, threshold_sweep  # noqa: E402
+from pcs_sindy.core import distributed_errors  # noqa: E402
+from pcs_sindy.fusion import KinematicFusion, select_threshold, threshold_sweep  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402
@@ -87,7 +87,7 @@ class _Extracted:
 
 def from_video(recs, stats: dict) -> list:
     """Render every recording (default 640×480 camera) and extract the poses back with MarkerPoseExtractor."""
-    from pcs_sindy.camera import Camera
+    from pcs_sindy.core import Camera
     from pcs_sindy.simulation import render_frames
     from pcs_sindy.vision import MarkerPoseExtractor
 

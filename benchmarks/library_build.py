@@ -16,7 +16,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.library import PCSLagrangianLibrary, codegen, pcs_lagrangian  # noqa: E402
+from pcs_sindy.identification import PCSLagrangianLibrary  # noqa: E402
+from pcs_sindy.identification.library import codegen, pcs_lagrangian
 
 from _results import write_section  # noqa: E402
 
@@ -134,7 +135,8 @@ def main() -> None:
 
     load = os.getloadavg()
     body = [
-        "Symbolic derivation of the PCS Lagrangian basis (`pcs_sindy.library`): complex (phasor) positions, "
+        "Symbolic derivation of the PCS Lagrangian basis (`pcs_sindy.identification.library`): "
+        "complex (phasor) positions, "
         "closed-form sigma-integrals as exact entire special functions of u = kappa L (Taylor series for |u| < 3, "
         "closed form beyond; no epsilon), Euler–Lagrange images by sympy, numpy code generation. "
         "The derivation keeps segment lengths symbolic, so one cached derivation per number of segments serves "

@@ -12,7 +12,7 @@ scenario's seed noise on the tracked poses:
    {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(4))`` over the 8 training
    recordings (groups = recordings, so every fold holds out 2 whole recordings),
    scored both by the regressor's own ``score`` (R^2 of the tip path of
-   rollouts of the held-out recordings) and by ``pcs_sindy.metrics.rollout_scorer``
+   rollouts of the held-out recordings) and by ``pcs_sindy.core.metrics.rollout_scorer``
    (minus their mean tip error) — one search with both scorers, each choosing
    its best candidate as ``GridSearchCV(refit=...)`` would;
 3. the chosen threshold refitted on all 8 recordings: the strains it removes
@@ -46,12 +46,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _rollout import validate  # noqa: E402
 from dynamic_identification import estimate_strains  # noqa: E402
 
-from pcs_sindy.metrics import rollout_scorer  # noqa: E402
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
+from pcs_sindy.core import (  # noqa: E402
+    PoseTrajectory,
+    StrainTrajectory,
+    rollout_scorer,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion  # noqa: E402
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    StiffnessThresholdOptimizer,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

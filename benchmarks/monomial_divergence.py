@@ -60,11 +60,13 @@ from scipy.signal import savgol_filter
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _rollout import validate  # noqa: E402
 
-from pcs_sindy.formulations import jump_free as _jump_free  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
+from pcs_sindy.core import StrainTrajectory  # noqa: E402
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+)
+from pcs_sindy.identification.formulations import jump_free as _jump_free  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

@@ -39,13 +39,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from _rollout import validation_rollout  # noqa: E402
 from dynamic_identification import estimate_strains  # noqa: E402
 
-from pcs_sindy.integration import SimulationError  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
-from pcs_sindy.metrics import end_effector_errors  # noqa: E402
-from pcs_sindy.regressor import EulerLagrangeRegressor  # noqa: E402
+from pcs_sindy.core import (
+    SimulationError,  # noqa: E402
+    StrainTrajectory,  # noqa: E402
+    end_effector_errors,  # noqa: E402
+)
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,  # noqa: E402
+    PhysicalPCSLibrary,  # noqa: E402
+)
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.scenarios import add_pose_noise  # noqa: E402
-from pcs_sindy.trajectory import StrainTrajectory  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

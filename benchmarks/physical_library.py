@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.formulations import sliding_windows  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.identification import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.identification.formulations import sliding_windows  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

@@ -24,8 +24,8 @@ from scipy.optimize import lsq_linear
 from scipy.signal import savgol_filter
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.formulations import integrate_forces, sliding_windows  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.identification import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.identification.formulations import integrate_forces, sliding_windows  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402

@@ -21,12 +21,10 @@ import warnings
 
 import numpy as np
 
-from pcs_sindy.library import PhysicalPCSLibrary
-from pcs_sindy.metrics import end_effector_errors
-from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.segmentation import KinematicFusion
+from pcs_sindy.core import PoseTrajectory, end_effector_errors
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import PoseTrajectory
 
 from _results import write_section
 

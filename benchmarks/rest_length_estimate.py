@@ -7,7 +7,7 @@ Cases:
 
 "kinematic": the median deformed length of the marker chain (what ``KinematicFusion`` uses
 when given no length) with its jackknife standard error over recordings; "corrected":
-``pcs_sindy.rest_length.estimate_rest_length`` (fusion, weak-form physical fit with
+``pcs_sindy.pipeline.rest_length.estimate_rest_length`` (fusion, weak-form physical fit with
 ``rest_strain=True``, lengths rescaled by the identified axial rest strain, refit), with
 its jackknife standard error.
 
@@ -24,10 +24,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from test_rest_length import soft_hanging_robot  # noqa: E402  (the same robot as the test)
 
-from pcs_sindy.rest_length import estimate_rest_length  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
+from pcs_sindy.core import PoseTrajectory  # noqa: E402
+from pcs_sindy.fusion import KinematicFusion  # noqa: E402
+from pcs_sindy.pipeline import estimate_rest_length  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
 
 from _results import write_section  # noqa: E402
 

@@ -3,7 +3,7 @@
 For the one-, two- and three-segment scenarios, the true parameters in a
 ``PhysicalPCSLibrary`` are rolled out over the 7 s validation actuation (1 kHz,
 held per sample) from rest through the compiled forward model
-(``pcs_sindy.forward.LumpedPCSModel.simulate``, what ``lib.forward_model(coef)``
+(``pcs_sindy.models.forward.LumpedPCSModel.simulate``, what ``lib.forward_model(coef)``
 returns and ``EulerLagrangeRegressor.simulate`` calls) with a fixed quadrature
 rule (``fast_quadrature=None``), with
 
@@ -32,8 +32,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.forward import LumpedPCSModel  # noqa: E402
-from pcs_sindy.library import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.identification import PhysicalPCSLibrary  # noqa: E402
+from pcs_sindy.models import LumpedPCSModel  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402
@@ -59,8 +59,8 @@ def _library(robot):
 _COLD = """
 import time, numpy as np
 t0 = time.perf_counter()
-from pcs_sindy.forward import LumpedPCSModel
-from pcs_sindy.kinematics import PlanarPCS
+from pcs_sindy.models.forward import LumpedPCSModel
+from pcs_sindy.core.kinematics import PlanarPCS
 m = LumpedPCSModel(PlanarPCS((0.1,)), [0.3], [1e-5], [[0.0, -3.0]], [1e-2, 10.0, 10.0], [1e-4, 1e-2, 1e-2])
 m.simulate(np.zeros(3), np.zeros(3), np.arange(3) * 1e-3, np.zeros((3, 3)), method="dopri5")
 m.simulate(np.zeros(3), np.zeros(3), np.arange(3) * 1e-3, np.zeros((3, 3)), method="rosenbrock")

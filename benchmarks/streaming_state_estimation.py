@@ -40,11 +40,14 @@ import cv2
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.segmentation import KinematicFusion  # noqa: E402
+from pcs_sindy.core import (
+    Camera,  # noqa: E402
+    PoseTrajectory,  # noqa: E402
+)
+from pcs_sindy.fusion import KinematicFusion  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
-from pcs_sindy.simulation.rendering import Nuisances, render_frames  # noqa: E402
-from pcs_sindy.trajectory import PoseTrajectory  # noqa: E402
+from pcs_sindy.simulation.nuisances import Nuisances  # noqa: E402
+from pcs_sindy.simulation.rendering import render_frames
 from pcs_sindy.vision import MarkerPoseExtractor  # noqa: E402
 
 from _results import write_section  # noqa: E402

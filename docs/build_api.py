@@ -1,4 +1,4 @@
-"""Generate ``docs/api.md``, the API reference, from the package's docstrings.
+"""Generate ``docs/api.md``, the API reference, from the package's layout and docstrings.
 
 Run ``.venv/bin/python docs/build_api.py`` (or ``make docs``) after changing a
 public docstring; ``tests/test_docs.py`` checks that the committed file is up
@@ -13,62 +13,31 @@ import inspect
 import sys
 from pathlib import Path
 
-# (module, names) in pipeline order; names must be public attributes of the module.
-SECTIONS: list[tuple[str, str, list[str]]] = [
-    ("Pipeline", "pcs_sindy.pipeline", ["make_pcs_pipeline", "PCSPipeline", "recording_groups"]),
-    ("Vision: videos → poses", "pcs_sindy.vision", ["MarkerPoseExtractor"]),
-    ("Camera", "pcs_sindy.camera", ["Camera"]),
-    ("Segmentation: poses → strains", "pcs_sindy.segmentation", ["KinematicFusion"]),
-    ("Choosing the threshold", "pcs_sindy.threshold_selection", ["threshold_sweep", "select_threshold"]),
-    (
-        "Marker chain geometry",
-        "pcs_sindy.chain_geometry",
-        ["chain_poses", "segment_strains", "estimate_total_length", "deformed_lengths"],
-    ),
-    ("Segment merging (Algorithm 1)", "pcs_sindy.segment_merging", ["fuse_segments", "strain_distances", "merge_runs"]),
-    ("Least-squares shape fit", "pcs_sindy.shape_fit", ["fit_strains_least_squares", "refine_boundaries"]),
-    ("Library", "pcs_sindy.library", ["PCSLagrangianLibrary", "PhysicalPCSLibrary", "StackedEulerLagrangeLibrary"]),
-    ("Optimizer", "pcs_sindy.optimizers", ["StiffnessThresholdOptimizer"]),
-    ("Regressor: strains + τ → model", "pcs_sindy.regressor", ["EulerLagrangeRegressor"]),
-    (
-        "Actuation: inputs → generalised forces",
-        "pcs_sindy.actuation",
-        ["TendonActuation", "PressureActuation", "LinearActuation", "IdentityActuation", "actuation_from_layout"],
-    ),
-    ("Library contract", "pcs_sindy.library.base", ["LagrangianLibrary"]),
-    ("Formulations", "pcs_sindy.formulations", ["regression", "weak_rows", "integrate_forces", "sliding_windows"]),
-    ("Identifiability", "pcs_sindy.identifiability", ["identifiability", "report"]),
-    ("Forward models and rollouts", "pcs_sindy.forward", ["ForwardModel", "LumpedPCSModel", "CallableModel"]),
-    ("The simulate contract", "pcs_sindy.integration", ["SimulationError", "canonical_method"]),
-    (
-        "Control",
-        "pcs_sindy.control",
-        ["SetpointRegulator", "ComputedTorqueController", "TipRegulator", "closed_loop", "ClosedLoopResult"],
-    ),
-    ("Model files", "pcs_sindy.persistence", ["save", "load"]),
-    ("Kinematics", "pcs_sindy.kinematics", ["PlanarPCS", "forward_kinematics", "forward_kinematics_jacobian"]),
-    ("Trajectories", "pcs_sindy.trajectory", ["PoseTrajectory", "StrainTrajectory"]),
-    ("Metrics", "pcs_sindy.metrics", ["end_effector_errors", "distributed_errors", "rollout_scorer"]),
-    (
-        "Simulation (ground truth)",
-        "pcs_sindy.simulation",
-        ["get_scenario", "list_scenarios", "PCSRobot", "TendonActuation", "PressureActuation", "render_video"],
-    ),
-    ("Degraded footage", "pcs_sindy.simulation.nuisances", ["Nuisances"]),
-    ("Calibration boards", "pcs_sindy.simulation.checkerboard", ["render_checkerboard"]),
-    (
-        "Plotting",
-        "pcs_sindy.plotting",
-        [
-            "plot_strain_distance_profile",
-            "plot_error_vs_segments",
-            "plot_rollout",
-            "plot_end_effector",
-            "plot_stills",
-            "animate_rollout",
-        ],
-    ),
+#: the stage packages in pipeline order, then the packages beside them; each section lists
+#: every public name the package exports (its ``__all__``), so the reference follows the layout
+STAGES: list[str] = [
+    "pcs_sindy.core",
+    "pcs_sindy.vision",
+    "pcs_sindy.fusion",
+    "pcs_sindy.identification",
+    "pcs_sindy.models",
+    "pcs_sindy.control",
+    "pcs_sindy.pipeline",
+    "pcs_sindy.simulation",
+    "pcs_sindy.io",
+    "pcs_sindy.plotting",
 ]
+
+
+def sections() -> list[tuple[str, str, list[str]]]:
+    """(title, package, names) of every stage: the names are the package's exports that are not modules."""
+    out = []
+    for package in STAGES:
+        module = importlib.import_module(package)
+        names = [n for n in module.__all__ if not inspect.ismodule(getattr(module, n))]
+        title = (inspect.getdoc(module) or package).splitlines()[0].rstrip(".")
+        out.append((title, package, names))
+    return out
 
 
 def _signature(obj: object, name: str) -> str:
@@ -127,16 +96,13 @@ def render() -> str:
         "Generated from the docstrings by `docs/build_api.py`; do not edit by hand.",
         "",
     ]
-    for title, module_name, names in SECTIONS:
-        try:
-            module = importlib.import_module(module_name)
-        except ImportError:
-            continue
-        present = [n for n in names if hasattr(module, n)]
-        if not present:
-            continue
-        lines += [f"## {title} (`{module_name}`)", ""]
-        for name in present:
+    for title, module_name, names in sections():
+        module = importlib.import_module(module_name)
+        intro = (inspect.getdoc(module) or "").split("\n", 1)[1:]
+        lines += [f"## `{module_name}`: {title}", ""]
+        if intro and intro[0].strip():
+            lines += [intro[0].strip(), ""]
+        for name in names:
             obj = getattr(module, name)
             kind = "class" if inspect.isclass(obj) else "function"
             lines += [f"### `{name}`", "", "```python", f"{kind} {_signature(obj, name)}", "```", "", _doc(obj), ""]

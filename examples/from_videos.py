@@ -25,10 +25,12 @@ from pathlib import Path
 
 import numpy as np
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, MarkerPoseExtractor, make_pcs_pipeline
-from pcs_sindy.camera import Camera
-from pcs_sindy.metrics import distributed_errors, end_effector_errors
+from pcs_sindy.core import Camera, distributed_errors, end_effector_errors
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.pipeline import make_pcs_pipeline
 from pcs_sindy.simulation import get_scenario, render_video
+from pcs_sindy.vision import MarkerPoseExtractor
 
 start = time.perf_counter()
 scenario = get_scenario("one_segment")

@@ -22,9 +22,8 @@ import time
 
 import numpy as np
 
-from pcs_sindy import KinematicFusion
-from pcs_sindy.metrics import distributed_errors
-from pcs_sindy.segmentation import select_threshold, threshold_sweep
+from pcs_sindy.core import distributed_errors
+from pcs_sindy.fusion import KinematicFusion, select_threshold, threshold_sweep
 from pcs_sindy.simulation import get_scenario
 
 start = time.perf_counter()

@@ -30,9 +30,10 @@ import time
 
 import numpy as np
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PhysicalPCSLibrary
-from pcs_sindy.actuation import LinearActuation, PressureActuation
-from pcs_sindy.metrics import end_effector_errors
+from pcs_sindy.core import end_effector_errors
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+from pcs_sindy.models import LinearActuation, PressureActuation
 from pcs_sindy.simulation import get_scenario
 
 start = time.perf_counter()

@@ -16,8 +16,14 @@ from __future__ import annotations
 import numpy as np
 import pysindy as ps
 
-from pcs_sindy import EulerLagrangeRegressor, StrainTrajectory
-from pcs_sindy.library import PhysicalPCSLibrary, StackedEulerLagrangeLibrary, stack_forces, unstack_forces
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,
+    PhysicalPCSLibrary,
+    StackedEulerLagrangeLibrary,
+    stack_forces,
+    unstack_forces,
+)
 from pcs_sindy.simulation import get_scenario
 
 

@@ -31,9 +31,10 @@ import time
 
 import numpy as np
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion
-from pcs_sindy.actuation import TendonActuation
-from pcs_sindy.metrics import end_effector_errors
+from pcs_sindy.core import end_effector_errors
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.models import TendonActuation
 from pcs_sindy.simulation import get_scenario
 
 start = time.perf_counter()

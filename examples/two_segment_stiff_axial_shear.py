@@ -31,8 +31,9 @@ import numpy as np
 from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV, GroupKFold
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, StiffnessThresholdOptimizer
-from pcs_sindy.metrics import end_effector_errors
+from pcs_sindy.core import end_effector_errors
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, StiffnessThresholdOptimizer
 from pcs_sindy.pipeline import recording_groups
 from pcs_sindy.simulation import get_scenario
 

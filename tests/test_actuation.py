@@ -1,7 +1,7 @@
 """Actuated ground truth: tendon lengths and their map A(q), pressure chambers, energy balance, scenarios.
 
 Independent truths: the tendon's path integrated numerically as a polyline of the offset curve
-``p(s) + d R(θ(s)) e_x`` built from :func:`pcs_sindy.kinematics.forward_kinematics` (no closed form of
+``p(s) + d R(θ(s)) e_x`` built from :func:`pcs_sindy.core.kinematics.forward_kinematics` (no closed form of
 the simulator), virtual work of the chambers from the backbone's orientation and a quadrature of the
 axial strain field, hand-derived columns at the straight configuration, and the energy balance
 ``dE/dt = q̇ᵀ A(q) u − q̇ᵀ D q̇`` along simulated trajectories.
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from scipy.integrate import quad
 
-from pcs_sindy.kinematics import forward_kinematics
-from pcs_sindy.simulation import PressureActuation, TendonActuation, get_scenario
+from pcs_sindy.core import forward_kinematics
+from pcs_sindy.simulation import PressureChambers, Tendons, get_scenario
 from pcs_sindy.simulation.dynamics import PCSRobot
 
 TWO = dict(
@@ -26,7 +26,7 @@ TWO = dict(
     shear_modulus=[1e3, 3e3],
     damping=[3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2],
 )
-TENDONS = TendonActuation(end=[0.05, 0.07, 0.12, 0.17], offset=[0.015, -0.015, 0.01, -0.02])
+TENDONS = Tendons(end=[0.05, 0.07, 0.12, 0.17], offset=[0.015, -0.015, 0.01, -0.02])
 
 
 def tendon_robot(**kw) -> PCSRobot:
@@ -156,16 +156,16 @@ def test_actuation_shapes_and_bad_layouts():
     direct = PCSRobot(**TWO)
     assert direct.n_inputs == 6
     np.testing.assert_array_equal(direct.actuation_matrix(np.zeros(6)), np.eye(6))
-    with pytest.raises(ValueError, match="TendonActuation"):
+    with pytest.raises(ValueError, match="Tendons"):
         direct.tendon_lengths(np.zeros(6))
     with pytest.raises(ValueError, match=r"end\[1\] = 0\.2 lies outside the robot"):
-        PCSRobot(**TWO, actuation=TendonActuation(end=[0.1, 0.2], offset=[0.01, -0.01]))
+        PCSRobot(**TWO, actuation=Tendons(end=[0.1, 0.2], offset=[0.01, -0.01]))
     with pytest.raises(ValueError, match="offset must have shape"):
-        PCSRobot(**TWO, actuation=TendonActuation(end=[0.1, 0.17], offset=[0.01]))
+        PCSRobot(**TWO, actuation=Tendons(end=[0.1, 0.17], offset=[0.01]))
     with pytest.raises(ValueError, match="side"):
-        PCSRobot(**TWO, actuation=PressureActuation([0.0], [0.1], [2], [1e-6], [1e-4]))
+        PCSRobot(**TWO, actuation=PressureChambers([0.0], [0.1], [2], [1e-6], [1e-4]))
     with pytest.raises(ValueError, match=r"start\[0\]"):
-        PCSRobot(**TWO, actuation=PressureActuation([0.1], [0.05], [1], [1e-6], [1e-4]))
+        PCSRobot(**TWO, actuation=PressureChambers([0.1], [0.05], [1], [1e-6], [1e-4]))
     with pytest.raises(ValueError, match="actuation must be"):
         PCSRobot(**TWO, actuation="tendons")
 
@@ -173,7 +173,7 @@ def test_actuation_shapes_and_bad_layouts():
 # --------------------------------------------------------------------------
 # pressure chambers
 # --------------------------------------------------------------------------
-CHAMBERS = PressureActuation(
+CHAMBERS = PressureChambers(
     start=[0.0, 0.02, 0.09],
     end=[0.21, 0.13, 0.2],
     side=[1, -1, 1],

@@ -10,23 +10,23 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory, StrainTrajectory
-from pcs_sindy.actuation import (
+from pcs_sindy.core import PlanarPCS, PoseTrajectory, StrainTrajectory
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+from pcs_sindy.identification.identifiability import report
+from pcs_sindy.identification.variable_projection import equation_weights
+from pcs_sindy.io import load, save
+from pcs_sindy.models import (
     IdentityActuation,
     LinearActuation,
     PressureActuation,
     TendonActuation,
     actuation_from_layout,
 )
-from pcs_sindy.identifiability import report
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.library import PhysicalPCSLibrary
-from pcs_sindy.persistence import load, save
+from pcs_sindy.simulation import PressureChambers as TruePressure
+from pcs_sindy.simulation import Tendons as TrueTendon
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.simulation.actuation import PressureActuation as TruePressure
-from pcs_sindy.simulation.actuation import TendonActuation as TrueTendon
 from pcs_sindy.simulation.dynamics import PCSRobot
-from pcs_sindy.variable_projection import equation_weights
 
 
 def _robot(lengths, actuation):

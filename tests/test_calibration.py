@@ -9,13 +9,12 @@ import cv2
 import numpy as np
 import pytest
 
-from pcs_sindy.calibration import calibrate_camera, find_board
-from pcs_sindy.camera import Camera
-from pcs_sindy.cli import main
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
-from pcs_sindy.persistence import load, save
-from pcs_sindy.simulation.rendering import render_checkerboard, render_frames
-from pcs_sindy.vision import MarkerPoseExtractor
+from pcs_sindy.cli.main import main
+from pcs_sindy.core import Camera, PlanarPCS, forward_kinematics
+from pcs_sindy.io import load, save
+from pcs_sindy.simulation.checkerboard import render_checkerboard
+from pcs_sindy.simulation.rendering import render_frames
+from pcs_sindy.vision import MarkerPoseExtractor, calibrate_camera, find_board
 
 K = np.array([[900.0, 0.0, 322.0], [0.0, 905.0, 236.0], [0.0, 0.0, 1.0]])
 DIST = np.array([-0.28, 0.11, 0.0008, -0.0006, -0.02])  # a wide-angle lens: ~9 px at the corners

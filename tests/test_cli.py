@@ -17,9 +17,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcs_sindy.cli import CLIError, build_parser, command_kwargs, main
-from pcs_sindy.commands import build_regressor, fit, pipeline_step, rollout
-from pcs_sindy.kinematics import PlanarPCS, wrap_angle
+from pcs_sindy.cli.commands import CLIError, build_regressor, fit, pipeline_step, rollout
+from pcs_sindy.cli.main import build_parser, command_kwargs, main
+from pcs_sindy.core import PlanarPCS, wrap_angle
 
 COMMANDS = ["scenarios", "simulate", "render", "calibrate", "extract", "fuse", "fit", "rollout", "demo"]
 
@@ -64,7 +64,7 @@ def _fail(capsys, argv) -> str:
 # --------------------------------------------------------------------------
 def test_console_script_help_lists_every_command():
     exe = Path(sys.executable).with_name("pcs-sindy")
-    cmd = [str(exe), "--help"] if exe.exists() else [sys.executable, "-m", "pcs_sindy.cli", "--help"]
+    cmd = [str(exe), "--help"] if exe.exists() else [sys.executable, "-m", "pcs_sindy.cli.main", "--help"]
     res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
     assert res.returncode == 0, res.stderr
     for name in COMMANDS:
@@ -136,7 +136,8 @@ def test_render_then_extract_recovers_the_poses(work, capsys):
 
 
 def test_rest_length_travels_through_pose_files(work, tmp_path, capsys):
-    from pcs_sindy.datafiles import read_rest_length, write_poses
+    from pcs_sindy.io import write_poses
+    from pcs_sindy.io.data_files import read_rest_length
 
     recs = [work / "data" / f"train_0{k}.npz" for k in range(2)]
     files = []
@@ -176,7 +177,7 @@ def test_fuse_strains_reproduce_the_poses(work, capsys):
             assert np.abs(poses[..., :2] - rec["poses"][..., :2]).max() < 2e-5
             # and the strains are the simulated ones (same single segment)
             np.testing.assert_allclose(st["q"], rec["q"], atol=5e-3 * np.abs(rec["q"]).max())
-    from pcs_sindy.persistence import load
+    from pcs_sindy.io import load
 
     fusion = load(out / "segmentation.json")
     with np.load(out / "train_00.npz") as st:
@@ -241,7 +242,7 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
     # rest strains are identified by default; --no-rest-strain leaves them out, with the same bending stiffness
     rs_model = work / "model" / "model_plain.json"
     assert main(["fit", *strains, "--tau", *recs, "--out", str(rs_model), "--no-rest-strain", "--quiet"]) == 0
-    from pcs_sindy.persistence import load
+    from pcs_sindy.io import load
 
     plain, default = load(rs_model), load(model)
     assert plain.library_.rest_strain is False and default.library_.rest_strain is True
@@ -270,7 +271,7 @@ def _fitted(work) -> tuple[list[str], list[str], Path]:
 
 def test_commands_are_python_functions(work, tmp_path):
     recs, strains, _ = _fitted(work)
-    from pcs_sindy.persistence import load
+    from pcs_sindy.io import load
 
     model = fit(strains, recs, tmp_path / "m.json", window_length=15, rest_strain=False, quiet=True)
     assert model.window_length == 15 and model.library_.rest_strain is False
@@ -287,8 +288,7 @@ def test_commands_are_python_functions(work, tmp_path):
 # one source of defaults: the estimators'
 # --------------------------------------------------------------------------
 def test_fit_without_options_builds_the_default_regressor():
-    from pcs_sindy.optimizers import StiffnessThresholdOptimizer
-    from pcs_sindy.regressor import EulerLagrangeRegressor
+    from pcs_sindy.identification import EulerLagrangeRegressor, StiffnessThresholdOptimizer
 
     args = build_parser().parse_args(["fit", "s.npz", "--tau", "t.npz", "--out", "m.json"])
     got = build_regressor(**command_kwargs(build_regressor, args)).get_params(deep=False)
@@ -302,9 +302,13 @@ def test_fit_without_options_builds_the_default_regressor():
 @pytest.mark.parametrize(
     "argv, step, estimator",
     [
-        (["fuse", "p.npz", "--out", "o"], "segments", "pcs_sindy.segmentation.KinematicFusion"),
-        (["extract", "v.avi", "--out", "o"], "poses", "pcs_sindy.vision.MarkerPoseExtractor"),
-        (["fit", "s.npz", "--tau", "t.npz", "--out", "m"], "dynamics", "pcs_sindy.regressor.EulerLagrangeRegressor"),
+        (["fuse", "p.npz", "--out", "o"], "segments", "pcs_sindy.fusion.kinematic_fusion.KinematicFusion"),
+        (["extract", "v.avi", "--out", "o"], "poses", "pcs_sindy.vision.extractor.MarkerPoseExtractor"),
+        (
+            ["fit", "s.npz", "--tau", "t.npz", "--out", "m"],
+            "dynamics",
+            "pcs_sindy.identification.regressor.EulerLagrangeRegressor",
+        ),
     ],
 )
 def test_options_left_out_are_the_estimators_defaults(argv, step, estimator):
@@ -324,7 +328,7 @@ def test_options_left_out_are_the_estimators_defaults(argv, step, estimator):
 
 
 def test_fit_options_reach_the_regressor_library_and_optimizer():
-    from pcs_sindy.library import PhysicalPCSLibrary
+    from pcs_sindy.identification import PhysicalPCSLibrary
 
     args = build_parser().parse_args(
         [
@@ -357,7 +361,7 @@ def test_fit_options_reach_the_regressor_library_and_optimizer():
 
 
 def test_help_prints_the_estimators_defaults(capsys):
-    from pcs_sindy.segmentation import KinematicFusion
+    from pcs_sindy.fusion import KinematicFusion
 
     with pytest.raises(SystemExit):
         main(["fuse", "--help"])
@@ -367,7 +371,7 @@ def test_help_prints_the_estimators_defaults(capsys):
 
 
 def test_rollout_method_and_tolerances_default_to_the_models(work, tmp_path, monkeypatch):
-    from pcs_sindy.persistence import load
+    from pcs_sindy.io import load
 
     recs, strains, model_file = _fitted(work)
     out = tmp_path / "default"
@@ -565,7 +569,7 @@ def test_fit_and_rollout_from_actuator_inputs(tmp_path):
         )
         == 0
     )
-    from pcs_sindy.persistence import load
+    from pcs_sindy.io import load
 
     fitted = load(model)
     # the true offsets of the scenario (+-15 mm), which the layout file does not hold

@@ -6,10 +6,16 @@ import numpy as np
 import pytest
 from scipy.integrate import solve_ivp
 
-from pcs_sindy.kinematics import forward_kinematics
-from pcs_sindy.metrics import distributed_errors, end_effector_errors
+from pcs_sindy.core import (
+    PoseTrajectory,
+    StrainTrajectory,
+    as_pose_trajectories,
+    as_strain_trajectories,
+    distributed_errors,
+    end_effector_errors,
+    forward_kinematics,
+)
 from pcs_sindy.simulation.pac import PACRobot, pac_forward_kinematics
-from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
 
 
 def test_pose_trajectory_validates_and_builds_time():

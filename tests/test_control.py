@@ -26,9 +26,9 @@ from pcs_sindy.control import (
 from pcs_sindy.control.closed_loop import plant_equilibrium
 from pcs_sindy.control.gains import loop_poles, lqr_gains
 from pcs_sindy.control.models import ActuatedModel, linearise, strain_scales
-from pcs_sindy.forward import CallableModel
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.library import PhysicalPCSLibrary
+from pcs_sindy.core import PlanarPCS
+from pcs_sindy.identification import PhysicalPCSLibrary
+from pcs_sindy.models import CallableModel
 from pcs_sindy.simulation import get_scenario
 
 
@@ -238,7 +238,7 @@ def test_tip_regulation_through_tendons_never_commands_a_negative_tension():
 # --------------------------------------------------------------------------- observation
 def test_state_map_between_segmentations_is_the_pose_fit_and_its_derivative():
     from pcs_sindy.control.estimation import StateMap
-    from pcs_sindy.segmentation import fit_strains_least_squares
+    from pcs_sindy.fusion import fit_strains_least_squares
 
     plant, model = PlanarPCS((0.07, 0.1)), PlanarPCS((0.0712, 0.1003))
     s_p, s_m = plant.marker_arc_lengths(20), model.marker_arc_lengths(20)
@@ -264,7 +264,7 @@ class _FakeFusion:
         self.kin, self.s = kin, s
 
     def transform_frame(self, poses, q0=None):
-        from pcs_sindy.segmentation import fit_strains_least_squares
+        from pcs_sindy.fusion import fit_strains_least_squares
 
         start = np.zeros((1, 6)) if q0 is None else np.asarray(q0)[None]
         q, _ = fit_strains_least_squares(poses[None, 1:], self.kin.segment_lengths, self.s[1:], start)
@@ -317,7 +317,7 @@ def test_bad_input_names_the_argument(two_segment):
 def test_a_plant_driven_differently_from_the_model_is_rejected(two_segment):
     _, fm, q_rest = two_segment
     tendon = get_scenario("two_segment_tendon").robot
-    with pytest.raises(ValueError, match=r"plant: driven by TendonActuation.*actuation does not match"):
+    with pytest.raises(ValueError, match=r"plant: driven by Tendons.*actuation does not match"):
         closed_loop(tendon, SetpointRegulator(fm), q_rest, np.arange(5) * 1e-3)
     one = get_scenario("one_segment").robot
     with pytest.raises(ValueError, match="plant: driven by generalised forces .* 1 segments"):
@@ -344,8 +344,10 @@ def test_plots_draw_the_run(two_segment):
 
 @pytest.mark.slow
 def test_an_identified_model_regulates_the_true_robot_from_its_state_and_from_noisy_poses():
-    from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory
     from pcs_sindy.control.estimation import frame_strains
+    from pcs_sindy.core import PoseTrajectory
+    from pcs_sindy.fusion import KinematicFusion
+    from pcs_sindy.identification import EulerLagrangeRegressor
 
     scenario = get_scenario("two_segment")
     robot = scenario.robot

@@ -14,13 +14,14 @@ import numpy as np
 import pytest
 import scipy.linalg as sla
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory
-from pcs_sindy.actuation import TendonActuation
 from pcs_sindy.control import TipRegulator, closed_loop
 from pcs_sindy.control.closed_loop import plant_equilibrium
 from pcs_sindy.control.gains import discretise, force_scales
 from pcs_sindy.control.models import STRAIN_RANGE_MARGIN, Linearisation, linearise, strain_limits
-from pcs_sindy.library import PhysicalPCSLibrary
+from pcs_sindy.core import PoseTrajectory
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+from pcs_sindy.models import TendonActuation
 from pcs_sindy.simulation import get_scenario
 
 

@@ -10,11 +10,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy import EulerLagrangeRegressor, KinematicFusion, PoseTrajectory
-from pcs_sindy.forward import ForwardModel
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
-from pcs_sindy.library.base import LagrangianLibrary
-from pcs_sindy.metrics import end_effector_errors, rollout_scorer
+from pcs_sindy.core import PoseTrajectory, end_effector_errors, rollout_scorer
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, PCSLagrangianLibrary, PhysicalPCSLibrary
+from pcs_sindy.identification.library.base import LagrangianLibrary
+from pcs_sindy.models import ForwardModel
 from pcs_sindy.simulation import get_scenario
 
 

@@ -1,4 +1,4 @@
-"""The data files of the command line (pcs_sindy.datafiles): round trips, older files, clear errors.
+"""The data files of the command line (pcs_sindy.io.data_files): round trips, older files, clear errors.
 
 Files "written before" are made with plain ``np.savez`` and the keys documented
 in FILE_FORMATS, independently of the writers under test.
@@ -9,7 +9,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy.datafiles import (
+from pcs_sindy.core import PlanarPCS, StrainTrajectory
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.io import (
     FILE_FORMATS,
     DataFileError,
     output_dir,
@@ -25,9 +27,6 @@ from pcs_sindy.datafiles import (
     write_strains,
     write_tau,
 )
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.segmentation import KinematicFusion
-from pcs_sindy.trajectory import StrainTrajectory
 
 RNG = np.random.default_rng(0)
 
@@ -167,7 +166,7 @@ def test_unreadable_files_name_the_file_and_the_problem(tmp_path):
 
 
 def test_model_files_are_checked_for_their_class(tmp_path):
-    from pcs_sindy.regressor import EulerLagrangeRegressor
+    from pcs_sindy.identification import EulerLagrangeRegressor
 
     fusion = KinematicFusion(threshold=0.3)
     path = write_model_file(fusion, tmp_path / "segmentation.json")

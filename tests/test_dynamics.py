@@ -1,7 +1,7 @@
 """Tests of the ground-truth PCS dynamics against independent truths.
 
 Independent references used here: the kinematic Jacobian of
-``pcs_sindy.kinematics`` integrated with a dense quadrature (mass matrix),
+``pcs_sindy.core.kinematics`` integrated with a dense quadrature (mass matrix),
 adaptive quadrature (moments), finite differences of energies (gravity,
 Coriolis), energy conservation / dissipation and static equilibria found by
 ``scipy.optimize``.
@@ -14,9 +14,10 @@ import pytest
 from scipy.integrate import quad
 from scipy.optimize import fsolve
 
-from pcs_sindy.kinematics import forward_kinematics_jacobian
+from pcs_sindy.core import SimulationError, forward_kinematics_jacobian
 from pcs_sindy.simulation import _kernels
-from pcs_sindy.simulation.dynamics import PCSRobot, SimulationError, backbone_moments
+from pcs_sindy.simulation._backbone import backbone_moments
+from pcs_sindy.simulation.dynamics import PCSRobot
 
 SCALES = np.array([30.0, 0.2, 0.2])
 

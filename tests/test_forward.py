@@ -12,14 +12,12 @@ import numpy as np
 import pytest
 from truth import simulate_truth as _simulate_truth
 
-from pcs_sindy._jit_dynamics import moments
-from pcs_sindy.forward import CallableModel, LumpedPCSModel
-from pcs_sindy.integration import SimulationError
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
-from pcs_sindy.library._pcs_numeric import moments as moments_array
-from pcs_sindy.regressor import EulerLagrangeRegressor
+from pcs_sindy.core import SimulationError, StrainTrajectory
+from pcs_sindy.identification import EulerLagrangeRegressor, PCSLagrangianLibrary, PhysicalPCSLibrary
+from pcs_sindy.models import CallableModel, LumpedPCSModel
+from pcs_sindy.models._jit_dynamics import moments
+from pcs_sindy.models.pcs_numeric import moments as moments_array
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import StrainTrajectory
 
 MAT = dict(density=1000.0, youngs_modulus=1e5, shear_modulus=3e4)
 

@@ -13,10 +13,8 @@ import numpy as np
 import pytest
 from scipy.linalg import expm
 
-from pcs_sindy.forward import LumpedPCSModel
-from pcs_sindy.integration import SimulationError, canonical_method
-from pcs_sindy.integrators import DOPRI5, ROS34PW2, solve_held
-from pcs_sindy.kinematics import PlanarPCS
+from pcs_sindy.core import PlanarPCS, SimulationError, canonical_method
+from pcs_sindy.models import DOPRI5, ROS34PW2, LumpedPCSModel, solve_held
 
 W, ZETA, L = 20.0, 0.1, 0.1
 A_OSC = np.array([[0.0, 1.0], [-(W**2), -2 * ZETA * W]])

@@ -8,13 +8,10 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from scipy.integrate import solve_ivp
 
-from pcs_sindy.kinematics import (
+from pcs_sindy.core import (
     PlanarPCS,
-    cosc,
-    cosc_prime,
     forward_kinematics,
     forward_kinematics_jacobian,
-    half_cot,
     se2_compose,
     se2_from_matrix,
     se2_inverse,
@@ -22,9 +19,8 @@ from pcs_sindy.kinematics import (
     se2_relative,
     segment_inverse_kinematics,
     segment_pose,
-    sinc,
-    sinc_prime,
 )
+from pcs_sindy.core.kinematics import cosc, cosc_prime, half_cot, sinc, sinc_prime
 
 strain = st.tuples(
     st.one_of(st.just(0.0), st.floats(-60.0, 60.0)),

@@ -17,9 +17,10 @@ import pytest
 from scipy.integrate import quad
 from sklearn.base import clone
 
-from pcs_sindy.kinematics import cosc, cosc_prime, sinc, sinc_prime
-from pcs_sindy.library import PCSLagrangianLibrary, codegen
-from pcs_sindy.library.special import SERIES_RADIUS, SpecialBank, register_backbone_functions, special
+from pcs_sindy.core.kinematics import cosc, cosc_prime, sinc, sinc_prime
+from pcs_sindy.identification import PCSLagrangianLibrary
+from pcs_sindy.identification.library import codegen
+from pcs_sindy.identification.library.special import SERIES_RADIUS, SpecialBank, register_backbone_functions, special
 from pcs_sindy.simulation.dynamics import PCSRobot
 
 RADIUS = 0.02
@@ -343,7 +344,7 @@ def test_crafted_cache_cannot_execute_code(tmp_path):
     import hashlib
     import json
 
-    from pcs_sindy.library import codegen
+    from pcs_sindy.identification.library import codegen
 
     good = codegen.build_basis(1, cache_dir=tmp_path)
     path = codegen._cache_file(tmp_path, 1)

@@ -16,7 +16,7 @@ import pytest
 from sklearn.base import clone
 from sklearn.exceptions import ConvergenceWarning
 
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer, scaled_lstsq, stiffness_bounds
+from pcs_sindy.identification import StiffnessThresholdOptimizer, scaled_lstsq, stiffness_bounds
 
 from toy_library import ToyLibrary
 

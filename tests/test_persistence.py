@@ -1,4 +1,4 @@
-"""Model files (pcs_sindy.persistence): JSON + npz round trips and crafted (hostile) files.
+"""Model files (pcs_sindy.io.model_files): JSON + npz round trips and crafted (hostile) files.
 
 Round trips: a loaded model must reproduce the original's outputs bit for bit
 (``np.array_equal``) and its parameters.  Crafted files: each must raise a
@@ -19,11 +19,12 @@ import numpy as np
 import pytest
 from sklearn.pipeline import Pipeline
 
-from pcs_sindy.persistence import FORMAT_NAME, FORMAT_VERSION, PersistenceMixin, load, save
-from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.segmentation import KinematicFusion
+from pcs_sindy.core import PoseTrajectory, StrainTrajectory
+from pcs_sindy.core.saving import PersistenceMixin
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.io import FORMAT_NAME, FORMAT_VERSION, load, save
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory
 from pcs_sindy.vision import MarkerPoseExtractor
 
 N_SAMPLES = 200
@@ -217,7 +218,7 @@ def test_pipeline_round_trip(poses_two, tmp_path):
 
 
 def test_pcs_pipeline_round_trip(poses_two, tmp_path):
-    from pcs_sindy import pipeline
+    from pcs_sindy.pipeline import pcs_pipeline as pipeline
 
     d = get_scenario("two_segment").generate(seed=0)
     taus = [r.tau[:150] for r in d.train[:2]]
@@ -245,7 +246,7 @@ def test_pcs_pipeline_round_trip(poses_two, tmp_path):
 
 
 def test_extractor_and_camera_params(tmp_path):
-    from pcs_sindy.camera import Camera
+    from pcs_sindy.core import Camera
     from pcs_sindy.vision import MarkerPoseExtractor
 
     cam = Camera(pixels_per_metre=1200.0, origin=(300.5, 90.0), image_size=(640, 480), angle=0.1)
@@ -561,8 +562,8 @@ def test_round_trip_in_a_fresh_process(regressors, one_segment, tmp_path):
     np.savez(tmp_path / "inputs.npz", q=X[0].q, t=X[0].t, qd=qd[0], qdd=qdd[0], tau=r.tau[:30])
     script = f"""
 import numpy as np
-from pcs_sindy.persistence import load
-from pcs_sindy.trajectory import StrainTrajectory
+from pcs_sindy.io.model_files import load
+from pcs_sindy.core.trajectory import StrainTrajectory
 d = np.load({str(tmp_path / "inputs.npz")!r})
 m = load({str(path)!r})
 X = [StrainTrajectory(d["q"], d["t"], segment_lengths=m.kinematics_.segment_lengths)]

@@ -15,11 +15,9 @@ import warnings
 import numpy as np
 import pytest
 
-from pcs_sindy.library.physical import PhysicalPCSLibrary
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer
-from pcs_sindy.regressor import EulerLagrangeRegressor
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary, StiffnessThresholdOptimizer
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import StrainTrajectory
 
 # 27 markers 10 mm apart put every boundary of five_segment (0.04, 0.10, 0.15,
 # 0.22, 0.27 m) on a marker, so the strains follow from the closed-form IK of

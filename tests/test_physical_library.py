@@ -8,8 +8,8 @@ from scipy.optimize import lsq_linear
 from sklearn.base import clone
 from truth import simulate_truth
 
-from pcs_sindy.formulations import integrate_forces, sliding_windows, weak_form_rows
-from pcs_sindy.library.physical import PhysicalPCSLibrary
+from pcs_sindy.identification import PhysicalPCSLibrary
+from pcs_sindy.identification.formulations import integrate_forces, sliding_windows, weak_form_rows
 from pcs_sindy.simulation.dynamics import PCSRobot
 
 # (lengths, density, E, G, damping) — the seed's Table I robots
@@ -337,7 +337,7 @@ def test_bad_input_raises_naming_the_argument():
 
 
 def test_identifiability_standard_errors_and_unexcited_columns():
-    from pcs_sindy.identifiability import identifiability
+    from pcs_sindy.identification.identifiability import identifiability
 
     rng = np.random.default_rng(80)
     x = rng.normal(size=(200, 3)) * [1.0, 1e3, 1e-3]
@@ -411,7 +411,7 @@ def test_bump_weighted_weak_form(held_trajectory):
 def test_moments_against_adaptive_quadrature():
     from scipy.integrate import quad
 
-    from pcs_sindy.library._pcs_numeric import moments
+    from pcs_sindy.models.pcs_numeric import moments
 
     us = np.array([0.0, 1e-12, -1e-6, 0.5, -2.9999, 3.0, 3.0001, -3.5, 6.283185307179586, 9.0, -14.0])
     big = np.repeat(us, 100)  # large arrays (> 512 values) take the Horner branch of the series

@@ -14,20 +14,13 @@ import pytest
 from sklearn.exceptions import FitFailedWarning
 from sklearn.model_selection import GridSearchCV, GroupKFold, LeaveOneGroupOut
 
-from pcs_sindy import (
-    EulerLagrangeRegressor,
-    KinematicFusion,
-    MarkerPoseExtractor,
-    PCSPipeline,
-    PoseTrajectory,
-    StiffnessThresholdOptimizer,
-    StrainTrajectory,
-    make_pcs_pipeline,
-)
-from pcs_sindy.camera import Camera
-from pcs_sindy.pipeline import recording_groups
+from pcs_sindy.core import Camera, PoseTrajectory, StrainTrajectory
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor, StiffnessThresholdOptimizer
+from pcs_sindy.pipeline import PCSPipeline, make_pcs_pipeline, recording_groups
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.simulation.rendering import render_frames
+from pcs_sindy.vision import MarkerPoseExtractor
 
 TRUE_LENGTHS = np.array([0.07, 0.10])
 _R = 0.02
@@ -237,7 +230,7 @@ def test_pipeline_fits_actuator_inputs_from_poses() -> None:
     data = scenario.generate(seed=0, n_train=3, validation=False)
     poses = [PoseTrajectory(r.poses, t=r.t) for r in data.train]
     mass = float(1070 * np.pi * 0.02**2 * 0.1)  # Table I: rho A L, as a user weighs it
-    from pcs_sindy.library import PhysicalPCSLibrary
+    from pcs_sindy.identification import PhysicalPCSLibrary
 
     pipe = make_pcs_pipeline(
         start="poses",

@@ -18,8 +18,8 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 import pytest  # noqa: E402
 
-from pcs_sindy.camera import Camera  # noqa: E402
-from pcs_sindy.plotting import (  # noqa: E402
+from pcs_sindy.core import Camera  # noqa: E402
+from pcs_sindy.plotting import (
     animate_rollout,
     plot_end_effector,
     plot_error_vs_segments,
@@ -76,7 +76,7 @@ def test_profile_default_segments_follow_one_merge_step():
 
 
 def test_profile_default_matches_merge_runs_of_segmentation():
-    from pcs_sindy.segmentation import merge_runs
+    from pcs_sindy.fusion import merge_runs
 
     rng = np.random.default_rng(3)
     for _ in range(5):
@@ -110,8 +110,8 @@ def test_profile_refined_segment_lengths():
 
 def test_profile_from_a_fitted_kinematic_fusion():
     # the attributes of the real estimator plug in directly (two true segments 0.07 + 0.1 m)
-    from pcs_sindy.kinematics import forward_kinematics
-    from pcs_sindy.segmentation import KinematicFusion
+    from pcs_sindy.core import forward_kinematics
+    from pcs_sindy.fusion import KinematicFusion
 
     tt = np.linspace(0.0, 1.0, 30)
     q = np.zeros((30, 6))
@@ -190,7 +190,7 @@ def test_error_vs_segments_content():
 
 
 def test_error_vs_segments_accepts_sweep_rows_and_int_selection():
-    from pcs_sindy.segmentation import SweepRow
+    from pcs_sindy.fusion import SweepRow
 
     rows = [SweepRow(*r) for r in ROWS]
     fig = plot_error_vs_segments(rows, selected=2, logy=True)

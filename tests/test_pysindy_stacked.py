@@ -11,15 +11,16 @@ import numpy as np
 import pysindy as ps
 import pytest
 
-from pcs_sindy import EulerLagrangeRegressor, StiffnessThresholdOptimizer
-from pcs_sindy.library import (
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,
     PCSLagrangianLibrary,
     PhysicalPCSLibrary,
     StackedEulerLagrangeLibrary,
+    StiffnessThresholdOptimizer,
     stack_forces,
     unstack_forces,
 )
-from pcs_sindy.trajectory import StrainTrajectory
 
 
 @pytest.fixture(scope="module")

@@ -5,7 +5,7 @@ library is written by hand below; its data come from the exact (matrix
 exponential) solution under zero-order-hold forcing, so coefficients, forces and
 rollouts have closed-form truth.
 
-Part 2 (needs ``pcs_sindy.library`` and ``pcs_sindy.simulation``): the PCS
+Part 2 (needs ``pcs_sindy.identification.library`` and ``pcs_sindy.simulation``): the PCS
 library and the ground-truth simulator.
 """
 
@@ -17,11 +17,10 @@ from scipy.linalg import expm
 from sklearn.base import clone
 from truth import simulate_truth
 
-from pcs_sindy.formulations import jump_free
-from pcs_sindy.integration import DivergenceError
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer
-from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.trajectory import StrainTrajectory
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.core.simulate_contract import DivergenceError
+from pcs_sindy.identification import EulerLagrangeRegressor, StiffnessThresholdOptimizer
+from pcs_sindy.identification.formulations import jump_free
 
 from toy_library import ToyLibrary
 
@@ -227,7 +226,7 @@ def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
     pairs = wrong._rollout_tips(held, tau_held)
     sim = np.concatenate([a for a, _ in pairs])
     true = np.concatenate([b for _, b in pairs])
-    from pcs_sindy.kinematics import forward_kinematics
+    from pcs_sindy.core import forward_kinematics
 
     tip = np.concatenate([forward_kinematics(x.q, [0.1], [0.1])[:, 0, :2] for x in held])
     np.testing.assert_array_equal(true, tip)
@@ -383,7 +382,7 @@ def test_exclude_force_jumps_removes_the_differentiation_bias():
 
 def test_physical_library_stiffness_sign_and_removal():
     # PhysicalPCSLibrary's stiffness parameter is k_e itself (factor +1), not -k_e/2 of a Lagrangian term
-    from pcs_sindy.library import PhysicalPCSLibrary
+    from pcs_sindy.identification import PhysicalPCSLibrary
 
     robot = _robot("one_segment_stiff_shear")
     X, taus, qds, qdds = _exact_recordings(robot, 2, 300, seed=3)
@@ -396,7 +395,7 @@ def test_physical_library_stiffness_sign_and_removal():
 
 
 def test_physical_library_bounded_fit_keeps_parameters_non_negative():
-    from pcs_sindy.library import PhysicalPCSLibrary
+    from pcs_sindy.identification import PhysicalPCSLibrary
 
     robot = _robot("one_segment")
     for seed in range(10):

@@ -11,11 +11,14 @@ import numpy as np
 import pytest
 from truth import simulate_truth
 
-from pcs_sindy.library import PCSLagrangianLibrary, PhysicalPCSLibrary
-from pcs_sindy.optimizers import StiffnessThresholdOptimizer
-from pcs_sindy.regressor import EulerLagrangeRegressor
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.identification import (
+    EulerLagrangeRegressor,
+    PCSLagrangianLibrary,
+    PhysicalPCSLibrary,
+    StiffnessThresholdOptimizer,
+)
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import StrainTrajectory
 
 # the defaults, written out (and a library without constant forces where the truth has none)
 WEAK = dict(
@@ -229,8 +232,8 @@ def test_physical_equations_print_the_parameters():
     """equations() of a physical model names the parameters with their identified values."""
     import re
 
+    from pcs_sindy.core import StrainTrajectory
     from pcs_sindy.simulation import get_scenario
-    from pcs_sindy.trajectory import StrainTrajectory
 
     d = get_scenario("one_segment").generate(seed=0)
     X = [StrainTrajectory(r.q, t=r.t, segment_lengths=[0.1]) for r in d.train[:3]]

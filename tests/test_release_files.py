@@ -16,15 +16,12 @@ import numpy as np
 import pytest
 
 import pcs_sindy
-from pcs_sindy import (
-    EulerLagrangeRegressor,
-    KinematicFusion,
-    MarkerPoseExtractor,
-    PoseTrajectory,
-    StrainTrajectory,
-    load,
-)
+from pcs_sindy.core import PoseTrajectory, StrainTrajectory
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.io import load
 from pcs_sindy.simulation import get_scenario
+from pcs_sindy.vision import MarkerPoseExtractor
 
 FIXTURES = Path(__file__).resolve().parent / "fixtures" / "release_0_1_0"
 FILES = ("regressor_physical", "regressor_monomial", "regressor_tendon", "fusion", "pipeline", "extractor")

@@ -9,8 +9,8 @@ import cv2
 import numpy as np
 import pytest
 
-from pcs_sindy.camera import Camera, camera_json_path, read_camera_json
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
+from pcs_sindy.core import Camera, PlanarPCS, forward_kinematics, read_camera_json
+from pcs_sindy.core.camera import camera_json_path
 from pcs_sindy.simulation.rendering import marker_corners, render_frames, render_video
 
 LENGTHS = (0.05, 0.05)
@@ -260,7 +260,7 @@ def test_render_bad_input(tmp_path: Path) -> None:
 
 
 def test_nuisances_photometry_and_blur() -> None:
-    from pcs_sindy.simulation.rendering import Nuisances
+    from pcs_sindy.simulation.nuisances import Nuisances
 
     poses = random_poses(3)
     # light multiplies every pixel: the ratio to the clean frame is the illumination field, brighter up-gradient
@@ -292,7 +292,7 @@ def test_nuisances_photometry_and_blur() -> None:
 
 
 def test_nuisances_scene_and_occlusion() -> None:
-    from pcs_sindy.simulation.rendering import Nuisances
+    from pcs_sindy.simulation.nuisances import Nuisances
 
     poses = random_poses(4)
     plain = render_frames(poses, CAM, marker_size=SIZE, body=False)

@@ -5,16 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy.camera import Camera
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
-from pcs_sindy.library import PhysicalPCSLibrary
-from pcs_sindy.regressor import EulerLagrangeRegressor
-from pcs_sindy.rest_length import estimate_rest_length
-from pcs_sindy.segmentation import KinematicFusion, estimate_total_length
+from pcs_sindy.core import Camera, PlanarPCS, PoseTrajectory, forward_kinematics
+from pcs_sindy.fusion import KinematicFusion, estimate_total_length
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+from pcs_sindy.pipeline import estimate_rest_length
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.simulation.dynamics import PCSRobot
 from pcs_sindy.simulation.rendering import render_frames
-from pcs_sindy.trajectory import PoseTrajectory
 from pcs_sindy.vision import MarkerPoseExtractor
 
 

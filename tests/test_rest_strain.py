@@ -16,11 +16,10 @@ import numpy as np
 import pytest
 from truth import simulate_truth
 
-from pcs_sindy.formulations import integrate_forces, sliding_windows
-from pcs_sindy.library import PhysicalPCSLibrary
-from pcs_sindy.regressor import EulerLagrangeRegressor
+from pcs_sindy.core import StrainTrajectory
+from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+from pcs_sindy.identification.formulations import integrate_forces, sliding_windows
 from pcs_sindy.simulation import get_scenario
-from pcs_sindy.trajectory import StrainTrajectory
 
 WEAK = dict(formulation="weak", weak_window=40, weak_stride=20, window_length=7)
 
@@ -181,9 +180,8 @@ def test_parameter_validation():
 
 
 def test_wrong_rest_length_is_absorbed_by_the_axial_offset():
-    from pcs_sindy.metrics import end_effector_errors
-    from pcs_sindy.segmentation import KinematicFusion
-    from pcs_sindy.trajectory import PoseTrajectory
+    from pcs_sindy.core import PoseTrajectory, end_effector_errors
+    from pcs_sindy.fusion import KinematicFusion
 
     scenario = get_scenario("two_segment")
     data = scenario.generate(seed=0)

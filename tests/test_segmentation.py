@@ -12,8 +12,8 @@ import numpy as np
 import pytest
 from sklearn.base import clone
 
-from pcs_sindy.kinematics import forward_kinematics, se2_compose, wrap_angle
-from pcs_sindy.segmentation import (
+from pcs_sindy.core import PoseTrajectory, StrainTrajectory, forward_kinematics, se2_compose, wrap_angle
+from pcs_sindy.fusion import (
     KinematicFusion,
     SweepRow,
     chain_poses,
@@ -26,7 +26,6 @@ from pcs_sindy.segmentation import (
     strain_distances,
     threshold_sweep,
 )
-from pcs_sindy.trajectory import PoseTrajectory, StrainTrajectory
 
 N_MARKERS = 20
 
@@ -386,9 +385,9 @@ def test_fit_transform_and_strains_without_metadata():
 
 
 def test_extraction_and_fusion_on_a_rendered_two_segment_video():
-    from pcs_sindy import vision
-    from pcs_sindy.camera import Camera
+    from pcs_sindy.core import Camera
     from pcs_sindy.simulation.rendering import render_frames
+    from pcs_sindy.vision import extractor as vision
 
     lengths = [0.07, 0.1]
     q, poses = pcs_poses(lengths, n_frames=60, seed=13, kappa_max=30.0, sigma_max=0.1)

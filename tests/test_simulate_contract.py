@@ -1,4 +1,4 @@
-"""The simulate contract of the ground-truth robot (pcs_sindy.integration): return type, names, errors, methods.
+"""The simulate contract of the ground-truth robot (pcs_sindy.core): return type, names, errors, methods.
 
 Truth: a tight explicit reference (scipy's DOP853 at rtol 1e-11) for every method; the class
 identities and warnings of the contract itself.
@@ -11,10 +11,10 @@ import warnings
 import numpy as np
 import pytest
 
-import pcs_sindy.integration as integration
-from pcs_sindy.simulation import SimulationError, dynamics, get_scenario
+import pcs_sindy.core.simulate_contract as integration
+from pcs_sindy.core import SimulationError, StrainTrajectory
+from pcs_sindy.simulation import dynamics, get_scenario
 from pcs_sindy.simulation.integrate import METHODS_SUPPORTED
-from pcs_sindy.trajectory import StrainTrajectory
 
 
 @pytest.fixture(scope="module")

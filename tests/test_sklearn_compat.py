@@ -26,20 +26,18 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils import estimator_checks as ec
 from sklearn.utils.estimator_checks import check_estimator
 
-from pcs_sindy import (
+from pcs_sindy.core import Camera, PlanarPCS, PoseTrajectory, forward_kinematics
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.identification import (
     EulerLagrangeRegressor,
-    KinematicFusion,
-    MarkerPoseExtractor,
     PCSLagrangianLibrary,
     PhysicalPCSLibrary,
-    PoseTrajectory,
     StiffnessThresholdOptimizer,
-    make_pcs_pipeline,
 )
-from pcs_sindy.camera import Camera
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
+from pcs_sindy.pipeline import make_pcs_pipeline
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.simulation.rendering import render_frames
+from pcs_sindy.vision import MarkerPoseExtractor
 
 WIDTH_X = "x must be [q, qd] of the library's strains: its width 2n is fixed by the robot, the check feeds other widths"
 # checks that feed 2-D float arrays of arbitrary width to a library

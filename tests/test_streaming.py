@@ -6,10 +6,9 @@ import cv2
 import numpy as np
 import pytest
 
-from pcs_sindy._frame_fit import fk_jacobian
-from pcs_sindy.camera import Camera
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics, forward_kinematics_jacobian
-from pcs_sindy.segmentation import KinematicFusion
+from pcs_sindy.core import Camera, PlanarPCS, forward_kinematics, forward_kinematics_jacobian
+from pcs_sindy.fusion import KinematicFusion
+from pcs_sindy.fusion._frame_fit import fk_jacobian
 from pcs_sindy.simulation.rendering import render_frames
 from pcs_sindy.vision import MarkerPoseExtractor
 

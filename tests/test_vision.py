@@ -10,10 +10,9 @@ import pytest
 from joblib import parallel_backend
 from sklearn.base import clone
 
-from pcs_sindy.camera import Camera
-from pcs_sindy.kinematics import PlanarPCS, forward_kinematics
-from pcs_sindy.simulation.rendering import Nuisances, marker_corners, render_frames, render_video
-from pcs_sindy.trajectory import PoseTrajectory
+from pcs_sindy.core import Camera, PlanarPCS, PoseTrajectory, forward_kinematics
+from pcs_sindy.simulation.nuisances import Nuisances
+from pcs_sindy.simulation.rendering import marker_corners, render_frames, render_video
 from pcs_sindy.vision import MarkerPoseExtractor, read_frames
 
 LENGTHS = (0.05, 0.05)

@@ -8,8 +8,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from pcs_sindy.forward import CallableModel
-from pcs_sindy.library.base import LagrangianLibrary
+from pcs_sindy.identification.library.base import LagrangianLibrary
+from pcs_sindy.models import CallableModel
 
 _COLUMNS = [
     ("kin", (0,)),

@@ -1,6 +1,6 @@
 """Compiled poses of one configuration of a planar PCS segmentation: the per-step kinematics of the loop.
 
-:meth:`pcs_sindy.kinematics.PlanarPCS.forward_kinematics` evaluates whole
+:meth:`pcs_sindy.core.kinematics.PlanarPCS.forward_kinematics` evaluates whole
 batches with numpy; one state through it costs tens of microseconds of call
 overhead, too much for a 1 kHz loop that needs the tip at every step.  This
 module chains the closed forms of docs/method.md ("Conventions") for one

@@ -43,7 +43,7 @@ class Controller(ABC):
     ----------
     model : fitted model or ForwardModel
         Anything with ``forward_model()`` (e.g. a fitted
-        :class:`~pcs_sindy.regressor.EulerLagrangeRegressor`) or a forward model.
+        :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor`) or a forward model.
     input_bounds : None or (lower, upper)
         Bounds on the commanded inputs (scalars or (p,)); commands are clipped
         to them.  Default: the forward model's ``input_bounds`` if it has

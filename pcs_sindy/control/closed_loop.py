@@ -1,6 +1,6 @@
 """Closed loops of a controller and a plant: the ground-truth simulator driven at the control rate.
 
-:func:`closed_loop` advances the plant (a :class:`~pcs_sindy.simulation.PCSRobot`
+:func:`closed_loop` advances the plant (a :class:`~pcs_sindy.simulation.dynamics.PCSRobot`
 with its own segmentation and actuation) one control period at a time with
 the held command (``plant.advance``), shows the controller either the exact
 state or noisy marker poses at a camera rate (:mod:`.estimation`), and

@@ -6,7 +6,7 @@ of the *model's* segmentation at every control step:
 * :class:`StateMap` — the exact state of a plant.  If the plant and the model
   share their segmentation, the modelled strains are selected; otherwise the
   model's strains are fitted to the plant's marker poses (the least-squares
-  shape fit of :class:`~pcs_sindy.segmentation.KinematicFusion`, warm-started
+  shape fit of :class:`~pcs_sindy.fusion.kinematic_fusion.KinematicFusion`, warm-started
   at the previous step) and the rates follow from the same fit linearised:
   ``qd_m = (J_m^T W J_m)^-1 J_m^T W J_p qd_p`` with ``J`` the marker-pose
   Jacobians of model and plant.  No strain of the plant is ever read as a
@@ -26,9 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.segmentation import SEED_Q_MAX
-
+from ..core.kinematics import SEED_Q_MAX, PlanarPCS
 from . import _kinematics
 
 __all__ = ["frame_strains", "same_segmentation", "StateMap", "PoseEstimator"]
@@ -40,7 +38,7 @@ def frame_strains(
     """Strains (3m,) of the fusion's segmentation from the marker poses (N + 1, 3) of one frame.
 
     The one place the closed loop turns a camera frame into strains:
-    :meth:`~pcs_sindy.segmentation.KinematicFusion.transform_frame`, the
+    :meth:`~pcs_sindy.fusion.kinematic_fusion.KinematicFusion.transform_frame`, the
     compiled single-frame fit, warm-started from ``q0`` (the previous frame's
     strains) when given.
     """
@@ -63,7 +61,7 @@ class StateMap:
     When the segmentations differ, the model's strains minimise the weighted
     pose residual ``sum_i |W (pose_m,i(q_m) - pose_p,i(q_p))|^2`` over the
     markers (Gauss–Newton from the previous step's solution, compiled poses of
-    :mod:`._kinematics`), the problem :class:`~pcs_sindy.segmentation.KinematicFusion`
+    :mod:`._kinematics`), the problem :class:`~pcs_sindy.fusion.kinematic_fusion.KinematicFusion`
     solves for each camera frame.
 
     Parameters

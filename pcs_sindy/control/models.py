@@ -1,8 +1,8 @@
 """What a controller needs from an identified model: statics, linearisation, inputs, strain limits.
 
 A controller accepts anything with ``forward_model()`` (a fitted
-:class:`~pcs_sindy.regressor.EulerLagrangeRegressor`, a pipeline's model) or a
-:class:`~pcs_sindy.forward.ForwardModel` itself (e.g. the true-parameter model
+:class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor`, a pipeline's model) or a
+:class:`~pcs_sindy.models.forward.ForwardModel` itself (e.g. the true-parameter model
 ``PhysicalPCSLibrary(...).forward_model(coef)``).  Everything here works on the
 ``n`` modelled strains of the model's segmentation and only calls the forward
 model's ``terms`` (one compiled state), ``n_inputs`` and ``input_matrix``, so
@@ -18,8 +18,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.segmentation import SEED_Q_MAX
+from ..core.kinematics import SEED_Q_MAX, PlanarPCS
 
 __all__ = [
     "as_forward_model",
@@ -230,7 +229,7 @@ class InputMap:
 class ActuatedModel:
     """A forward model driven through actuators: ``M qdd + bias = A(q) u``.
 
-    Gives any :class:`~pcs_sindy.forward.ForwardModel` (e.g. the true-parameter
+    Gives any :class:`~pcs_sindy.models.forward.ForwardModel` (e.g. the true-parameter
     model of a robot) the inputs of a known actuation, for controllers and
     closed loops, until identified models carry their own actuation.  Everything
     else is the wrapped model's.

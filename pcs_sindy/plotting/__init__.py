@@ -16,7 +16,7 @@ robot drawings in metres is inverted.
 The figures live in modules named after what they show, and every public name
 is importable from here:
 
-* :mod:`pcs_sindy.plotting.segmentation` - kinematic fusion
+* :mod:`pcs_sindy.plotting.fusion` - kinematic fusion
   (:func:`plot_strain_distance_profile`, seed Fig. 6; :func:`plot_error_vs_segments`, Fig. 8);
 * :mod:`pcs_sindy.plotting.rollout` - rollouts against time
   (:func:`plot_rollout`, Fig. 9a / 11a; :func:`plot_end_effector`, Fig. 9b);
@@ -26,18 +26,14 @@ is importable from here:
 This package sits on top of the library: nothing in the core imports it.
 """
 
-from __future__ import annotations
+import lazy_loader as _lazy
 
-from .animation import animate_rollout
-from .rollout import plot_end_effector, plot_rollout
-from .segmentation import plot_error_vs_segments, plot_strain_distance_profile
-from .stills import plot_stills
-
-__all__ = [
-    "plot_strain_distance_profile",
-    "plot_error_vs_segments",
-    "plot_rollout",
-    "plot_end_effector",
-    "plot_stills",
-    "animate_rollout",
-]
+__getattr__, __dir__, __all__ = _lazy.attach(
+    __name__,
+    submod_attrs={
+        "animation": ["animate_rollout"],
+        "rollout": ["plot_end_effector", "plot_rollout"],
+        "fusion": ["plot_error_vs_segments", "plot_strain_distance_profile"],
+        "stills": ["plot_stills"],
+    },
+)

@@ -14,7 +14,7 @@ from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
 
-def _finite_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
+def finite_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
     try:
         arr = np.asarray(value, dtype=float)
     except (TypeError, ValueError) as err:
@@ -26,8 +26,8 @@ def _finite_array(value: ArrayLike, name: str) -> NDArray[np.float64]:
     return arr
 
 
-def _check_time(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
-    t = _finite_array(t, name)
+def check_time(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
+    t = finite_array(t, name)
     if t.ndim != 1 or t.size < 1:
         raise ValueError(f"{name} must be a non-empty 1-D array of time stamps; got shape {t.shape}")
     if t.size > 1 and np.any(np.diff(t) <= 0):
@@ -38,7 +38,7 @@ def _check_time(t: ArrayLike, name: str = "t") -> NDArray[np.float64]:
     return t
 
 
-def _check_scalar(value: Any, name: str, *, positive: bool = True) -> float:
+def check_scalar(value: Any, name: str, *, positive: bool = True) -> float:
     if isinstance(value, bool) or not np.isscalar(value):
         raise ValueError(f"{name} must be a finite number; got {value!r}")
     try:
@@ -50,7 +50,7 @@ def _check_scalar(value: Any, name: str, *, positive: bool = True) -> float:
     return out
 
 
-def _new_axes(axes: Any, n: int, name: str, figsize: tuple[float, float], **kwargs: Any) -> tuple[Figure, list[Axes]]:
+def new_axes(axes: Any, n: int, name: str, figsize: tuple[float, float], **kwargs: Any) -> tuple[Figure, list[Axes]]:
     """Create ``n`` stacked/row axes or validate the given ones."""
     if axes is None:
         fig, created = plt.subplots(figsize=figsize, squeeze=False, layout="constrained", **kwargs)

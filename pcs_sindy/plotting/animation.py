@@ -16,7 +16,7 @@ from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
-from ._checks import _check_scalar, _check_time, _finite_array
+from ._checks import check_scalar, check_time, finite_array
 
 __all__ = ["animate_rollout"]
 
@@ -24,7 +24,7 @@ _VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
 
 
 def _check_track(value: ArrayLike, n_frames: int | None, name: str, min_points: int = 1) -> NDArray[np.float64]:
-    arr = _finite_array(value, name)
+    arr = finite_array(value, name)
     if arr.ndim != 3 or arr.shape[-1] not in (2, 3) or arr.shape[1] < min_points:
         raise ValueError(f"{name} must have shape (T, P >= {min_points}, 2 or 3); got {arr.shape}")
     if n_frames is not None and arr.shape[0] != n_frames:
@@ -89,12 +89,12 @@ def animate_rollout(
         raise ValueError(f"path must end in one of {sorted(_VIDEO_CODECS)}; got {str(path)!r}")
     if not path.parent.is_dir():
         raise OSError(f"the folder of path={str(path)!r} does not exist")
-    t = _check_time(t)
+    t = check_time(t)
     n_frames = t.size
     true_xy = _check_track(backbone_true, n_frames, "backbone_true", 2)
     pred_xy = _check_track(backbone_pred, n_frames, "backbone_pred", 2)
     mark_xy = None if markers_true is None else _check_track(markers_true, n_frames, "markers_true")
-    fps = _check_scalar(fps, "fps")
+    fps = check_scalar(fps, "fps")
     if stride is None:
         dt = float(np.median(np.diff(t))) if n_frames > 1 else 1.0 / fps
         stride = max(1, int(round(1.0 / (fps * dt))))

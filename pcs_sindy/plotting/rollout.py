@@ -15,8 +15,8 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import ArrayLike, NDArray
 
-from ..metrics import end_effector_errors
-from ._checks import _check_time, _finite_array, _new_axes
+from ..core.metrics import end_effector_errors
+from ._checks import check_time, finite_array, new_axes
 
 __all__ = ["plot_rollout", "plot_end_effector"]
 
@@ -58,7 +58,7 @@ def _predictions(
     out = []
     for k, arr in enumerate(arrays):
         key = name if len(arrays) == 1 else f"{name}[{labels[k]!r}]"
-        arr = _finite_array(arr, key)
+        arr = finite_array(arr, key)
         if arr.shape != shape:
             raise ValueError(f"{key} must have shape {shape} (like the truth); got {arr.shape}")
         out.append(arr)
@@ -116,8 +116,8 @@ def plot_rollout(
         colours follow the segment; with several, they follow the prediction
         and the truth is black.
     """
-    t = _check_time(t)
-    q_true = _finite_array(q_true, "q_true")
+    t = check_time(t)
+    q_true = finite_array(q_true, "q_true")
     if q_true.ndim != 2 or q_true.shape[0] != t.size or q_true.shape[1] < 1:
         raise ValueError(f"q_true must have shape ({t.size}, n) to match t; got {q_true.shape}")
     n = q_true.shape[1]
@@ -143,7 +143,7 @@ def plot_rollout(
         panels = [[k] for k in range(n)]
         ylabels = [f"{nm} {_STRAIN_UNITS[p.group(1)]}" if p else nm for nm, p in zip(names, parsed)]
 
-    fig, axes = _new_axes(axes, len(panels), "axes", (7.0, 1.9 * len(panels) + 0.8), nrows=len(panels), sharex=True)
+    fig, axes = new_axes(axes, len(panels), "axes", (7.0, 1.9 * len(panels) + 0.8), nrows=len(panels), sharex=True)
     single = len(preds) == 1
     for ax, panel, ylabel in zip(axes, panels, ylabels):
         many = len(panel) > 1
@@ -188,7 +188,7 @@ def plot_end_effector(
     axes : sequence of 3 Axes, optional
     show_errors : bool
         Append the seed's end-effector errors ``e_p^EE`` and ``e_theta^EE``
-        (eqs. 25-26, :func:`pcs_sindy.metrics.end_effector_errors`) to each
+        (eqs. 25-26, :func:`pcs_sindy.core.metrics.end_effector_errors`) to each
         prediction's legend label.
     title : str, optional
 
@@ -197,8 +197,8 @@ def plot_end_effector(
     Figure
         Three subplots (x, y, theta); in each, the truth line then one line per prediction.
     """
-    t = _check_time(t)
-    tip_true = _finite_array(tip_true, "tip_true")
+    t = check_time(t)
+    tip_true = finite_array(tip_true, "tip_true")
     if tip_true.shape != (t.size, 3):
         raise ValueError(f"tip_true must have shape ({t.size}, 3) ([x, y, theta] per time stamp); got {tip_true.shape}")
     preds, labels = _predictions(tip_pred, labels, tip_true.shape, "tip_pred")
@@ -208,7 +208,7 @@ def plot_end_effector(
             e_p, e_th = end_effector_errors(tip[:, None, :], tip_true[:, None, :])
             full.append(f"{lab}\n$e_p^{{EE}}$ = {1e3 * e_p:.3g} mm\n$e_\\theta^{{EE}}$ = {e_th:.3g} rad")
         labels = full
-    fig, axes = _new_axes(axes, 3, "axes", (7.0, 6.0), nrows=3, sharex=True)
+    fig, axes = new_axes(axes, 3, "axes", (7.0, 6.0), nrows=3, sharex=True)
     for c, (ax, ylabel) in enumerate(zip(axes, (r"tip $x$ [m]", r"tip $y$ [m]", r"tip $\theta$ [rad]"))):
         ax.plot(t, tip_true[:, c], color="k", label="truth", **_TRUTH_STYLE)
         for j, (tip, lab) in enumerate(zip(preds, labels)):

@@ -10,7 +10,7 @@ from matplotlib.axes import Axes
 from matplotlib.figure import Figure
 from numpy.typing import NDArray
 
-from ._checks import _finite_array, _new_axes
+from ._checks import finite_array, new_axes
 
 __all__ = ["plot_stills"]
 
@@ -18,7 +18,7 @@ __all__ = ["plot_stills"]
 def _per_still(value: Any, k: int, name: str, min_points: int = 1) -> list[NDArray[np.float64]]:
     """A (K, P, 2|3) array or K arrays (P_k, 2|3) -> K arrays (P_k, 2)."""
     if isinstance(value, np.ndarray) or not isinstance(value, (list, tuple)):
-        arr = _finite_array(value, name)
+        arr = finite_array(value, name)
         if arr.ndim != 3 or arr.shape[-1] not in (2, 3):
             raise ValueError(
                 f"{name} must have shape ({k}, P, 2 or 3) or be a list of {k} (P, 2 or 3) arrays; got {arr.shape}"
@@ -28,7 +28,7 @@ def _per_still(value: Any, k: int, name: str, min_points: int = 1) -> list[NDArr
         raise ValueError(f"{name} must hold one entry per still ({k}); got {len(value)}")
     out = []
     for i, item in enumerate(value):
-        arr = _finite_array(item, f"{name}[{i}]")
+        arr = finite_array(item, f"{name}[{i}]")
         if arr.ndim != 2 or arr.shape[-1] not in (2, 3) or arr.shape[0] < min_points:
             raise ValueError(f"{name}[{i}] must have shape (P >= {min_points}, 2 or 3); got {arr.shape}")
         out.append(arr[:, :2])
@@ -61,7 +61,7 @@ def plot_stills(
     Give image ``frames``, or ``poses`` (drawn as the true markers), or both.
 
     Coordinates: with a ``camera`` (any object with ``to_pixels(xy)``, such
-    as :class:`pcs_sindy.camera.Camera`), every overlay is in metres in the
+    as :class:`pcs_sindy.core.camera.Camera`), every overlay is in metres in the
     base frame and is mapped to pixels.  Without a camera, overlays are in
     pixels ``(u, v)`` when ``frames`` are given and in metres otherwise
     (axes then read x [m], y [m], with y pointing down as in the videos).
@@ -133,7 +133,7 @@ def plot_stills(
             for key, val in overlays.items()
         }
     if times is not None:
-        times_arr = _finite_array(times, "times")
+        times_arr = finite_array(times, "times")
         if times_arr.shape != (k,):
             raise ValueError(f"times must have one entry per still ({k}); got shape {times_arr.shape}")
     names = {"poses": "true markers", "detected": "detected markers", "backbone": "model backbone"}
@@ -170,7 +170,7 @@ def plot_stills(
     else:
         aspect = 1.0
     # panel height follows the view so the figure has no empty band
-    fig, axes = _new_axes(axes, k, "axes", (2.4 * k + 0.6, 2.4 * min(max(aspect, 0.3), 3.0) + 1.3), ncols=k)
+    fig, axes = new_axes(axes, k, "axes", (2.4 * k + 0.6, 2.4 * min(max(aspect, 0.3), 3.0) + 1.3), ncols=k)
     for i, ax in enumerate(axes):
         if images is not None:
             img = images[i]

@@ -6,10 +6,10 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-_SHIFT = 8  # fractional bits of the vertex coordinates passed to OpenCV
+SHIFT = 8  # fractional bits of the vertex coordinates passed to OpenCV
 
 
-def _subdivide(polygons: NDArray[np.float64], n: int) -> NDArray[np.float64]:
+def subdivide(polygons: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     """Polygons (..., V, 2) with ``n`` vertices per edge, so a lens can bend the edges."""
     nxt = np.roll(polygons, -1, axis=-2)
     w = (np.arange(n) / n)[:, None]
@@ -17,11 +17,11 @@ def _subdivide(polygons: NDArray[np.float64], n: int) -> NDArray[np.float64]:
     return pts.reshape(*polygons.shape[:-2], -1, 2)
 
 
-def _fixed(points: NDArray[np.float64]) -> NDArray[np.int32]:
-    return np.ascontiguousarray(np.round(points * (1 << _SHIFT)), dtype=np.int32)
+def fixed_point(points: NDArray[np.float64]) -> NDArray[np.int32]:
+    return np.ascontiguousarray(np.round(points * (1 << SHIFT)), dtype=np.int32)
 
 
-def _draw_polygon(
+def draw_polygon(
     img: NDArray[np.uint8], poly: NDArray[np.float64], colour: tuple, S: int, outline: float | None
 ) -> None:
     """Draw one polygon (pixel vertices) with exact area anti-aliasing on a patch supersampled S times.
@@ -40,9 +40,9 @@ def _draw_polygon(
     patch = img[y0:y1, x0:x1]
     big = cv2.resize(patch, ((x1 - x0) * S, (y1 - y0) * S), interpolation=cv2.INTER_NEAREST)
     # low-res pixel centre p -> high-res coordinate (p + 0.5) S - 0.5
-    pts = _fixed((poly - np.array([x0, y0], dtype=float) + 0.5) * S - 0.5).reshape(-1, 1, 2)
+    pts = fixed_point((poly - np.array([x0, y0], dtype=float) + 0.5) * S - 0.5).reshape(-1, 1, 2)
     if outline is None:
-        cv2.fillPoly(big, [pts], colour, cv2.LINE_8, _SHIFT)
+        cv2.fillPoly(big, [pts], colour, cv2.LINE_8, SHIFT)
     else:
-        cv2.polylines(big, [pts], True, colour, max(1, int(round(outline * S))), cv2.LINE_8, _SHIFT)
+        cv2.polylines(big, [pts], True, colour, max(1, int(round(outline * S))), cv2.LINE_8, SHIFT)
     patch[...] = cv2.resize(big, (x1 - x0, y1 - y0), interpolation=cv2.INTER_AREA).reshape(patch.shape)

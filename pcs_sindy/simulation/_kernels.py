@@ -374,7 +374,7 @@ def _accel_given_geometry(qd, geo, ws, q, out):
 
 
 @njit(cache=True)
-def _rhs_ws(y, u, geo, ws, out):
+def rhs_ws(y, u, geo, ws, out):
     """:func:`rhs` with scratch arrays; returns False (and NaN accelerations) if M is not positive definite."""
     n = y.shape[0] // 2
     q = y[:n]
@@ -399,7 +399,7 @@ def _rhs_ws(y, u, geo, ws, out):
 @njit(cache=True)
 def rhs(y, u, geo, out):
     """State derivative ``[q̇, q̈]`` of one state ``y = [q, q̇]`` under inputs ``u``; NaN where M is not definite."""
-    _rhs_ws(y, u, geo, workspace(geo), out)
+    rhs_ws(y, u, geo, workspace(geo), out)
 
 
 @njit(cache=True)
@@ -408,7 +408,7 @@ def rhs_batch(Y, U, geo):
     out = np.empty_like(Y)
     ws = workspace(geo)
     for b in range(Y.shape[0]):
-        _rhs_ws(Y[b], U[b], geo, ws, out[b])
+        rhs_ws(Y[b], U[b], geo, ws, out[b])
     return out
 
 
@@ -439,12 +439,12 @@ def accel_jacobian(y, f0, u, geo, ws, jac):
     for c in range(n):
         delta = 1.5e-8 * max(abs(y[c]), 1e-3)
         yp[c] = y[c] + delta
-        _rhs_ws(yp, u, geo, ws, fp)
+        rhs_ws(yp, u, geo, ws, fp)
         yp[c] = y[c]
         for r in range(n):
             jac[r, c] = (fp[n + r] - f0[n + r]) / delta
     q = y[:n]
-    _rhs_ws(y, u, geo, ws, fp)  # geometry, factor and forces of the unperturbed q
+    rhs_ws(y, u, geo, ws, fp)  # geometry, factor and forces of the unperturbed q
     qdd = np.empty(n)
     qdp = y[n:].copy()
     for c in range(n):
@@ -466,7 +466,7 @@ def state_jacobian_batch(Y, U, geo):
     f0 = np.empty(N)
     jac = np.empty((n, N))
     for b in range(B):
-        _rhs_ws(Y[b], U[b], geo, ws, f0)
+        rhs_ws(Y[b], U[b], geo, ws, f0)
         accel_jacobian(Y[b], f0, U[b], geo, ws, jac)
         for r in range(n):
             out[b, r, n + r] = 1.0

@@ -17,8 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from .._numba_linalg import lu_factor, lu_solve  # dense LU for the Newton systems
-from ._kernels import _rhs_ws, accel_jacobian, workspace
+from ..core.linalg import lu_factor, lu_solve  # dense LU for the Newton systems
+from ._kernels import accel_jacobian, rhs_ws, workspace
 
 # Radau IIA, 3 stages, order 5 (Hairer & Wanner, Solving ODEs II, §IV.8)
 _S6 = np.sqrt(6.0)
@@ -275,7 +275,7 @@ def radau_run(
                             Z[i, c] = v
                 else:
                     Z[:, :] = 0.0
-                _rhs_ws(y, u, geo, ws, f0)
+                rhs_ws(y, u, geo, ws, f0)
                 if not _all_finite(f0):
                     return NONFINITE, time, b
                 if jac_state == 0:
@@ -300,7 +300,7 @@ def radau_run(
                     for i in range(3):
                         for c in range(N):
                             state[c] = y[c] + Z[i, c]
-                        _rhs_ws(state, u, geo, ws, F[i])
+                        rhs_ws(state, u, geo, ws, F[i])
                     if not _all_finite(F):
                         break
                     for i in range(3):
@@ -365,7 +365,7 @@ def radau_run(
                     # refined estimate before rejecting: filters the stiff components
                     for c in range(N):
                         state[c] = y[c] + err[c]
-                    _rhs_ws(state, u, geo, ws, err_in)
+                    rhs_ws(state, u, geo, ws, err_in)
                     for c in range(N):
                         err_in[c] += work[c]
                     _error_solve(jac, mu / step, small, piv_small, err_in, err, tmp)

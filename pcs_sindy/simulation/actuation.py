@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ._kernels import ACT_CONSTANT, ACT_TENDON
 
-__all__ = ["TendonActuation", "PressureActuation"]
+__all__ = ["Tendons", "PressureChambers"]
 
 
 def _vector(value: ArrayLike, name: str, size: int | None = None) -> NDArray[np.float64]:
@@ -74,7 +74,7 @@ def _cover(start: NDArray, end: NDArray, segment_lengths: NDArray) -> NDArray[np
     return np.maximum(hi - lo, 0.0)
 
 
-class TendonActuation:
+class Tendons:
     """Tendons from the base to termination arc lengths at signed offsets from the backbone.
 
     Parameters
@@ -135,10 +135,10 @@ class TendonActuation:
         )
 
     def __repr__(self) -> str:
-        return f"TendonActuation(end={self.end!r}, offset={self.offset!r})"
+        return f"Tendons(end={self.end!r}, offset={self.offset!r})"
 
 
-class PressureActuation:
+class PressureChambers:
     """Pressure chambers spanning arc-length intervals on either side of the backbone.
 
     Parameters
@@ -217,6 +217,6 @@ class PressureActuation:
 
     def __repr__(self) -> str:
         return (
-            f"PressureActuation(start={self.start!r}, end={self.end!r}, side={self.side!r}, "
+            f"PressureChambers(start={self.start!r}, end={self.end!r}, side={self.side!r}, "
             f"bending_gain={self.bending_gain!r}, axial_gain={self.axial_gain!r})"
         )

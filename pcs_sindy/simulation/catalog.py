@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .actuation import PressureActuation, TendonActuation
+from .actuation import PressureChambers, Tendons
 from .pac import PACRobot
 from .scenarios import Scenario
 
@@ -117,7 +117,7 @@ _ACTUATED: dict[str, dict[str, Any]] = {
 
 def _actuation_from_spec(spec: dict[str, Any]) -> Any:
     kw = {k: v for k, v in spec.items() if k != "type"}
-    return TendonActuation(**kw) if spec["type"] == "tendon" else PressureActuation(**kw)
+    return Tendons(**kw) if spec["type"] == "tendon" else PressureChambers(**kw)
 
 
 # stiffened variants take their actuation magnitudes from the nominal robot
@@ -171,7 +171,9 @@ def get_scenario(name: str, **overrides: Any) -> Scenario:
     if actuated:
         parameters["actuation"] = actuated["actuation"]
         overrides.setdefault("input_max", actuated["input_max"])
-    overrides.setdefault("actuation_reference", _ACTUATION_REFERENCE.get(name))
+    reference = overrides.setdefault("actuation_reference", _ACTUATION_REFERENCE.get(name))
+    if reference is not None:
+        overrides.setdefault("actuation_robot", get_scenario(reference).robot)
     return Scenario(
         name=name,
         robot=robot,

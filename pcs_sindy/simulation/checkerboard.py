@@ -6,7 +6,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._drawing import _SHIFT, _fixed, _subdivide
+from ._drawing import SHIFT, fixed_point, subdivide
 
 __all__ = ["render_checkerboard"]
 
@@ -56,7 +56,7 @@ def render_checkerboard(
     S = int(supersample)
 
     def project(poly: NDArray[np.float64]) -> NDArray[np.float64]:
-        pts = _subdivide(poly, 16)
+        pts = subdivide(poly, 16)
         obj = np.column_stack([pts, np.zeros(len(pts))])
         img, _ = cv2.projectPoints(obj, np.asarray(rvec, float), np.asarray(tvec, float), K, dist)
         return img.reshape(-1, 2)
@@ -64,8 +64,8 @@ def render_checkerboard(
     big = np.full((height * S, width * S), 128, np.uint8)
 
     def fill(poly: NDArray[np.float64], value: int) -> None:
-        pts = _fixed((project(poly) + 0.5) * S - 0.5).reshape(-1, 1, 2)
-        cv2.fillPoly(big, [pts], value, cv2.LINE_8, _SHIFT)
+        pts = fixed_point((project(poly) + 0.5) * S - 0.5).reshape(-1, 1, 2)
+        cv2.fillPoly(big, [pts], value, cv2.LINE_8, SHIFT)
 
     # OpenCV fills a polygon's boundary pixels too: shrink each square by one canvas pixel's worth
     # (in board units at this view's scale) so that the black and white areas are exact

@@ -32,13 +32,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from pcs_sindy.integration import SimulationError
-from pcs_sindy.kinematics import PlanarPCS
-from pcs_sindy.trajectory import StrainTrajectory
-
+from ..core.kinematics import PlanarPCS
+from ..core.simulate_contract import SimulationError
+from ..core.trajectory import StrainTrajectory
 from . import _kernels
 from ._backbone import backbone_moments, segment_terms
-from .actuation import PressureActuation, TendonActuation
+from .actuation import PressureChambers, Tendons
 from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
 __all__ = ["PCSRobot", "SimulationError", "backbone_moments"]
@@ -101,7 +100,7 @@ class PCSRobot:
         Gauss–Legendre nodes per segment.  The integrands are smooth in ``s``
         with frequency ``|κ|``; with 16 nodes M and G agree with a 60-node
         quadrature to ~1e-14 for ``|κ L|`` up to 12 rad.
-    actuation : TendonActuation, PressureActuation or None, default None
+    actuation : Tendons, PressureChambers or None, default None
         How the inputs ``u`` of :meth:`simulate` act: None drives the strains
         directly (``u`` is τ, ``A = I``); otherwise ``τ = A(q) u`` with the
         layout's map (:mod:`pcs_sindy.simulation.actuation`).
@@ -165,11 +164,11 @@ class PCSRobot:
         if actuation is None:
             self._act = (_kernels.ACT_IDENTITY, np.zeros(0), np.zeros((0, m)), np.zeros((self.n_q, 0)))
             self.n_inputs = self.n_q
-        elif isinstance(actuation, (TendonActuation, PressureActuation)):
+        elif isinstance(actuation, (Tendons, PressureChambers)):
             self._act = actuation.encode(self.segment_lengths)
             self.n_inputs = int(actuation.n_inputs)
         else:
-            raise ValueError(f"actuation must be None, a TendonActuation or a PressureActuation; got {actuation!r}")
+            raise ValueError(f"actuation must be None, a Tendons or a PressureChambers; got {actuation!r}")
 
         self.area = np.pi * self.radius**2
         self.second_moment = np.pi * self.radius**4 / 4.0
@@ -380,7 +379,7 @@ class PCSRobot:
         """Lengths ``ℓ_k(q)`` [m] of the tendons, shape (..., p) (tendon actuation only)."""
         kind, offset, span, _ = self._act
         if kind != _kernels.ACT_TENDON:
-            raise ValueError(f"tendon_lengths needs a robot with TendonActuation; this one has {self.actuation!r}")
+            raise ValueError(f"tendon_lengths needs a robot with Tendons; this one has {self.actuation!r}")
         q = self._check("q", q)
         lead, (qf,) = self._flatten(q)
         return _kernels.tendon_batch(qf, offset, span)[0].reshape(lead + (self.n_inputs,))
@@ -404,7 +403,7 @@ class PCSRobot:
     ) -> StrainTrajectory | list[StrainTrajectory]:
         """Integrate the equations of motion and sample them at the time stamps ``t``.
 
-        The contract of :mod:`pcs_sindy.integration`, shared with identified models.
+        The contract of :mod:`pcs_sindy.core.simulate_contract`, shared with identified models.
 
         Parameters
         ----------
@@ -420,7 +419,7 @@ class PCSRobot:
             actuation; tendon tensions (>= 0) or chamber pressures otherwise,
             applied as ``τ = A(q) u`` at every stage.
         method : str, default "radau"
-            A name of :data:`pcs_sindy.integration.METHODS`: ``"radau"``,
+            A name of :data:`pcs_sindy.core.simulate_contract.METHODS`: ``"radau"``,
             ``"dopri5"``, ``"dop853"``, ``"bdf"``, ``"lsoda"`` or ``"rk23"``.
             ``"radau"`` with tabulated inputs is the simulator's own Radau IIA
             (order 5, L-stable — the shear/axial modes make these robots

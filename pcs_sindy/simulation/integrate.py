@@ -1,6 +1,6 @@
 """Time integration of the ground-truth robot: :meth:`PCSRobot.simulate` and :meth:`PCSRobot.advance`.
 
-Two paths, one contract (:mod:`pcs_sindy.integration`):
+Two paths, one contract (:mod:`pcs_sindy.core.simulate_contract`):
 
 - ``method="radau"`` with tabulated inputs: the simulator's own Radau IIA,
   compiled (:mod:`pcs_sindy.simulation._radau`), stepping across samples
@@ -26,8 +26,8 @@ from scipy.linalg import block_diag as dense_block_diag
 from scipy.sparse import block_diag as sparse_block_diag
 from tqdm.auto import tqdm
 
-from ..integration import SCIPY_METHODS, SimulationError, canonical_method
-from ..trajectory import StrainTrajectory
+from ..core.simulate_contract import SCIPY_METHODS, SimulationError, canonical_method
+from ..core.trajectory import StrainTrajectory
 from . import _kernels, _radau
 
 __all__ = [
@@ -41,7 +41,7 @@ __all__ = [
     "RadauStepper",
 ]
 
-#: methods of :data:`pcs_sindy.integration.METHODS` the simulator implements ("radau" first: the default)
+#: methods of :data:`pcs_sindy.core.simulate_contract.METHODS` the simulator implements ("radau" first: the default)
 METHODS_SUPPORTED = ("radau", "dopri5", "dop853", "bdf", "lsoda", "rk23")
 #: fixed Radau step of ``step="auto"`` [s]
 DEFAULT_STEP = 5e-4

@@ -15,8 +15,8 @@ import cv2
 import numpy as np
 from numpy.typing import NDArray
 
-from ..camera import Camera
-from ._drawing import _SHIFT, _fixed
+from ..core.camera import Camera
+from ._drawing import SHIFT, fixed_point
 
 __all__ = ["Nuisances"]
 
@@ -128,7 +128,7 @@ class Nuisances:
         )
 
 
-def _scene(
+def draw_scene(
     camera: Camera, shape: tuple[int, ...], bg: tuple, nz: Nuisances | None, base_px: NDArray, marker_px: float
 ) -> NDArray[np.uint8]:
     """The static background: plain, or with a floor and clutter."""
@@ -173,12 +173,12 @@ def _scene(
             xs = x_start * width + np.cumsum(rng.normal(0.0, 0.01 * width, 8))
             ys = np.linspace(0.0, 0.3 * height, 8)
             cv2.polylines(
-                img, [_fixed(np.column_stack([xs, ys])).reshape(-1, 1, 2)], False, dark, 2, cv2.LINE_AA, _SHIFT
+                img, [fixed_point(np.column_stack([xs, ys])).reshape(-1, 1, 2)], False, dark, 2, cv2.LINE_AA, SHIFT
             )
     return img
 
 
-def _illumination(shape: tuple[int, int], nz: Nuisances) -> NDArray[np.float32]:
+def illumination(shape: tuple[int, int], nz: Nuisances) -> NDArray[np.float32]:
     height, width = shape
     v, u = np.mgrid[0:height, 0:width].astype(np.float32)
     cu, cv_ = 0.5 * (width - 1), 0.5 * (height - 1)
@@ -188,7 +188,7 @@ def _illumination(shape: tuple[int, int], nz: Nuisances) -> NDArray[np.float32]:
     return (light * (1.0 - nz.vignetting * r2)).astype(np.float32)
 
 
-def _degrade(
+def degrade(
     img: NDArray[np.uint8], light: NDArray[np.float32] | None, nz: Nuisances, rng: np.random.Generator
 ) -> NDArray[np.uint8]:
     out = img.astype(np.float32)
@@ -203,7 +203,7 @@ def _degrade(
     return out
 
 
-def _sub_frame_poses(poses: NDArray[np.float64], exposure: float) -> NDArray[np.float64]:
+def sub_frame_poses(poses: NDArray[np.float64], exposure: float) -> NDArray[np.float64]:
     """Poses (T, B, N + 1, 3) at B instants spread over the exposure centred on each frame."""
     T = poses.shape[0]
     times = np.arange(T)[:, None] + exposure * (np.linspace(0.0, 1.0, _BLUR_SAMPLES) - 0.5)[None, :]
@@ -214,7 +214,7 @@ def _sub_frame_poses(poses: NDArray[np.float64], exposure: float) -> NDArray[np.
     return poses[lo] * (1 - w) + poses[hi] * w
 
 
-def _occlude(
+def occlude(
     img: NDArray[np.uint8],
     camera: Camera,
     pose: NDArray[np.float64],
@@ -230,4 +230,4 @@ def _occlude(
     tip = np.array([u, v]) + axis * (w_px * (0.5 - fraction) + 0.5 * thick)  # the line's round cap
     pts = camera.unrectify(np.stack([tip, tip + axis * 4 * w_px]))
     skin = (150, 170, 200) if colour else (175,)
-    cv2.line(img, tuple(_fixed(pts[0])), tuple(_fixed(pts[1])), skin, thick, cv2.LINE_AA, _SHIFT)
+    cv2.line(img, tuple(fixed_point(pts[0])), tuple(fixed_point(pts[1])), skin, thick, cv2.LINE_AA, SHIFT)

@@ -8,7 +8,7 @@ lighter shade, as a thick polyline through the marker centres or through a
 backbone the caller provides.  Drawing uses OpenCV with sub-pixel vertices
 (``shift``) on a supersampled canvas that is box-averaged down (exact area
 anti-aliasing), so that intensity centroids of the markers are unbiased to a
-few hundredths of a pixel.  A camera with a lens (:class:`pcs_sindy.camera.Camera`
+few hundredths of a pixel.  A camera with a lens (:class:`pcs_sindy.core.camera.Camera`
 with distortion and perspective) bends the marker outlines as a real lens does.
 
 :class:`~pcs_sindy.simulation.nuisances.Nuisances` degrades the footage the
@@ -32,10 +32,10 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
-from ..camera import Camera, camera_json_path
-from ._drawing import _SHIFT, _draw_polygon, _fixed, _subdivide
+from ..core.camera import Camera, camera_json_path
+from ._drawing import SHIFT, draw_polygon, fixed_point, subdivide
 from .checkerboard import render_checkerboard
-from .nuisances import Nuisances, _degrade, _illumination, _occlude, _scene, _sub_frame_poses
+from .nuisances import Nuisances, degrade, draw_scene, illumination, occlude, sub_frame_poses
 
 __all__ = ["render_frames", "render_video", "render_checkerboard", "marker_corners", "Nuisances", "RenderedVideo"]
 
@@ -152,7 +152,7 @@ def render_frames(
     poses = _check_poses(poses)
     camera = Camera.fit_poses(poses) if camera is None else camera
     if not isinstance(camera, Camera):
-        raise ValueError(f"camera must be a pcs_sindy.camera.Camera; got {type(camera).__name__}")
+        raise ValueError(f"camera must be a pcs_sindy.core.camera.Camera; got {type(camera).__name__}")
     if not camera.has_base_frame:
         raise ValueError("camera must have a base frame (origin and angle) to render poses")
     size = np.asarray(marker_size, dtype=float)
@@ -196,19 +196,19 @@ def render_frames(
 
     nz = nuisances
     blur = nz is not None and nz.motion_blur > 0
-    sub = _sub_frame_poses(poses, nz.motion_blur) if blur else poses[:, None]  # (T, B, N + 1, 3)
+    sub = sub_frame_poses(poses, nz.motion_blur) if blur else poses[:, None]  # (T, B, N + 1, 3)
     # OpenCV fills a polygon's boundary pixels too, which widens a filled
     # rectangle by one canvas pixel: shrink it by that much so areas are exact
     grow = -1.0 / supersample if marker_style == "filled" else 0.0
     rect = camera.to_rectified(sub)
     corners = marker_corners(rect, w_px + grow, t_px + grow)  # (T, B, N + 1, 4, 2), rectified pixels
     if camera.has_lens:
-        corners = camera.unrectify(_subdivide(corners, _EDGE_POINTS))
+        corners = camera.unrectify(subdivide(corners, _EDGE_POINTS))
     body_pts = backbone[:, None] if backbone is not None else camera.unrectify(rect[..., :2])
     body_thick = max(1, int(round(body_width * ppm)))
     shape = (height, width, 3) if colour else (height, width)
-    scene = _scene(camera, shape, bg, nz, camera.to_pixels(np.zeros(2)), t_px)
-    light = _illumination((height, width), nz) if nz is not None and (nz.lighting_gradient or nz.vignetting) else None
+    scene = draw_scene(camera, shape, bg, nz, camera.to_pixels(np.zeros(2)), t_px)
+    light = illumination((height, width), nz) if nz is not None and (nz.lighting_gradient or nz.vignetting) else None
     occ = nz.occlusion if nz is not None else None
     out = np.empty((T, *shape), dtype=np.uint8)
     for k in tqdm(range(T), desc="render", unit="frame", disable=not progress):
@@ -217,15 +217,15 @@ def render_frames(
             img = scene.copy()
             if draw_body:
                 pts = body_pts[k, 0 if backbone is not None else b]
-                cv2.polylines(img, [_fixed(pts).reshape(-1, 1, 2)], False, bc, body_thick, cv2.LINE_AA, _SHIFT)
+                cv2.polylines(img, [fixed_point(pts).reshape(-1, 1, 2)], False, bc, body_thick, cv2.LINE_AA, SHIFT)
             for c in corners[k, b]:
-                _draw_polygon(img, c, fg, supersample, None if marker_style == "filled" else line)
+                draw_polygon(img, c, fg, supersample, None if marker_style == "filled" else line)
             acc = img.astype(np.float32) if acc is None else acc + img
         img = np.round(acc / sub.shape[1]).astype(np.uint8) if sub.shape[1] > 1 else acc.astype(np.uint8)
         if occ is not None and occ[1] <= first_frame + k < occ[1] + occ[2] and occ[0] < poses.shape[1]:
-            _occlude(img, camera, poses[k, occ[0]], occ[3], w_px, t_px, colour)
+            occlude(img, camera, poses[k, occ[0]], occ[3], w_px, t_px, colour)
         if nz is not None:
-            img = _degrade(img, light, nz, np.random.default_rng([nz.seed, first_frame + k]))
+            img = degrade(img, light, nz, np.random.default_rng([nz.seed, first_frame + k]))
         out[k] = img
     return out
 

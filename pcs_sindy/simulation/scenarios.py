@@ -139,6 +139,12 @@ class Scenario:
         Tracked cross-sections (equally spaced, the last at the tip).
     input_max : tuple of float or None
         Actuated scenarios: the largest training input of each actuator.
+    actuation_reference : str or None
+        Stiffened variants: the name of the nominal scenario whose robot sets the
+        training forces (the same forces move a stiff strain very little, which is
+        what sparsification has to detect, seed Case 4).
+    actuation_robot : PCSRobot or None
+        That nominal robot (given with ``actuation_reference``).
     """
 
     name: str
@@ -156,6 +162,7 @@ class Scenario:
     description: str = ""
     actuation_reference: str | None = None
     input_max: tuple[float, ...] | None = None
+    actuation_robot: Any = field(default=None, repr=False)
 
     @property
     def actuation(self) -> dict[str, Any] | None:
@@ -193,13 +200,14 @@ class Scenario:
         return np.tile([self.bend_amplitude, self.strain_amplitude, self.strain_amplitude], m)
 
     def _actuation_robot(self) -> Any:
-        # Stiffened variants are driven like their nominal robot: the same forces move a stiff
-        # strain very little, which is what sparsification has to detect (seed Case 4).
         if self.actuation_reference is None:
             return self.robot
-        from .catalog import get_scenario
-
-        return get_scenario(self.actuation_reference).robot
+        if self.actuation_robot is None:
+            raise ValueError(
+                f"scenario {self.name!r}: actuation_reference={self.actuation_reference!r} needs the nominal "
+                "robot as actuation_robot (get_scenario sets both)"
+            )
+        return self.actuation_robot
 
     def _holding_force(self, q_target: NDArray[np.float64]) -> NDArray[np.float64]:
         robot = self._actuation_robot()
@@ -424,11 +432,3 @@ class Scenario:
                 pass  # caching is an optimisation; an unwritable cache is not an error
         return out
 
-
-def __getattr__(name: str) -> Any:
-    # the named scenarios live in .catalog, which imports this module
-    if name in ("get_scenario", "list_scenarios"):
-        from . import catalog
-
-        return getattr(catalog, name)
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

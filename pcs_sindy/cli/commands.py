@@ -1,0 +1,746 @@
+"""The steps of the ``pcs-sindy`` command line as Python functions on files.
+
+simulate (scenario -> recordings), render (poses -> videos), extract
+(videos -> poses), fuse (poses -> segmentation + strains), fit (strains + tau
+-> model) and rollout (model + tau -> predicted poses, metrics); the demo
+that chains them is :func:`pcs_sindy.cli.demo.demo`.  Each takes typed keyword arguments, so
+``fit(strains, taus, "model.json", window_length=15)`` does from Python what
+``pcs-sindy fit ... --window-length 15`` does; :mod:`pcs_sindy.cli.main` only
+parses the command line and calls these.
+
+An option left out (None) means the estimator's own default: the estimators
+are the steps of :func:`~pcs_sindy.pipeline.pcs_pipeline.make_pcs_pipeline`
+(:func:`pipeline_step`), so the pipeline, the command line and the demo share
+one source of defaults.  File formats: :mod:`pcs_sindy.io.data_files`; the demo
+report: :mod:`pcs_sindy.cli.report`.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ..io import data_files as files
+
+__all__ = [
+    "CLIError",
+    "RolloutResult",
+    "pipeline_step",
+    "build_regressor",
+    "scenarios",
+    "simulate",
+    "render",
+    "calibrate",
+    "extract",
+    "fuse",
+    "fit",
+    "rollout",
+]
+
+
+class CLIError(Exception):
+    """An error caused by the user's input, reported without a traceback."""
+
+
+def say(quiet: bool, text: str) -> None:
+    if not quiet:
+        print(text)
+
+
+def _given(**options: Any) -> dict[str, Any]:
+    """The options that were given (None means: the estimator's default)."""
+    return {k: v for k, v in options.items() if v is not None}
+
+
+def pipeline_step(name: str, **params: Any) -> Any:
+    """A fresh estimator of :func:`~pcs_sindy.pipeline.make_pcs_pipeline`'s step ``name`` with ``params`` set.
+
+    Parameters
+    ----------
+    name : {"poses", "segments", "dynamics"}
+    **params
+        Parameters to set (``set_params``); None values are left at the step's default.
+    """
+    from ..pipeline.pcs_pipeline import make_pcs_pipeline
+
+    return make_pcs_pipeline(start="videos").named_steps[name].set_params(**_given(**params))
+
+
+def scenarios() -> list[str]:
+    """Print and return the names of the built-in scenarios.
+
+    Returns
+    -------
+    list of str
+    """
+    from ..simulation.catalog import list_scenarios
+
+    names = list(list_scenarios())
+    print("\n".join(names))
+    return names
+
+
+def simulate(
+    scenario: str,
+    out: str | Path,
+    *,
+    seed: int | None = None,
+    noise: tuple[float, float] | str | None = None,
+    n_train: int | None = None,
+    train_duration: float | None = None,
+    validation: bool = True,
+    validation_duration: float | None = None,
+    quiet: bool = False,
+) -> list[Path]:
+    """Simulate a scenario: ``train_00.npz`` ..., ``validation.npz`` and ``scenario.json`` in ``out``.
+
+    Parameters
+    ----------
+    scenario : str
+        A name of :func:`pcs_sindy.simulation.catalog.list_scenarios`.
+    out : path
+        Output folder (created).
+    seed, n_train, train_duration, validation, validation_duration
+        As :meth:`pcs_sindy.simulation.scenarios.Scenario.generate`; None: its default.
+    noise : None, "seed" or (sigma_p, sigma_theta)
+        Pose noise in m and rad (None: noise-free poses).
+    quiet : bool
+        No progress bar or message.
+
+    Returns
+    -------
+    list of Path
+        The recordings, validation last.
+    """
+    from ..simulation.catalog import get_scenario
+
+    try:
+        spec = get_scenario(scenario)
+    except ValueError as err:
+        raise CLIError(str(err)) from None
+    start = time.perf_counter()
+    data = spec.generate(
+        **_given(seed=seed),
+        noise=noise,
+        n_train=n_train,
+        train_duration=train_duration,
+        validation=validation,
+        validation_duration=validation_duration,
+        progress=not quiet,
+    )
+    folder = files.output_dir(out)
+    paths = [files.write_recording(folder / f"train_{k:02d}.npz", rec) for k, rec in enumerate(data.train)]
+    if data.validation is not None:
+        paths.append(files.write_recording(folder / "validation.npz", data.validation))
+    summary = {
+        "scenario": spec.name,
+        "description": spec.description,
+        "seed": data.seed,
+        "noise": list(data.noise),
+        "n_markers": spec.n_markers,
+        "marker_arc_lengths": spec.marker_arc_lengths.tolist(),
+        "segment_lengths": None if spec.is_kinematic else list(spec.robot.kinematics.segment_lengths),
+        "actuation": spec.actuation,  # the layout of an actuated robot (None: driven by tau directly)
+        "files": [p.name for p in paths],
+        "seconds": round(time.perf_counter() - start, 2),
+    }
+    (folder / "scenario.json").write_text(json.dumps(summary, indent=2))
+    say(quiet, f"simulated {spec.name} ({len(paths)} recordings) in {summary['seconds']} s -> {folder}")
+    return paths
+
+
+def _render_one(
+    src: str,
+    target: str,
+    fps: float | None,
+    size: tuple[int, int] | None,
+    marker_size: tuple[float, float] | None,
+    progress: bool,
+) -> tuple[str, int]:
+    """Render one pose file (module level so joblib can run it in a worker)."""
+    from ..core.camera import Camera
+    from ..simulation.rendering import render_video
+
+    t, poses = files.read_poses(src)
+    if fps is None:
+        fps = 1.0 / float(np.median(np.diff(t))) if t is not None and t.size > 1 else 1000.0
+    try:
+        camera = Camera.fit_poses(poses, **_given(image_size=size))
+        result = render_video(poses, target, camera, fps=fps, progress=progress, **_given(marker_size=marker_size))
+    except ValueError as err:
+        raise CLIError(f"{src}: {err}") from None
+    return str(result.video), int(poses.shape[0])
+
+
+def _over_files(func: Callable, items: Sequence[tuple], n_jobs: int, desc: str, quiet: bool) -> list:
+    """``func(*item, progress)`` per item: serial with the items' own bars, or joblib with one bar over items."""
+    from joblib import Parallel, delayed
+    from tqdm.auto import tqdm
+
+    if n_jobs == 1 or len(items) == 1:
+        return [func(*item, not quiet) for item in items]
+    jobs = (delayed(func)(*item, False) for item in items)  # workers' bars would interleave
+    return list(
+        tqdm(
+            Parallel(n_jobs=n_jobs, return_as="generator")(jobs),
+            total=len(items),
+            desc=desc,
+            unit="file",
+            disable=quiet,
+        )
+    )
+
+
+def _unique_stems(names: Sequence[str | Path], what: str) -> None:
+    stems = [Path(v).stem for v in names]
+    if len(set(stems)) != len(stems):
+        raise CLIError(f"{what} share a name (stem); their outputs would overwrite each other")
+
+
+def render(
+    inputs: Sequence[str | Path],
+    out: str | Path,
+    *,
+    fps: float | None = None,
+    video_format: str = ".avi",
+    size: tuple[int, int] | None = None,
+    marker_size: tuple[float, float] | None = None,
+    n_jobs: int = 1,
+    quiet: bool = False,
+) -> list[Path]:
+    """Render pose files to marker videos, each with its camera as ``<video>.camera.json``.
+
+    Parameters
+    ----------
+    inputs : sequence of path
+        Pose files (recordings qualify); one video each, same stem.
+    out : path
+        Output folder (created).
+    fps : float, optional
+        Frame rate; default from the time stamps.
+    video_format : {".avi", ".mp4"}
+        MJPG (sharp marker edges) or mp4v (lossy).
+    size : (int, int), optional
+        Image width and height; default :meth:`~pcs_sindy.core.camera.Camera.fit_poses`'s.
+    marker_size : (float, float), optional
+        Marker width and thickness (m); default :func:`~pcs_sindy.simulation.rendering.render_frames`'s.
+    n_jobs : int
+        Files rendered in parallel (joblib; -1: all cores).
+    quiet : bool
+        No progress bars or messages.
+
+    Returns
+    -------
+    list of Path
+        The videos.
+    """
+    folder = files.output_dir(out)
+    for name in inputs:  # fail before any work on a bad input
+        files.read_arrays(name, ["poses"], "pose file")
+    _unique_stems(inputs, "input files")
+    items = [(str(src), str(folder / (Path(src).stem + video_format)), fps, size, marker_size) for src in inputs]
+    results = _over_files(_render_one, items, n_jobs, "render", quiet)
+    for src, (video, n_frames) in zip(inputs, results):
+        say(quiet, f"rendered {Path(src).name} ({n_frames} frames) -> {video} (+ camera JSON)")
+    return [Path(v) for v, _ in results]
+
+
+def calibrate(
+    views: Sequence[str | Path],
+    out: str | Path,
+    *,
+    pattern: tuple[int, int],
+    square: float,
+    plane: str | Path | None = None,
+    fps: float | None = None,
+    every: int = 10,
+    quiet: bool = False,
+) -> tuple[Any, dict[str, Any]]:
+    """Lens distortion and the robot's plane from checkerboard views: a camera JSON at ``out``.
+
+    Parameters
+    ----------
+    views : sequence of path
+        Checkerboard images, folders of images or videos.
+    out : path
+        Camera JSON to write; name it ``<video>.camera.json`` to have ``extract`` find it.
+    pattern : (columns, rows)
+        Inner corners of the board.
+    square : float
+        Side of a square in metres.
+    plane : path, optional
+        Image of the board lying in the robot's plane; default the last view.
+    fps : float, optional
+        Frame rate stored in the JSON.
+    every : int
+        Every ``every``-th frame of a video or folder is a view.
+    quiet : bool
+        No messages.
+
+    Returns
+    -------
+    camera : Camera
+    report : dict
+        :func:`~pcs_sindy.vision.calibration.calibrate_camera`'s report.
+    """
+    from ..vision.calibration import calibrate_camera, read_views
+
+    for name in [*views, *([plane] if plane is not None else [])]:
+        if not Path(name).exists():
+            raise CLIError(f"view {str(name)!r} does not exist")
+    images, names = read_views(views, every)
+    if plane is not None:
+        extra, extra_names = read_views([plane])
+        images, names = images + extra[:1], names + extra_names[:1]
+    camera, report = calibrate_camera(images, pattern, square, plane=-1, names=names)
+    path = Path(out)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    extra_keys: dict[str, Any] = {"calibration": {k: v for k, v in report.items() if k != "pixels_per_metre"}}
+    if fps is not None:
+        extra_keys["fps"] = float(fps)
+    camera.to_json(path, extra=extra_keys)
+    if report["lens"]:
+        lens = f"lens fitted on {report['views_used']} views, rms reprojection {report['rms_reprojection_px']:.3f} px"
+    else:
+        lens = "no lens fit (fewer than three views with a board): perspective only"
+    missing = report["views_without_board"]
+    say(
+        quiet,
+        f"calibrated {path}: {lens}; plane {camera.pixels_per_metre:.1f} px/m, plane view residual "
+        f"{report['plane_reprojection_px']:.3f} px" + (f"; no board in {len(missing)} view(s)" if missing else ""),
+    )
+    return camera, report
+
+
+def _extract_one(extractor: Any, video: str, progress: bool) -> tuple[Any, dict[str, Any]]:
+    """Extract one video (module level so joblib can run it in a worker)."""
+    extractor = extractor.set_params(progress=progress)
+    return extractor.fit_transform([video])[0], extractor.diagnostics_[0]
+
+
+def extract(
+    videos: Sequence[str | Path],
+    out: str | Path,
+    *,
+    camera: str | Path | None = None,
+    n_markers: int | None = None,
+    robot_length: float | None = None,
+    fps: float | None = None,
+    on_missing: str | None = None,
+    n_jobs: int = 1,
+    quiet: bool = False,
+) -> list[Path]:
+    """Extract marker poses from videos: one pose file per video in ``out``.
+
+    Parameters
+    ----------
+    videos : sequence of path
+        Videos or folders of image frames.
+    out : path
+        Output folder (created); one pose file per video, same stem.
+    camera : path, optional
+        Camera JSON for every video; default: each video's ``<video>.camera.json``, else calibration.
+    n_markers, robot_length, fps, on_missing : optional
+        Parameters of :func:`make_pcs_pipeline`'s ``poses`` step
+        (:class:`~pcs_sindy.vision.extractor.MarkerPoseExtractor`); None: its default.
+    n_jobs : int
+        Videos extracted in parallel (joblib; -1: all cores).
+    quiet : bool
+        No progress bars or messages.
+
+    Returns
+    -------
+    list of Path
+        The pose files.
+    """
+    from sklearn.base import clone
+
+    from ..core.camera import Camera
+
+    if camera is not None:
+        if not Path(camera).is_file():
+            raise CLIError(f"camera file {str(camera)!r} does not exist")
+        camera = Camera.from_json(camera)
+    for name in videos:
+        if not Path(name).exists():
+            raise CLIError(f"video {str(name)!r} does not exist")
+    _unique_stems(videos, "videos")
+    folder = files.output_dir(out)
+    extractor = pipeline_step(
+        "poses", camera=camera, n_markers=n_markers, robot_length=robot_length, fps=fps, on_missing=on_missing
+    )
+    results = _over_files(_extract_one, [(clone(extractor), str(v)) for v in videos], n_jobs, "extract", quiet)
+    paths = []
+    for name, (tr, diag) in zip(videos, results):
+        rest = tr.metadata.get("rest_length")
+        paths.append(files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses, rest_length=rest))
+        repaired = len(diag["frames_repaired"])
+        say(
+            quiet,
+            f"extracted {Path(name).name}: {tr.n_frames} frames, {tr.n_markers} markers"
+            f"{f', {repaired} frames interpolated' if repaired else ''} ({diag['calibration']}) -> {paths[-1]}",
+        )
+    return paths
+
+
+def fuse(
+    poses: Sequence[str | Path],
+    out: str | Path,
+    *,
+    threshold: float | None = None,
+    total_length: float | None = None,
+    shape_fit: str | None = None,
+    n_jobs: int | None = None,
+    quiet: bool = False,
+) -> tuple[Any, list[Any], list[Any]]:
+    """Kinematic fusion of pose files: ``segmentation.json`` and one strain file per pose file in ``out``.
+
+    Parameters
+    ----------
+    poses : sequence of path
+        Pose files (recordings qualify).
+    out : path
+        Output folder (created).
+    threshold, total_length, shape_fit, n_jobs : optional
+        Parameters of :func:`make_pcs_pipeline`'s ``segments`` step
+        (:class:`~pcs_sindy.fusion.kinematic_fusion.KinematicFusion`); None: its default.
+    quiet : bool
+        No progress bars or messages.
+
+    Returns
+    -------
+    fusion : KinematicFusion
+    strains : list of StrainTrajectory
+    pose_trajectories : list of PoseTrajectory
+    """
+    from ..core.trajectory import PoseTrajectory
+
+    trajs = []
+    for name in poses:
+        t, arr = files.read_poses(name)
+        meta: dict[str, Any] = {"source": str(name)}
+        rest = files.read_rest_length(name)
+        if rest is not None:
+            meta["rest_length"] = rest
+        try:
+            trajs.append(PoseTrajectory(arr, t, dt=None if t is not None else 1e-3, metadata=meta))
+        except ValueError as err:
+            raise CLIError(f"pose file {str(name)!r}: {err}") from None
+    _unique_stems(poses, "pose files")
+    folder = files.output_dir(out)
+    fusion = pipeline_step(
+        "segments",
+        threshold=threshold,
+        total_length=total_length,
+        shape_fit=shape_fit,
+        n_jobs=n_jobs,
+        progress=not quiet,
+    )
+    strains = fusion.fit(trajs).transform(trajs)
+    for name, st in zip(poses, strains):
+        files.write_strains(folder / (Path(name).stem + ".npz"), st)
+    seg = files.write_model_file(fusion, folder / "segmentation.json")
+    lengths = ", ".join(f"{v:.4f}" for v in fusion.segment_lengths_)
+    say(
+        quiet,
+        f"{fusion.n_segments_} segment(s), lengths [{lengths}] m (total {fusion.total_length_:.4f} m), "
+        f"threshold h = {fusion.threshold:g}",
+    )
+    if fusion.total_length_source_.startswith("estimated"):  # a hanging robot reads long by its gravity stretch
+        say(
+            quiet,
+            f"note: the rest length was estimated as the median deformed length (standard error "
+            f"{1e3 * fusion.total_length_std_:.2f} mm), which biases every length and strain of a stretched robot "
+            "('fit' absorbs it in rest strains): pass --total-length, or --robot-length to 'extract'",
+        )
+    say(quiet, f"segmentation -> {seg}; {len(strains)} strain file(s) -> {folder}")
+    return fusion, strains, trajs
+
+
+def build_regressor(
+    *,
+    library: str | None = None,
+    formulation: str | None = None,
+    window_length: int | None = None,
+    polyorder: int | None = None,
+    exclude_force_jumps: bool | None = None,
+    weak_window: int | None = None,
+    weak_stride: int | None = None,
+    rest_strain: bool | None = None,
+    rotary_inertia: str | None = None,
+    stiffness_threshold: float | None = None,
+) -> Any:
+    """The ``dynamics`` step of :func:`make_pcs_pipeline` with the given settings (None: its default).
+
+    Parameters
+    ----------
+    library : {"physical", "monomial"}, optional
+        The regressor's ``library``.
+    formulation, window_length, polyorder, exclude_force_jumps, weak_window, weak_stride : optional
+        Parameters of :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor`.
+    rest_strain, rotary_inertia : optional
+        Parameters of the library (:class:`~pcs_sindy.identification.library.physical.PhysicalPCSLibrary`).
+    stiffness_threshold : float, optional
+        The optimizer's ``threshold``: a factor on the material bound (inf: no strain removed).
+
+    Returns
+    -------
+    EulerLagrangeRegressor
+        Not fitted.
+
+    Raises
+    ------
+    CLIError
+        If a library option is given for a library that does not have it.
+    """
+    reg = pipeline_step(
+        "dynamics",
+        library=library,
+        formulation=formulation,
+        window_length=window_length,
+        polyorder=polyorder,
+        exclude_force_jumps=exclude_force_jumps,
+        weak_window=weak_window,
+        weak_stride=weak_stride,
+    )
+    lib_options = _given(rest_strain=rest_strain, rotary_inertia=rotary_inertia)
+    if lib_options:
+        lib = reg.make_library()  # the chosen (or default) library, fresh
+        unknown = [k for k in lib_options if k not in lib.get_params()]
+        if unknown:
+            opts = ", ".join("--" + k.replace("_", "-") for k in unknown)
+            raise CLIError(f"{opts}: not an option of the {reg.library or 'default'} library ({type(lib).__name__})")
+        reg.set_params(library=lib.set_params(**lib_options))
+    if stiffness_threshold is not None:
+        reg.set_params(optimizer__threshold=stiffness_threshold)
+    return reg
+
+
+def fit(
+    strains: Sequence[str | Path],
+    tau: Sequence[str | Path] | None,
+    out: str | Path,
+    *,
+    inputs: Sequence[str | Path] | None = None,
+    actuation: str | Path | dict | None = None,
+    library: str | None = None,
+    formulation: str | None = None,
+    window_length: int | None = None,
+    polyorder: int | None = None,
+    exclude_force_jumps: bool | None = None,
+    weak_window: int | None = None,
+    weak_stride: int | None = None,
+    rest_strain: bool | None = None,
+    rotary_inertia: str | None = None,
+    stiffness_threshold: float | None = None,
+    quiet: bool = False,
+) -> Any:
+    """Identify the dynamics from strain files and tau files; write the model file ``out`` (JSON + .npz).
+
+    Parameters
+    ----------
+    strains : sequence of path
+        Strain files (written by :func:`fuse`).
+    tau : sequence of path or None
+        Tau files (recordings qualify), matched to the strain files by name (stem), else by order.
+    out : path
+        Model file (``model.json`` + ``model.npz``).
+    inputs : sequence of path, optional
+        Instead of ``tau``: files of actuator inputs (``t``, ``u``), matched like ``tau``; needs ``actuation``.
+    actuation : path or dict, optional
+        The actuation layout (JSON file, see :func:`pcs_sindy.io.data_files.read_layout`, or the dict itself).
+    library, formulation, window_length, polyorder, exclude_force_jumps : optional
+    weak_window, weak_stride, rest_strain, rotary_inertia, stiffness_threshold : optional
+        As :func:`build_regressor`; None: the default of :class:`~pcs_sindy.identification.EulerLagrangeRegressor`.
+    quiet : bool
+        Print nothing (else the equations, stiffness and damping).
+
+    Returns
+    -------
+    EulerLagrangeRegressor
+        The fitted model.
+    """
+    if (tau is None) == (inputs is None):
+        raise CLIError("give the forces (--tau) or the actuator inputs (--inputs with --actuation), not both")
+    if inputs is not None and actuation is None:
+        raise CLIError("--inputs needs --actuation (the layout the inputs act through)")
+    layout = files.read_layout(actuation) if isinstance(actuation, (str, Path)) else actuation
+    data, taus = files.read_training_files(
+        strains, tau if tau is not None else inputs, key="tau" if tau is not None else "u"
+    )
+    model = build_regressor(
+        library=library,
+        formulation=formulation,
+        window_length=window_length,
+        polyorder=polyorder,
+        exclude_force_jumps=exclude_force_jumps,
+        weak_window=weak_window,
+        weak_stride=weak_stride,
+        rest_strain=rest_strain,
+        rotary_inertia=rotary_inertia,
+        stiffness_threshold=stiffness_threshold,
+    )
+    if layout is not None:
+        model.set_params(actuation=layout)
+    start = time.perf_counter()
+    model.fit(data, taus)
+    seconds = time.perf_counter() - start
+    path = files.write_model_file(model, files.output_dir(Path(out).parent) / Path(out).name)
+    if not quiet:
+        names = model.kinematics_.strain_names(active_only=False)
+        print(
+            f"identified in {seconds:.1f} s from {len(data)} recording(s), "
+            f"{model.n_regression_samples_} samples; removed strains: {model.removed_strains_ or 'none'}"
+        )
+        model.print()
+        print("stiffness: " + ", ".join(f"{nm} {k:.4g}" for nm, k in zip(names, model.stiffness_)))
+        print("damping:   " + ", ".join(f"{nm} {d:.4g}" for nm, d in zip(names, model.damping_)))
+        print(f"model -> {path}")
+    return model
+
+
+@dataclass
+class RolloutResult:
+    """What :func:`rollout` computed: the strains, the predicted poses and the metrics written to ``metrics.json``."""
+
+    sim: Any
+    poses: np.ndarray
+    marker_arc_lengths: np.ndarray
+    metrics: dict[str, Any] = field(default_factory=dict)
+
+
+def rollout(
+    model: Any,
+    tau: str | Path,
+    out: str | Path,
+    *,
+    segmentation: Any = None,
+    truth: str | Path | None = None,
+    initial: str | Path | None = None,
+    n_markers: int = 20,
+    method: str | None = None,
+    rtol: float | None = None,
+    atol: float | None = None,
+    plot: bool = True,
+    quiet: bool = False,
+) -> RolloutResult:
+    """Simulate a model under the forces of a tau file; ``rollout.npz`` (and metrics against a truth) in ``out``.
+
+    Parameters
+    ----------
+    model : path or EulerLagrangeRegressor
+        Model file (written by :func:`fit`) or a fitted model.
+    tau : path
+        Tau file (recordings qualify).
+    out : path
+        Output folder (created).
+    segmentation : path or KinematicFusion, optional
+        Gives the marker arc lengths; else those of ``truth``, else ``n_markers`` equally spaced markers.
+    truth : path, optional
+        Pose file or recording ('poses_true' when present, else 'poses'): writes ``metrics.json``.
+    initial : path, optional
+        Strain file whose first frame is ``q0`` (default: rest); ``qd0 = 0``.
+    method : str, optional
+        One of the model's ``forward_model().methods``; default its ``default_method``.
+    rtol, atol : float, optional
+        Default: the model's.
+    plot : bool
+        Draw ``rollout.png``.
+    quiet : bool
+        No progress bar or messages.
+
+    Returns
+    -------
+    RolloutResult
+    """
+    from ..core.metrics import distributed_errors, end_effector_errors
+    from ..fusion.kinematic_fusion import KinematicFusion
+    from ..identification.regressor import EulerLagrangeRegressor
+    from .report import rollout_figure
+
+    model_name = str(model) if not isinstance(model, EulerLagrangeRegressor) else "(in memory)"
+    if not isinstance(model, EulerLagrangeRegressor):
+        model = files.read_model_file(model, EulerLagrangeRegressor, "model file")
+    if segmentation is not None and not isinstance(segmentation, KinematicFusion):
+        segmentation = files.read_model_file(segmentation, KinematicFusion, "segmentation file")
+    actuated = getattr(model, "actuation_", None) is not None and model.actuation_.layout()["type"] != "identity"
+    t, u = files.read_tau(tau, "u" if actuated else "tau")
+    kin = model.kinematics_
+    n = kin.n_q
+    if not actuated and u.shape[1] != n:
+        raise CLIError(
+            f"tau file {str(tau)!r} has {u.shape[1]} force columns; the model has {n} strains "
+            f"({kin.n_segments} segment(s) x 3)"
+        )
+    forward = model.forward_model()
+    if method is not None and method not in forward.methods:
+        raise CLIError(f"--method {method!r}: this model ({type(forward).__name__}) supports {list(forward.methods)}")
+    true_poses = None
+    if truth is not None:
+        keys = files.read_arrays(truth, [], "truth file", optional=["poses_true", "poses"])
+        true_poses = files.read_poses(truth, "poses_true" if "poses_true" in keys else "poses")[1]
+        if true_poses.shape[0] != t.shape[0]:
+            raise CLIError(
+                f"truth file {str(truth)!r} has {true_poses.shape[0]} frames but tau file {str(tau)!r} has {t.shape[0]}"
+            )
+    q0, qd0 = np.zeros(n), np.zeros(n)
+    if initial is not None:
+        st = files.read_strains(initial)
+        if st.kinematics.n_q != n:
+            raise CLIError(f"initial strain file {str(initial)!r} has {st.kinematics.n_q} strains; the model has {n}")
+        q0 = st.q[0]
+    total = float(np.sum(kin.segment_lengths))
+    if segmentation is not None:
+        s = np.clip(np.asarray(segmentation.marker_arc_lengths_, dtype=float), 0.0, total)
+    else:
+        s = np.linspace(0.0, total, (true_poses.shape[1] - 1 if true_poses is not None else n_markers) + 1)
+    if true_poses is not None and true_poses.shape[1] != s.size:
+        raise CLIError(
+            f"truth file {str(truth)!r} has {true_poses.shape[1] - 1} markers; the segmentation has {s.size - 1}"
+        )
+    folder = files.output_dir(out)
+    start = time.perf_counter()
+    sim = model.simulate(q0, qd0, t, u, method=method, rtol=rtol, atol=atol, progress=not quiet)
+    seconds = time.perf_counter() - start
+    poses = sim.poses(s)
+    np.savez(
+        folder / "rollout.npz",
+        t=t,
+        q=sim.q,
+        qd=sim.qd,
+        poses=poses,
+        marker_arc_lengths=s,
+        segment_lengths=np.asarray(kin.segment_lengths, dtype=float),
+    )
+    metrics: dict[str, Any] = {
+        "model": model_name,
+        "tau": str(tau),
+        "duration_s": float(t[-1] - t[0]),
+        "rollout_seconds": round(seconds, 3),
+        "n_markers": int(s.size - 1),
+        "method": method or forward.default_method,
+    }
+    say(quiet, f"rolled out {t[-1] - t[0]:.3g} s in {seconds:.1f} s -> {folder / 'rollout.npz'}")
+    if true_poses is not None:
+        e_p, e_th = end_effector_errors(poses[:, 1:], true_poses[:, 1:])
+        d_p, d_th = distributed_errors(poses[:, 1:], true_poses[:, 1:])
+        metrics.update(truth=str(truth), e_p_ee=e_p, e_theta_ee=e_th, e_p_dist=d_p, e_theta_dist=d_th)
+        (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+        say(
+            quiet,
+            f"e_p^EE = {e_p * 1e3:.3f} mm, e_theta^EE = {e_th:.4f} rad, e_p^dist = {d_p * 1e3:.3f} mm, "
+            f"e_theta^dist = {d_th:.4f} rad -> {folder / 'metrics.json'}",
+        )
+    if plot:
+        metrics["plot"] = str(
+            rollout_figure(
+                folder / "rollout.png", t, sim.q, poses, true_poses, sim.kinematics.strain_names(active_only=False)
+            )
+        )
+    return RolloutResult(sim, poses, s, metrics)

@@ -1,0 +1,436 @@
+"""Command line interface: ``pcs-sindy <command> ...``.
+
+Each command is one step of the pipeline and reads/writes plain files:
+simulate (scenario -> recordings), render (poses -> videos), extract
+(videos -> poses), fuse (poses -> segmentation + strains), fit (strains + tau
+-> model), rollout (model + tau -> predicted poses, metrics); ``demo`` chains
+them on the two_segment scenario and writes a report.
+
+This module only parses: every sub-command calls the function of the same
+name in :mod:`pcs_sindy.cli.commands` (``demo``: :mod:`pcs_sindy.cli.demo`) with the
+parsed options as keyword arguments (an option left out is None there: the
+estimator's default).
+A new sub-command is a function there plus ``add(name, help, function)`` and
+its options in :func:`build_parser`.
+
+Errors in user input end with a one-line message and exit code 2;
+``--debug`` shows the traceback instead.
+"""
+
+from __future__ import annotations
+
+import argparse
+import inspect
+import sys
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from ..io.data_files import FILE_FORMATS
+from .commands import (
+    CLIError,
+    RolloutResult,
+    build_regressor,
+    calibrate,
+    extract,
+    fit,
+    fuse,
+    pipeline_step,
+    render,
+    rollout,
+    scenarios,
+    simulate,
+)
+from .demo import demo
+
+__all__ = [
+    "main",
+    "build_parser",
+    "command_kwargs",
+    "CLIError",
+    "RolloutResult",
+    "scenarios",
+    "simulate",
+    "render",
+    "extract",
+    "fuse",
+    "fit",
+    "rollout",
+    "demo",
+    "build_regressor",
+    "pipeline_step",
+]
+
+EXAMPLE = """
+example ('pcs-sindy demo' step by step):
+  pcs-sindy simulate two_segment --out data
+  pcs-sindy render data/train_*.npz --out videos --size 400x300 --marker-size 0.012,0.003 --n-jobs 2
+  pcs-sindy extract videos/*.avi --out poses --n-jobs 2
+  pcs-sindy fuse poses/*.npz --out strains --total-length 0.17
+  pcs-sindy fit strains/train_*.npz --tau data/*.npz --out model/model.json
+  pcs-sindy rollout model/model.json --tau data/validation.npz --truth data/validation.npz \\
+      --segmentation strains/segmentation.json --out rollout
+"""
+
+
+def _default(func: Callable, name: str) -> Any:
+    """Default of parameter ``name`` of ``func`` (help texts read defaults, never re-type them)."""
+    return inspect.signature(func).parameters[name].default
+
+
+# --------------------------------------------------------------------------
+# parser: each sub-command's options are the keyword arguments of its function
+# --------------------------------------------------------------------------
+class _Parser(argparse.ArgumentParser):
+    """Argument parser whose usage errors are one line (no usage dump)."""
+
+    def error(self, message: str) -> None:  # type: ignore[override]
+        self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+
+def _number(kind: type, check: Callable[[Any], bool], expected: str) -> Callable[[str], Any]:
+    def parse(text: str) -> Any:
+        try:
+            value = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected {expected}; got {text!r}") from None
+        if not check(value):
+            raise argparse.ArgumentTypeError(f"expected {expected}; got {text!r}")
+        return value
+
+    return parse
+
+
+_positive_int = _number(int, lambda v: v >= 1, "a positive integer")
+
+
+def _pattern(text: str) -> tuple[int, int]:
+    try:
+        cols, rows = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected COLSxROWS inner corners such as 9x6; got {text!r}") from None
+    if cols < 2 or rows < 2:
+        raise argparse.ArgumentTypeError(f"a checkerboard has at least 2x2 inner corners; got {text!r}")
+    return cols, rows
+
+
+_n_jobs = _number(int, lambda v: v >= 1 or v == -1, "a positive integer or -1 (all cores)")
+_positive_float = _number(float, lambda v: np.isfinite(v) and v > 0, "a finite number > 0")
+_threshold = _number(float, lambda v: v > 0, "a number > 0 or inf")
+
+
+def _size(text: str) -> tuple[int, int]:
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in pixels, e.g. 400x300; got {text!r}") from None
+    if w < 16 or h < 16:
+        raise argparse.ArgumentTypeError(f"image size must be at least 16x16 pixels; got {text!r}")
+    return w, h
+
+
+def _pair(text: str) -> tuple[float, float]:
+    try:
+        a, b = (float(v) for v in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected two numbers 'A,B'; got {text!r}") from None
+    if not (np.isfinite(a) and np.isfinite(b)) or a <= 0 or b <= 0:
+        raise argparse.ArgumentTypeError(f"expected two numbers > 0; got {text!r}")
+    return a, b
+
+
+def _noise(text: str) -> tuple[float, float] | str | None:
+    if text in ("none", "seed"):
+        return None if text == "none" else "seed"
+    try:
+        sigma_p, sigma_deg = (float(v) for v in text.split(","))
+    except ValueError:
+        expected = "'seed', 'none' or 'SIGMA_P_M,SIGMA_THETA_DEG'"
+        raise argparse.ArgumentTypeError(f"expected {expected}; got {text!r}") from None
+    return sigma_p, float(np.deg2rad(sigma_deg))
+
+
+def command_kwargs(func: Callable, args: argparse.Namespace) -> dict[str, Any]:
+    """The parsed options of ``args`` that are parameters of the command ``func``."""
+    params = inspect.signature(func).parameters
+    return {k: v for k, v in vars(args).items() if k in params}
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The ``pcs-sindy`` argument parser (one sub-command per pipeline step).
+
+    Defaults shown in the help are read from the estimators (``get_params()``),
+    never written here.
+    """
+    from ..core.camera import Camera
+    from ..core.simulate_contract import METHODS
+    from ..identification.library.physical import PhysicalPCSLibrary
+    from ..identification.recordings import WEAK_WINDOW
+    from ..models.forward import CallableModel, LumpedPCSModel
+    from ..simulation.rendering import render_frames
+    from ..simulation.scenarios import Scenario
+
+    step = {name: pipeline_step(name) for name in ("poses", "segments", "dynamics")}
+    ext, fus, reg = (step[k].get_params() for k in ("poses", "segments", "dynamics"))
+    lib, opt = PhysicalPCSLibrary().get_params(), step["dynamics"].optimizer.get_params()
+    fmt = argparse.RawDescriptionHelpFormatter
+    parser = _Parser(
+        prog="pcs-sindy", description=__doc__.split("\n\n")[1], epilog=FILE_FORMATS + EXAMPLE, formatter_class=fmt
+    )
+    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    def add(name: str, help_: str, func: Callable) -> argparse.ArgumentParser:
+        """A sub-command calling ``func`` with the parsed options named like its parameters."""
+        p = sub.add_parser(name, help=help_, description=help_, epilog=FILE_FORMATS, formatter_class=fmt)
+        p.set_defaults(func=lambda args: func(**command_kwargs(func, args)))
+        params = inspect.signature(func).parameters
+        if "n_jobs" in params:
+            jobs = params["n_jobs"].default
+            p.add_argument(
+                "--n-jobs",
+                type=_n_jobs,
+                default=jobs,
+                help=f"parallel jobs over files (-1: all cores; default {jobs if jobs is not None else 'serial'})",
+            )
+        if "quiet" in params:
+            p.add_argument("--quiet", action="store_true", help="no progress bars or messages")
+        return p
+
+    add("scenarios", "list the built-in scenarios", scenarios)
+
+    p = add("simulate", "simulate a scenario: recordings (.npz with t, q, qd, tau, poses, poses_true)", simulate)
+    p.add_argument("scenario", help="scenario name (see 'pcs-sindy scenarios')")
+    p.add_argument("--out", required=True, help="output directory (train_00.npz ..., validation.npz, scenario.json)")
+    p.add_argument("--seed", type=int, help=f"random seed (default {_default(Scenario.generate, 'seed')})")
+    p.add_argument("--noise", type=_noise, help="pose noise: 'seed', 'none' (default) or 'SIGMA_P_M,SIGMA_THETA_DEG'")
+    p.add_argument(
+        "--n-train",
+        type=_positive_int,
+        help=f"training recordings (default: the scenario's, {_default(Scenario, 'n_train')})",
+    )
+    p.add_argument(
+        "--train-duration",
+        type=_positive_float,
+        help=f"seconds per training recording (default {_default(Scenario, 'train_duration'):g})",
+    )
+    p.add_argument(
+        "--validation-duration",
+        type=_positive_float,
+        help=f"seconds of validation (default {_default(Scenario, 'validation_duration'):g})",
+    )
+    p.add_argument(
+        "--no-validation", dest="validation", action="store_false", help="do not simulate the validation recording"
+    )
+
+    p = add("render", "render pose files to marker videos, each with a camera JSON (<video>.camera.json)", render)
+    p.add_argument("inputs", nargs="+", help="pose files (.npz with 'poses'; recordings qualify)")
+    p.add_argument("--out", required=True, help="output directory (one video per input, same stem)")
+    p.add_argument("--fps", type=_positive_float, help="frame rate (default: from the time stamps)")
+    p.add_argument(
+        "--format",
+        dest="video_format",
+        default=".avi",
+        choices=[".avi", ".mp4"],
+        help=".avi (MJPG, default: sharp marker edges) or .mp4 (mp4v, lossy: larger pose errors)",
+    )
+    size = _default(Camera.fit_poses, "image_size")
+    p.add_argument("--size", type=_size, help=f"image WIDTHxHEIGHT (default {size[0]}x{size[1]})")
+    p.add_argument(
+        "--marker-size",
+        type=_pair,
+        help=f"marker WIDTH,THICKNESS in metres (default {','.join(map(str, _default(render_frames, 'marker_size')))})",
+    )
+
+    p = add("calibrate", "lens distortion and the robot's plane from checkerboard views: a camera JSON", calibrate)
+    p.add_argument("views", nargs="+", help="checkerboard images, folders of images or videos (every --every-th frame)")
+    p.add_argument("--pattern", type=_pattern, required=True, help="inner corners COLSxROWS, e.g. 9x6 for 10x7 squares")
+    p.add_argument("--square", type=_positive_float, required=True, help="side of a square in metres")
+    p.add_argument("--plane", help="image of the board lying in the robot's plane (default: the last view)")
+    p.add_argument(
+        "--out", required=True, help="camera JSON to write (name it <video>.camera.json to have 'extract' find it)"
+    )
+    p.add_argument("--fps", type=_positive_float, help="frame rate to store in the JSON (optional)")
+    p.add_argument(
+        "--every",
+        type=_positive_int,
+        default=_default(calibrate, "every"),
+        help=f"use every N-th frame of a video (default {_default(calibrate, 'every')})",
+    )
+
+    p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", extract)
+    p.add_argument("videos", nargs="+", help="videos (or folders of image frames)")
+    p.add_argument("--out", required=True, help="output directory (one pose file per video, same stem)")
+    p.add_argument(
+        "--camera",
+        help="camera JSON for every video (default: <video>.camera.json next to each video, as 'render' writes)",
+    )
+    p.add_argument(
+        "--robot-length",
+        type=_positive_float,
+        help="the robot's measured rest length [m]: stored in the pose files for 'fuse', and without a camera "
+        "JSON the scale is calibrated from it and the straight first frame",
+    )
+    p.add_argument("--n-markers", type=_positive_int, help="markers besides the base (default: as found)")
+    p.add_argument("--fps", type=_positive_float, help="frame rate (default: the video's or the camera JSON's)")
+    p.add_argument(
+        "--on-missing",
+        choices=["raise", "interpolate"],
+        help=f"frames whose markers cannot be found: fail or interpolate (default {ext['on_missing']})",
+    )
+
+    p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)
+    p.add_argument("poses", nargs="+", help="pose files (.npz with t, poses)")
+    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("--threshold", type=_positive_float, help=f"merge threshold h (default {fus['threshold']:g})")
+    p.add_argument(
+        "--total-length",
+        type=_positive_float,
+        help="robot rest length [m], measured (recommended; default: the median deformed length of the "
+        "marker chain, ~1%% long for a robot hanging under its weight)",
+    )
+    p.add_argument(
+        "--shape-fit",
+        choices=["least_squares", "end_pose"],
+        help=f"strains fitted to all markers or from segment end poses (the seed) (default {fus['shape_fit']})",
+    )
+
+    p = add("fit", "identify the dynamics from strain files and tau files: a model file", fit)
+    p.add_argument("strains", nargs="+", help="strain files (written by 'fuse')")
+    p.add_argument(
+        "--tau",
+        nargs="+",
+        help="tau files (.npz with t, tau), matched to the strain files by name (stem) or else by order",
+    )
+    p.add_argument(
+        "--inputs",
+        nargs="+",
+        help="instead of --tau: actuator input files (.npz with t, u; actuated recordings qualify), "
+        "matched like --tau; needs --actuation",
+    )
+    p.add_argument(
+        "--actuation",
+        help='actuation layout (JSON: {"type": "tendon", "end": [...], "side": [...]} or '
+        "pressure/linear; a scenario.json written by 'simulate' qualifies); offsets or gains not given "
+        "are identified",
+    )
+    p.add_argument("--out", required=True, help="model file (model.json + model.npz)")
+    p.add_argument(
+        "--library",
+        "--basis",
+        choices=["physical", "monomial"],
+        help="Lagrangian library: lumped physical unknowns per segment (the default) or the seed's "
+        "monomials (--basis: former name)",
+    )
+    p.add_argument(
+        "--formulation",
+        choices=["weak", "strong"],
+        help="regress window integrals (weak: no accelerations, robust to noise) or every sample with "
+        f"Savitzky-Golay accelerations (strong; the seed's) (default {reg['formulation']})",
+    )
+    p.add_argument(
+        "--window-length", type=_positive_int, help=f"Savitzky-Golay window (odd; default {reg['window_length']})"
+    )
+    p.add_argument("--polyorder", type=_positive_int, help=f"Savitzky-Golay order (default {reg['polyorder']})")
+    p.add_argument(
+        "--weak-window",
+        type=_positive_int,
+        help=f"weak form: window in sampling intervals (default {WEAK_WINDOW}, or half the shortest recording)",
+    )
+    p.add_argument(
+        "--weak-stride",
+        type=_positive_int,
+        help="weak form: step between windows in samples (default a quarter of the window)",
+    )
+    p.add_argument(
+        "--exclude-force-jumps",
+        action=argparse.BooleanOptionalAction,
+        help="strong form: leave out samples whose window straddles a jump of the held actuation "
+        f"(default {'on' if reg['exclude_force_jumps'] else 'off'})",
+    )
+    p.add_argument(
+        "--rest-strain",
+        action=argparse.BooleanOptionalAction,
+        help="physical library: identify a constant force per strain, i.e. a rest strain (pre-curved "
+        "robots, or a rest length estimated rather than measured) "
+        f"(default {'on' if lib['rest_strain'] else 'off'})",
+    )
+    p.add_argument(
+        "--rotary-inertia",
+        choices=["free", "tied", "none"],
+        help="physical library: identify rotary inertia (free), tie it to the line density (tied) or "
+        f"neglect it (default {lib['rotary_inertia']})",
+    )
+    p.add_argument(
+        "--stiffness-threshold",
+        type=_threshold,
+        help="remove strains stiffer than this factor times the material bound (inf: no removal; "
+        f"default {opt['threshold']:g})",
+    )
+
+    p = add("rollout", "simulate a model under tau: predicted strains and poses, metrics against a truth", rollout)
+    p.add_argument("model", help="model file (written by 'fit')")
+    p.add_argument(
+        "--tau",
+        required=True,
+        help="tau file (.npz with t, tau); for a model fitted with --actuation, its actuator inputs (t, u)",
+    )
+    p.add_argument("--segmentation", help="segmentation file (written by 'fuse'): marker arc lengths")
+    p.add_argument("--truth", help="pose file of the truth ('poses_true' when present, as in recordings, else 'poses')")
+    p.add_argument("--initial", help="strain file whose first frame is q0 (default: rest, q0 = 0); qd0 = 0")
+    p.add_argument(
+        "--n-markers",
+        type=_positive_int,
+        default=_default(rollout, "n_markers"),
+        help="markers on the prediction without truth or segmentation (default %(default)s)",
+    )
+    p.add_argument("--out", required=True, help="output directory (rollout.npz, metrics.json, rollout.png)")
+    p.add_argument("--no-plot", dest="plot", action="store_false", help="do not draw rollout.png")
+    p.add_argument(
+        "--method",
+        choices=list(METHODS),
+        help="integrator, one the model supports (physical library: "
+        f"{', '.join(LumpedPCSModel.methods)}; monomial: {', '.join(CallableModel.methods)}); "
+        f"default: the model's best ({LumpedPCSModel.default_method} / "
+        f"{CallableModel.default_method})",
+    )
+    p.add_argument("--rtol", type=_positive_float, help=f"relative tolerance (default: the model's, {reg['rtol']:g})")
+    p.add_argument("--atol", type=_positive_float, help=f"absolute tolerance (default: the model's, {reg['atol']:g})")
+
+    p = add("demo", "the whole pipeline on two_segment from rendered videos, with a report folder", demo)
+    p.add_argument(
+        "--out", default=_default(demo, "out"), help="output directory (default %(default)s; the report in OUT/report)"
+    )
+    p.add_argument("--seed", type=int, default=_default(demo, "seed"), help="random seed (default %(default)s)")
+    p.add_argument("--threshold", type=_positive_float, help=f"fusion threshold h (default {fus['threshold']:g})")
+    p.add_argument("--quick", action="store_true", help="2 short recordings and a 1 s validation (a smoke test)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``pcs-sindy`` console script; returns the exit code."""
+    from ..core.simulate_contract import SimulationError
+
+    args = build_parser().parse_args(argv)
+
+    def one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
+        print(f"pcs-sindy {args.command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
+
+    try:
+        with warnings.catch_warnings():  # restores showwarning on exit
+            if not args.debug:
+                warnings.showwarning = one_line_warning
+            args.func(args)
+    except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:
+        if args.debug:
+            raise
+        message = " ".join(str(err).split()) or type(err).__name__  # one line
+        print(f"pcs-sindy {args.command}: error: {message}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,50 @@
+"""The ground floor: conventions every stage shares, and nothing that belongs to one stage.
+
+Takes in nothing of the package and gives every other stage:
+
+* planar PCS kinematics and SE(2) pose algebra (:mod:`.kinematics`: :class:`PlanarPCS`);
+* the trajectory containers that flow through every estimator (:mod:`.trajectory`:
+  :class:`PoseTrajectory`, :class:`StrainTrajectory`);
+* the seed's task-space error metrics (:mod:`.metrics`);
+* the camera model between the base frame and image pixels (:mod:`.camera`: :class:`Camera`);
+* the simulate contract shared by the ground truth and identified models
+  (:mod:`.simulate_contract`: :class:`SimulationError`, the method names);
+* infrastructure with no domain knowledge: a compiled dense LU (:mod:`.linalg`), parameter
+  constraints checked the scikit-learn way (:mod:`.validation`) and the estimators'
+  ``save``/``load`` methods (:mod:`.saving`).
+
+Nothing here imports another stage, the file formats, the command line or plotting.
+"""
+
+import lazy_loader as _lazy
+
+__getattr__, __dir__, __all__ = _lazy.attach(
+    __name__,
+    submod_attrs={
+        "kinematics": [
+            "PlanarPCS",
+            "SEED_Q_MAX",
+            "STRAIN_NAMES",
+            "forward_kinematics",
+            "forward_kinematics_jacobian",
+            "segment_pose",
+            "segment_inverse_kinematics",
+            "se2_compose",
+            "se2_inverse",
+            "se2_relative",
+            "se2_matrix",
+            "se2_from_matrix",
+            "wrap_angle",
+        ],
+        "trajectory": [
+            "PoseTrajectory",
+            "StrainTrajectory",
+            "as_pose_trajectories",
+            "as_strain_trajectories",
+            "kinematics_of",
+        ],
+        "camera": ["Camera", "read_camera_json"],
+        "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
+        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
+    },
+)

@@ -1,0 +1,79 @@
+"""Task-space error metrics of the seed (eqs. 23-26).
+
+All functions take pose arrays ``[..., x, y, theta]`` of shape (T, P, 3) for
+the estimate and the truth.  The distributed metrics average over the tracked
+cross-sections passed in (leave the base out, as the seed does); the
+end-effector metrics use the last point.  Angle differences are wrapped to
+[-π, π) so that a 2π offset is not an error.  :func:`rollout_scorer` scores
+rollouts for scikit-learn's model selection.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from .kinematics import wrap_angle
+
+__all__ = ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"]
+
+
+def _pair(estimate: ArrayLike, truth: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    est = np.asarray(estimate, dtype=float)
+    tru = np.asarray(truth, dtype=float)
+    if est.shape != tru.shape:
+        raise ValueError(f"estimate and truth must have the same shape; got {est.shape} and {tru.shape}")
+    if est.ndim != 3 or est.shape[-1] != 3:
+        raise ValueError(f"poses must have shape (T, P, 3); got {est.shape}")
+    if not (np.all(np.isfinite(est)) and np.all(np.isfinite(tru))):
+        raise ValueError("poses contain NaN or inf")
+    return est, tru
+
+
+def pose_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Per-sample position error norms and absolute angle errors, each (T, P)."""
+    est, tru = _pair(estimate, truth)
+    ep = np.linalg.norm(est[..., :2] - tru[..., :2], axis=-1)
+    eth = np.abs(wrap_angle(est[..., 2] - tru[..., 2]))
+    return ep, eth
+
+
+def distributed_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
+    """``(e_p^dist, e_θ^dist)``: mean over frames and points (seed eqs. 23-24)."""
+    ep, eth = pose_errors(estimate, truth)
+    return float(ep.mean()), float(eth.mean())
+
+
+def end_effector_errors(estimate: ArrayLike, truth: ArrayLike) -> tuple[float, float]:
+    """``(e_p^EE, e_θ^EE)``: mean over frames at the last point (seed eqs. 25-26)."""
+    ep, eth = pose_errors(estimate, truth)
+    return float(ep[:, -1].mean()), float(eth[:, -1].mean())
+
+
+def rollout_scorer(estimator: Any, X: Any, y: Any) -> float:
+    """Scorer of rollouts for scikit-learn's model selection: minus the mean tip position error (m).
+
+    Each held-out recording is rolled out from its first state under its own
+    forces (``estimator.rollout_error(X, y)``, which
+    :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor` and
+    :class:`~pcs_sindy.pipeline.pcs_pipeline.PCSPipeline` provide) and its tip path compared
+    with the recording's.  Higher is better; a diverged rollout scores ``-inf``
+    (never NaN).  Use as ``GridSearchCV(..., scoring=rollout_scorer)``.
+
+    Parameters
+    ----------
+    estimator : fitted estimator with ``rollout_error(X, y)``
+    X, y : recordings and their forces
+
+    Returns
+    -------
+    float
+    """
+    if not hasattr(estimator, "rollout_error"):
+        raise ValueError(f"rollout_scorer needs an estimator with rollout_error(X, y); got {type(estimator).__name__}")
+    errors = np.asarray(estimator.rollout_error(X, y), dtype=float)
+    if errors.size == 0 or np.any(np.isnan(errors)):
+        raise ValueError(f"rollout_error returned {errors!r}; expected one finite or inf error per recording")
+    return -float(np.mean(errors))

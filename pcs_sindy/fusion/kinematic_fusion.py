@@ -1,0 +1,435 @@
+"""Kinematic fusion: from marker poses to a few constant-strain segments.
+
+Implements the seed's Algorithm 1 (docs/method.md, "Kinematic fusion") and, beyond the seed,
+a least-squares shape fit with continuously refined segment boundaries.
+
+:class:`KinematicFusion` is the scikit-learn transformer; the work is done by
+plain functions on numpy arrays in the modules named after what they hold:
+
+* :mod:`pcs_sindy.fusion.chain_geometry` - the marker chain in the base frame
+  (:func:`chain_poses`), the rest length from poses
+  (:func:`estimate_total_length`) and the closed-form strains of segments
+  ending on markers (:func:`segment_strains`, seed eq. 4, 9-10);
+* :mod:`pcs_sindy.fusion.merging` - Algorithm 1 (:func:`strain_distances`,
+  :func:`merge_runs`, :func:`fuse_segments`);
+* :mod:`pcs_sindy.fusion.shape_fit` - the least-squares strains
+  (:func:`fit_strains_least_squares`) and boundaries (:func:`refine_boundaries`);
+* :mod:`pcs_sindy.fusion.threshold_selection` - the seed's Fig. 8 trade-off
+  (:func:`threshold_sweep`) and its selection rule (:func:`select_threshold`), which run this
+  estimator for several thresholds.
+
+Every public name of those modules is importable from :mod:`pcs_sindy.fusion`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Any
+
+import numpy as np
+from joblib import Parallel, delayed
+from numpy.typing import ArrayLike, NDArray
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.utils.validation import check_is_fitted
+from tqdm.auto import tqdm
+
+from ..core.kinematics import SEED_Q_MAX, forward_kinematics, se2_compose
+from ..core.metrics import distributed_errors
+from ..core.saving import PersistenceMixin
+from ..core.trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
+from .chain_geometry import (
+    chain_poses,
+    frame_chain,
+    kinematic_rest_length,
+    rest_length_factor,
+    segment_strains,
+)
+from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
+from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
+
+__all__ = ["KinematicFusion"]
+
+_SHAPE_FITS = ("end_pose", "least_squares")
+_SCALINGS = ("q_max", "data")
+
+
+class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
+    """Segment a continuum robot into constant-strain pieces (seed Algorithm 1).
+
+    Parameters
+    ----------
+    threshold : float, default 0.2
+        Merge threshold ``h`` on the average scaled strain distance (seed eq. 11).
+    q_max : sequence of 3 floats, default (60, 0.3, 0.3)
+        Strain scales [1/m, -, -] used when ``scaling="q_max"`` (the seed's).
+    scaling : {"q_max", "data"}, default "q_max"
+        ``"data"`` scales each strain type by the 99th percentile of its
+        magnitude over the initial segments and all frames.
+    total_length : float, optional
+        Rest length of the robot [m].  If None: the length the poses carry
+        (``metadata["rest_length"]``, set by ``MarkerPoseExtractor(robot_length=...)``),
+        else the median deformed axial length of the marker chain
+        (:func:`estimate_total_length`, long by any mean stretch; correct it
+        with :meth:`correct_rest_length` or use
+        :func:`pcs_sindy.pipeline.rest_length.estimate_rest_length`).
+    shape_fit : {"least_squares", "end_pose"}, default "least_squares"
+        ``"end_pose"`` computes each segment's strains from its two end poses
+        (the seed).  ``"least_squares"`` fits each frame's strains to all
+        marker poses (:func:`fit_strains_least_squares`) and, with
+        ``refine_boundaries``, moves the boundaries off the markers.
+    refine_boundaries : bool, default True
+        With ``shape_fit="least_squares"``, refine the boundary arc lengths
+        continuously over the recordings (:func:`refine_boundaries`).
+    min_segment_markers : int, default 2
+        Segments spanning fewer marker spacings are absorbed into their more
+        similar neighbour after Algorithm 1 (see :func:`fuse_segments`); 1
+        reproduces the seed's algorithm exactly.
+    merge : {"runs", "closest_pair"}, default "runs"
+        ``"runs"``: every run of pairs within ``threshold`` merges at once
+        (the seed); ``"closest_pair"``: one pair per iteration (see
+        :func:`fuse_segments`).
+    pose_std : (float, float), default (5e-4, 1°)
+        Position [m] and angle [rad] noise levels weighting the least-squares
+        residuals (only their ratio matters).
+    fixed_base : bool, default True
+        The base is clamped: use its median pose per recording as the
+        reference frame instead of each frame's measured base pose.
+    max_refine_frames : int, default 500
+        Frames (evenly subsampled over all recordings) used by the boundary
+        search; the final strains use every frame.
+    n_jobs : int, optional
+        Recordings whose strains :meth:`transform` fits in parallel (joblib;
+        ``None`` or 1: sequentially).  Under ``joblib.parallel_backend(...)``
+        the work goes to that backend (e.g. a Dask or Ray cluster).
+    progress : bool, default False
+        Show tqdm progress bars.
+
+    Attributes
+    ----------
+    total_length_ : float
+    total_length_source_ : str
+        Where the rest length came from (given, carried by the poses, estimated, corrected).
+    total_length_std_ : float
+        Its standard error: 0 when given; for the kinematic estimate the
+        jackknife over recordings (over blocks of frames for one recording),
+        which does not include the bias of a mean stretch.
+    marker_arc_lengths_ : ndarray, shape (N + 1,)
+        Rest arc lengths of the base and the markers.
+    n_markers_ : int
+    q_max_ : ndarray, shape (3,)
+        Strain scales used.
+    distance_profile_ : ndarray, shape (N - 1,)
+        First-iteration distances of adjacent initial segments (seed Fig. 6).
+    history_ : list of dict
+        Per iteration of Algorithm 1: ``boundaries``, ``distances``, ``groups``.
+    boundaries_ : ndarray of int, shape (m,)
+        Marker index (base = 0, tip = N) of each fused segment's end.
+    segment_lengths_ : ndarray, shape (m,)
+        Segment rest lengths (off the marker grid after boundary refinement).
+    n_segments_ : int
+    base_pose_ : ndarray, shape (3,)
+        Median base pose of the fitted recordings (the reference of :meth:`transform_frame`).
+
+    Examples
+    --------
+    >>> fusion = KinematicFusion(threshold=0.2).fit(poses)        # doctest: +SKIP
+    >>> strains = fusion.transform(poses)                          # doctest: +SKIP
+    """
+
+    def __init__(
+        self,
+        threshold: float = 0.2,
+        q_max: Sequence[float] = SEED_Q_MAX,
+        scaling: str = "q_max",
+        total_length: float | None = None,
+        shape_fit: str = "least_squares",
+        refine_boundaries: bool = True,
+        min_segment_markers: int = 2,
+        merge: str = "runs",
+        pose_std: Sequence[float] = (5e-4, float(np.deg2rad(1.0))),
+        fixed_base: bool = True,
+        max_refine_frames: int = 500,
+        n_jobs: int | None = None,
+        progress: bool = False,
+    ) -> None:
+        self.threshold = threshold
+        self.q_max = q_max
+        self.scaling = scaling
+        self.total_length = total_length
+        self.shape_fit = shape_fit
+        self.refine_boundaries = refine_boundaries
+        self.min_segment_markers = min_segment_markers
+        self.merge = merge
+        self.pose_std = pose_std
+        self.fixed_base = fixed_base
+        self.max_refine_frames = max_refine_frames
+        self.n_jobs = n_jobs
+        self.progress = progress
+
+    # -- validation ----------------------------------------------------------
+    def _check_params(self) -> None:
+        h = self.threshold
+        if isinstance(h, bool) or not isinstance(h, (int, float, np.number)) or not np.isfinite(h) or h <= 0:
+            raise ValueError(f"threshold must be a finite number > 0; got {h!r}")
+        check_q_max(self.q_max)
+        if self.scaling not in _SCALINGS:
+            raise ValueError(f"scaling must be one of {_SCALINGS}; got {self.scaling!r}")
+        if self.merge not in MERGE_RULES:
+            raise ValueError(f"merge must be one of {MERGE_RULES}; got {self.merge!r}")
+        if self.shape_fit not in _SHAPE_FITS:
+            raise ValueError(f"shape_fit must be one of {_SHAPE_FITS}; got {self.shape_fit!r}")
+        if self.total_length is not None and (not np.isfinite(self.total_length) or self.total_length <= 0):
+            raise ValueError(f"total_length must be None or finite and > 0; got {self.total_length!r}")
+        std = np.asarray(self.pose_std, dtype=float)
+        if std.shape != (2,) or not np.all(np.isfinite(std)) or np.any(std <= 0):
+            raise ValueError(
+                f"pose_std must be two positive numbers (position [m], angle [rad]); got {self.pose_std!r}"
+            )
+        m = self.min_segment_markers
+        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
+            raise ValueError(f"min_segment_markers must be a positive integer; got {m!r}")
+        if int(self.max_refine_frames) != self.max_refine_frames or self.max_refine_frames < 1:
+            raise ValueError(f"max_refine_frames must be a positive integer; got {self.max_refine_frames!r}")
+        nj = self.n_jobs
+        if nj is not None and (isinstance(nj, bool) or not isinstance(nj, (int, np.integer)) or nj == 0):
+            raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention); got {nj!r}")
+
+    def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
+        trajs = as_pose_trajectories(X, name=name)
+        chains, bases = [], []
+        for k, tr in enumerate(trajs):
+            try:
+                c, b = chain_poses(tr.poses, fixed_base=self.fixed_base)
+            except ValueError as err:
+                raise ValueError(f"{name}[{k}]: {err}") from None
+            chains.append(c)
+            bases.append(b)
+        n = {c.shape[1] for c in chains}
+        if len(n) != 1:
+            raise ValueError(f"all recordings in {name} must have the same number of markers; got N + 1 in {sorted(n)}")
+        return trajs, chains, bases
+
+    # -- fit -------------------------------------------------------------------
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.two_d_array = False  # X is a list of pose recordings
+        return tags
+
+    def fit(self, X: Any, y: Any = None) -> KinematicFusion:
+        """Find the segmentation from pose recordings.
+
+        Parameters
+        ----------
+        X : PoseTrajectory, array (T, N + 1, 3), or a list of them
+        y : ignored
+        """
+        self._check_params()
+        _, chains, bases = self._chains(X)
+        n_markers = chains[0].shape[1] - 1
+        total, source, std = self._rest_length(X, chains)
+        s = np.linspace(0.0, total, n_markers + 1)
+
+        if self.scaling == "data":
+            q_init = np.concatenate([segment_strains(c, s, np.arange(1, n_markers + 1)) for c in chains], axis=0)
+            q_max = data_q_max(q_init, fallback=self.q_max)
+        else:
+            q_max = check_q_max(self.q_max)
+
+        boundaries, history = fuse_segments(
+            chains, s, float(self.threshold), q_max, int(self.min_segment_markers), self.merge
+        )
+        self.total_length_ = total
+        self.total_length_source_ = source
+        self.total_length_std_ = std
+        self.marker_arc_lengths_ = s
+        self.n_markers_ = n_markers
+        self.q_max_ = q_max
+        self.history_ = history
+        self.distance_profile_ = history[0]["distances"] if history else np.zeros(0)
+        self.boundaries_ = boundaries
+        ends = s[boundaries]
+        if self.shape_fit == "least_squares" and self.refine_boundaries and boundaries.size > 1:
+            target = np.concatenate([c[:, 1:, :] for c in chains], axis=0)
+            q0 = self._end_pose_q(chains)
+            if target.shape[0] > self.max_refine_frames:
+                pick = np.linspace(0, target.shape[0] - 1, int(self.max_refine_frames)).round().astype(int)
+                target, q0 = target[pick], q0[pick]
+            ends, _ = refine_boundaries(target, s[1:], ends, q0, self.pose_std)
+        self.segment_lengths_ = lengths_from_ends(ends)
+        self.n_segments_ = int(boundaries.size)
+        all_bases = np.concatenate(bases)
+        self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
+        return self
+
+    def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
+        """(total rest length, where it comes from, its standard error) for :meth:`fit`."""
+        if self.total_length is not None:
+            return float(self.total_length), "given (total_length)", 0.0
+        trajs = as_pose_trajectories(X)
+        given = [tr.metadata.get("rest_length") for tr in trajs]
+        if any(g is not None for g in given):
+            values = {float(g) for g in given if g is not None}
+            if None in given or len(values) > 1:
+                raise ValueError(
+                    "X: the recordings carry different rest lengths in metadata['rest_length'] "
+                    f"({[None if g is None else float(g) for g in given]}); give total_length"
+                )
+            value = values.pop()
+            if not np.isfinite(value) or value <= 0:
+                raise ValueError(f"X: metadata['rest_length'] must be a length > 0 in metres; got {value!r}")
+            return value, "given with the poses (metadata['rest_length'])", 0.0
+        total, std = kinematic_rest_length(chains)
+        return total, "estimated: median deformed length (biased by any mean stretch)", std
+
+    def correct_rest_length(self, rest_strain: ArrayLike, rest_strain_std: float | None = None) -> KinematicFusion:
+        """Rescale the fitted rest lengths by identified axial rest strains; returns self.
+
+        A rest length read ``(1 + e)`` times too long makes an unloaded robot
+        look compressed: its identified axial rest strains (the constant force
+        per strain of ``EulerLagrangeRegressor(rest_strain=True)`` over the
+        stiffness) are ``-e / (1 + e)``.  Every length is scaled by
+        ``1 + q̄``, with ``q̄`` the length-weighted mean of the segments'
+        axial rest strains (one factor: markers stay equally spaced).
+
+        Parameters
+        ----------
+        rest_strain : array_like, shape (3m,)
+            ``regressor.rest_strain_`` of a model fitted to this fusion's strains.
+        rest_strain_std : float, optional
+            Standard error of ``q̄``, propagated to :attr:`total_length_std_`.
+        """
+        check_is_fitted(self, "segment_lengths_")
+        factor, mean = rest_length_factor(self.segment_lengths_, rest_strain)
+        self.total_length_ *= factor
+        self.marker_arc_lengths_ = self.marker_arc_lengths_ * factor
+        self.segment_lengths_ = self.segment_lengths_ * factor
+        self.total_length_source_ = (
+            f"{self.total_length_source_}, corrected by the identified axial rest strain {mean:+.5f}"
+        )
+        if rest_strain_std is not None:
+            self.total_length_std_ = float(
+                np.hypot(self.total_length_std_ * factor, self.total_length_ * rest_strain_std)
+            )
+        return self
+
+    def _end_pose_q(self, chains: list[NDArray]) -> NDArray[np.float64]:
+        q = [segment_strains(c, self.marker_arc_lengths_, self.boundaries_) for c in chains]
+        return np.concatenate([v.reshape(v.shape[0], -1) for v in q], axis=0)
+
+    # -- transform -------------------------------------------------------------
+    def _strains(self, chain: NDArray[np.float64]) -> NDArray[np.float64]:
+        q = self._end_pose_q([chain])
+        if self.shape_fit == "least_squares":
+            q, _ = fit_strains_least_squares(
+                chain[:, 1:, :], self.segment_lengths_, self.marker_arc_lengths_[1:], q, self.pose_std
+            )
+        return q
+
+    def transform(self, X: Any) -> list[StrainTrajectory]:
+        """Strain trajectories of the fitted segmentation, one per recording.
+
+        Each carries ``segment_lengths`` and, in ``metadata``, the marker arc
+        lengths, the per-frame base poses (``"base_poses"``), the fused marker
+        boundaries and the shape fit used, so :meth:`inverse_transform`
+        reproduces the poses in the input frame.
+        """
+        check_is_fitted(self, "segment_lengths_")
+        trajs, chains, bases = self._chains(X)
+        if chains[0].shape[1] - 1 != self.n_markers_:
+            raise ValueError(f"X has {chains[0].shape[1] - 1} markers; the fusion was fitted with {self.n_markers_}")
+        self._check_params()
+        if self.n_jobs in (None, 1) or len(chains) == 1:
+            qs = [self._strains(c) for c in tqdm(chains, desc="fusion", disable=not self.progress, leave=False)]
+        else:
+            # one task per recording; the backend (loky, threads, dask, ray) is joblib's choice
+            qs = Parallel(n_jobs=self.n_jobs)(delayed(self._strains)(c) for c in chains)
+        out = []
+        for tr, q, base in zip(trajs, qs, bases):
+            meta = dict(tr.metadata)
+            meta.update(
+                marker_arc_lengths=self.marker_arc_lengths_.copy(),
+                base_poses=base,
+                boundaries=self.boundaries_.copy(),
+                shape_fit=self.shape_fit,
+            )
+            out.append(
+                StrainTrajectory(
+                    q, tr.t, segment_lengths=tuple(self.segment_lengths_), base_pose=tuple(base[0]), metadata=meta
+                )
+            )
+        return out
+
+    def transform_frame(self, poses: ArrayLike, q0: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Strains (3m,) of one frame of poses (N + 1, 3): state estimation at camera rate.
+
+        The same estimate as :meth:`transform` for that frame (the base is
+        :attr:`base_pose_`, the median of the fitted recordings', when
+        ``fixed_base``; the frame's own base otherwise), with the
+        least-squares shape fit compiled for one frame (tens of
+        microseconds; the first call compiles it, cached on disk).
+
+        Parameters
+        ----------
+        poses : array_like, shape (N + 1, 3)
+            Base and markers, as the extractor returns one frame.
+        q0 : array_like, shape (3m,), optional
+            Start of the least-squares fit, e.g. the previous frame's strains
+            (default: the closed-form strains from the segments' end poses;
+            ignored by ``shape_fit="end_pose"``).
+        """
+        check_is_fitted(self, "segment_lengths_")
+        P = np.array(poses, dtype=float)
+        if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
+            raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
+        rel = frame_chain(P, self.base_pose_ if self.fixed_base else None)
+        if q0 is not None:
+            start = np.asarray(q0, dtype=float).reshape(-1)
+            if start.shape != (3 * self.n_segments_,) or not np.all(np.isfinite(start)):
+                raise ValueError(f"q0 must be {3 * self.n_segments_} finite strains; got shape {np.shape(q0)}")
+        if q0 is None or self.shape_fit == "end_pose":
+            q = segment_strains(rel[None], self.marker_arc_lengths_, self.boundaries_)[0].reshape(-1)
+        else:
+            q = start
+        if self.shape_fit == "least_squares":
+            q = fit_frame_strains(rel[1:], self.segment_lengths_, self.marker_arc_lengths_[1:], q, self.pose_std)
+        return q
+
+    def inverse_transform(self, X: Any) -> list[PoseTrajectory]:
+        """Poses of the base and the markers, shape (T, N + 1, 3), from strain trajectories.
+
+        Uses the marker arc lengths and per-frame base poses carried in each
+        trajectory's metadata when present, else the fitted marker arc
+        lengths and the trajectory's constant ``base_pose``.
+        """
+        check_is_fitted(self, "segment_lengths_")
+        strains = as_strain_trajectories(X)
+        out = []
+        for k, st in enumerate(strains):
+            s = np.asarray(st.metadata.get("marker_arc_lengths", self.marker_arc_lengths_), dtype=float)
+            total = float(np.sum(st.segment_lengths))
+            if abs(s[-1] - total) > 1e-9 * total:
+                raise ValueError(
+                    f"X[{k}]: segment lengths sum to {total:g} m but the marker arc lengths end at {s[-1]:g} m"
+                )
+            local = forward_kinematics(st.q, st.segment_lengths, np.clip(s, 0.0, total))
+            base = st.metadata.get("base_poses")
+            if base is None:
+                base = np.broadcast_to(np.asarray(st.kinematics.base_pose), (st.n_frames, 3))
+            base = np.asarray(base, dtype=float)
+            if base.shape != (st.n_frames, 3):
+                raise ValueError(f"X[{k}].metadata['base_poses'] must have shape ({st.n_frames}, 3); got {base.shape}")
+            out.append(PoseTrajectory(se2_compose(base[:, None, :], local), st.t, metadata=dict(st.metadata)))
+        return out
+
+    def reconstruct(self, X: Any) -> list[PoseTrajectory]:
+        """``inverse_transform(transform(X))``: the fused model's poses of the same markers."""
+        return self.inverse_transform(self.transform(X))
+
+    def score(self, X: Any, y: Any = None) -> float:
+        """Minus the distributed position error e_p^dist (seed eq. 23) over markers (not the base)."""
+        trajs = as_pose_trajectories(X)
+        rec = self.reconstruct(trajs)
+        est = np.concatenate([r.poses[:, 1:, :] for r in rec], axis=0)
+        tru = np.concatenate([tr.poses[:, 1:, :] for tr in trajs], axis=0)
+        e_p, _ = distributed_errors(est, tru)
+        return -e_p

@@ -1,0 +1,299 @@
+"""The contract every Lagrangian library of the Euler–Lagrange regression implements.
+
+A library describes the generalised forces of a planar PCS model as linear in
+its coefficients ``c``:
+
+    tau = Psi(q, qd, qdd) @ c,        Psi = d/dt P(q, qd) + R(q, qd)
+
+with the momentum part ``P`` (``dL/dqd`` of each basis term, and ``q`` for a
+damping column) and the rest ``R`` (``-dL/dq``).  From that one structure come
+
+* strong-form rows ``Psi`` (:meth:`LagrangianLibrary.euler_lagrange_matrix`),
+* weak-form rows, from ``(P, R)`` (:meth:`LagrangianLibrary.weak_terms`, integrated
+  against a test function by :func:`pcs_sindy.identification.formulations.weak_rows`),
+* the model of given coefficients: ``M(q)``, the bias forces and a compiled
+  :class:`~pcs_sindy.models.forward.ForwardModel` (:meth:`LagrangianLibrary.forward_model`)
+  that rollouts and controllers call,
+* its own printout (:meth:`LagrangianLibrary.equations`),
+* the library of fewer strains for sparsification (:meth:`LagrangianLibrary.restrict`).
+
+The segmentation (segment lengths and modelled strains) is set by ``fit`` from
+the strain trajectories, or given to the constructor for direct use on arrays.
+All ``q``, ``qd``, ``qdd`` arguments hold the *active* strains only.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pysindy.feature_library.base import BaseFeatureLibrary
+from sklearn.exceptions import NotFittedError
+
+from ...core.kinematics import PlanarPCS
+from ...core.trajectory import kinematics_of
+
+__all__ = ["LagrangianLibrary"]
+
+
+class LagrangianLibrary(BaseFeatureLibrary, ABC):
+    """Abstract base of the Lagrangian libraries (the contract of the regression).
+
+    Subclasses store their constructor arguments unchanged, with at least
+    ``segment_lengths`` and ``active_strains`` (both may be None until ``fit``).
+
+    Attributes
+    ----------
+    segmentation_ : PlanarPCS
+        Set by :meth:`fit` on strain trajectories: their segment lengths and modelled strains.
+    n_coefficients_ : int
+        Columns of ``Psi`` (Lagrangian terms, optional constant forces, damping last).
+    stiffness_index_, damping_index_ : ndarray of int, shape (n,)
+        Column of each active strain's stiffness (in units of ``stiffness_factor_``) and damping.
+    rest_force_index_ : ndarray of int, shape (n,) or (0,)
+        Column of each active strain's constant force, if the library has them.
+    lower_bounds_ : ndarray or None
+        Lower bounds of the coefficients for a bounded fit, or None (unbounded).
+    stiffness_factor_ : float
+        Stiffness of strain e = ``stiffness_factor_ * coef[stiffness_index_[e]]``.
+    """
+
+    stiffness_factor_: float = 1.0
+
+    # ------------------------------------------------------------------ segmentation
+    @property
+    def kinematics(self) -> PlanarPCS:
+        """The segmentation this library describes (fitted, else the constructor's)."""
+        fitted = self.__dict__.get("segmentation_")
+        if fitted is not None:
+            return fitted
+        lengths = self.segment_lengths
+        if lengths is None:
+            raise NotFittedError(
+                f"{type(self).__name__} has no segmentation yet: fit it on strain trajectories "
+                "(StrainTrajectory carries the segment lengths) or give segment_lengths"
+            )
+        return PlanarPCS(tuple(np.atleast_1d(np.asarray(lengths, dtype=float))), active_strains=self.active_strains)
+
+    def _check_segmentation_params(self) -> None:
+        """Validate ``segment_lengths`` (None or positive finite lengths) and ``active_strains``."""
+        if getattr(self, "segment_lengths", None) is not None:
+            _ = self.kinematics  # PlanarPCS validates lengths and the strain mask
+
+    def _check_params(self) -> None:
+        """Validate the constructor arguments (subclasses add their own)."""
+        self._check_segmentation_params()
+
+    @property
+    def n_strains(self) -> int:
+        """Number of modelled (active) strains ``n``."""
+        return int(self.kinematics.n_active)
+
+    def _set_segmentation(self, x: Any) -> int:
+        """Take the segmentation of strain trajectories (checked against the constructor's); return ``2n``."""
+        kin = kinematics_of(x)
+        if kin is None:
+            if "segmentation_" not in self.__dict__:
+                _ = self.kinematics  # raises NotFittedError when there is none at all
+            return 2 * self.n_strains
+        lengths = getattr(self, "segment_lengths", None)
+        if lengths is not None:
+            own = PlanarPCS(tuple(np.atleast_1d(np.asarray(lengths, dtype=float))), active_strains=self.active_strains)
+            if not (
+                np.allclose(own.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0)
+                and np.array_equal(own.active_strains, kin.active_strains)
+            ):
+                raise ValueError(
+                    f"segment_lengths {list(own.segment_lengths)} with active strains "
+                    f"{own.active_strains.astype(int).tolist()} differ from the data's "
+                    f"{list(kin.segment_lengths)} with {kin.active_strains.astype(int).tolist()}; "
+                    "leave segment_lengths=None to take the data's segmentation"
+                )
+        self.__dict__["segmentation_"] = kin
+        return 2 * int(kin.n_active)
+
+    def fit(self, x: Any, y: Any = None) -> LagrangianLibrary:
+        """Set the segmentation and the state width.
+
+        Parameters
+        ----------
+        x : list of StrainTrajectory, or array_like of shape (n_samples, 2n) (or a list of them)
+            Strain trajectories set the segmentation (``segmentation_``); arrays
+            ``[q, qd]`` of the active strains need ``segment_lengths`` given to
+            the constructor and are only checked for their width ``2n``.
+        y : ignored
+
+        Returns
+        -------
+        self
+        """
+        width = self._set_segmentation(x)
+        if kinematics_of(x) is None:
+            arrays = x if isinstance(x, (list, tuple)) else [x]
+            got = {np.shape(a)[-1] if np.ndim(a) else None for a in arrays}
+            if got != {width}:
+                raise ValueError(
+                    f"x must have 2n = {width} columns [q, qd] of the {width // 2} active strains; "
+                    f"got widths {sorted(map(str, got))}"
+                )
+        self._check_structure()
+        self.n_features_in_ = width
+        self.n_output_features_ = self.n_lagrangian_terms
+        return self
+
+    def _check_structure(self) -> None:
+        """Validate the parameters and build the structure."""
+        self._check_params()
+        _ = self.n_coefficients_  # builds the column layout
+
+    # ------------------------------------------------------------------ column layout
+    @property
+    @abstractmethod
+    def n_coefficients_(self) -> int:
+        """Number of columns of ``Psi``."""
+
+    @property
+    @abstractmethod
+    def stiffness_index_(self) -> NDArray[np.intp]:
+        """Column of each active strain's stiffness."""
+
+    @property
+    @abstractmethod
+    def damping_index_(self) -> NDArray[np.intp]:
+        """Column of each active strain's damping."""
+
+    @property
+    def rest_force_index_(self) -> NDArray[np.intp]:
+        """Column of each active strain's constant force (none by default)."""
+        return np.zeros(0, dtype=np.intp)
+
+    @property
+    def rest_force_rows_(self) -> NDArray[np.intp]:
+        """The active strain (row) of each constant-force column (default: one per strain, in order)."""
+        return np.arange(np.asarray(self.rest_force_index_).size)
+
+    @property
+    def lower_bounds_(self) -> NDArray[np.float64] | None:
+        """Lower bounds of the coefficients (None: unbounded)."""
+        return None
+
+    def scale_constraint(self) -> tuple[NDArray[np.float64], float] | None:
+        """``(a, b)`` with ``a @ coef = b`` fixing the absolute scale of the coefficients, or None.
+
+        Needed when every actuator gain is identified (the regression is then
+        homogeneous); a library knowing an absolute quantity of the robot
+        (e.g. :class:`~pcs_sindy.identification.library.physical.PhysicalPCSLibrary` given its mass) provides it.
+        """
+        return None
+
+    @property
+    def n_lagrangian_terms(self) -> int:
+        """Number of Lagrangian basis terms (the columns that are not damping)."""
+        return int(self.n_coefficients_) - int(np.asarray(self.damping_index_).size)
+
+    @abstractmethod
+    def coefficient_names(self) -> list[str]:
+        """Names of the ``n_coefficients_`` columns."""
+
+    def euler_lagrange_names(self) -> list[str]:
+        """Alias of :meth:`coefficient_names`."""
+        return self.coefficient_names()
+
+    # ------------------------------------------------------------------ regression rows
+    @abstractmethod
+    def euler_lagrange_matrix(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
+        """Strong-form rows ``Psi`` with ``tau = Psi @ coef``, shape (n_samples, n, n_coefficients_)."""
+
+    @abstractmethod
+    def weak_terms(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Momentum part ``P`` and remainder ``R`` of ``Psi = dP/dt + R``, each (n_samples, n, n_coefficients_).
+
+        Integrated against a test function ``phi`` vanishing at both ends of a
+        window, ``int phi Psi dt = -int phi' P dt + int phi R dt``: no ``qdd``.
+        """
+
+    def integrated_euler_lagrange_matrix(
+        self,
+        t: ArrayLike,
+        q: ArrayLike,
+        qd: ArrayLike,
+        windows: ArrayLike,
+        *,
+        rule: str = "simpson",
+        test_function: str | None = None,
+    ) -> NDArray[np.float64]:
+        """Weak-form rows ``int phi Psi dt`` per window, shape (n_windows, n, n_coefficients_).
+
+        :func:`pcs_sindy.identification.formulations.weak_rows` of this library (see there for
+        the arguments); pair with :func:`pcs_sindy.identification.formulations.integrate_forces`.
+        """
+        from ..formulations import weak_rows
+
+        return weak_rows(self, t, q, qd, windows, test_function=test_function, rule=rule)
+
+    # ------------------------------------------------------------------ model of given coefficients
+    def _check_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
+        c = np.asarray(coef, dtype=float)
+        if c.ndim == 2 and c.shape[0] == 1:
+            c = c[0]
+        p = int(self.n_coefficients_)
+        if c.shape != (p,):
+            raise ValueError(f"coef must have shape ({p},) (n_coefficients_); got shape {c.shape}")
+        if not np.all(np.isfinite(c)):
+            raise ValueError("coef contains NaN or inf")
+        return c
+
+    @abstractmethod
+    def mass_matrix(self, q: ArrayLike, coef: ArrayLike) -> NDArray[np.float64]:
+        """``M(q)`` of the coefficients, shape (n_samples, n, n)."""
+
+    @abstractmethod
+    def bias_forces(self, q: ArrayLike, qd: ArrayLike, coef: ArrayLike) -> NDArray[np.float64]:
+        """All forces but ``M qdd`` (Coriolis, gravity, elastic, damping, constant), shape (n_samples, n)."""
+
+    def potential_forces(self, q: ArrayLike, coef: ArrayLike) -> NDArray[np.float64]:
+        """Conservative (and constant) forces, the bias at ``qd = 0``, shape (n_samples, n)."""
+        q = np.asarray(q, dtype=float)
+        return self.bias_forces(q, np.zeros_like(q), coef)
+
+    @abstractmethod
+    def forward_model(self, coef: ArrayLike, actuation: Any = None) -> Any:
+        """The :class:`~pcs_sindy.models.forward.ForwardModel` of the coefficients (rollouts, controllers).
+
+        ``actuation``: a fitted :class:`~pcs_sindy.models.actuation.Actuation` mapping
+        actuator inputs to generalised forces (default: the inputs are the forces).
+        """
+
+    def stiffness_from_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
+        """Stiffness of every active strain in physical units, shape (n,)."""
+        c = self._check_coef(coef)
+        return float(self.stiffness_factor_) * c[np.asarray(self.stiffness_index_)]
+
+    def damping_from_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
+        """Damping coefficient of every active strain, shape (n,)."""
+        return self._check_coef(coef)[np.asarray(self.damping_index_)].copy()
+
+    def rest_force_from_coef(self, coef: ArrayLike) -> NDArray[np.float64]:
+        """Constant generalised force of every active strain, shape (n,) (0 without such columns)."""
+        c = self._check_coef(coef)
+        out = np.zeros(self.n_strains)
+        idx = np.asarray(self.rest_force_index_)
+        if idx.size:
+            out[self.rest_force_rows_] = c[idx]
+        return out
+
+    # ------------------------------------------------------------------ structure changes and text
+    @abstractmethod
+    def restrict(self, active_strains: ArrayLike) -> LagrangianLibrary:
+        """Library of a subset of the active strains (removed strains held at 0), with ``column_map_``."""
+
+    @abstractmethod
+    def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
+        """The model of ``coef`` as text, one line per equation; the last line starts ``D = diag(``."""
+
+    def _damping_line(self, coef: NDArray[np.float64], precision: int) -> str:
+        strain = self.kinematics.strain_names(active_only=True)
+        damp = self.damping_from_coef(coef)
+        return "D = diag(" + ", ".join(f"{s}: {d:.{precision}g}" for s, d in zip(strain, damp)) + ")"

@@ -1,0 +1,457 @@
+"""Least squares with strain sparsification by a stiffness threshold (seed §III-C3).
+
+The Euler–Lagrange regression ``tau = Psi(q, qd, qdd) pi+`` is solved by least
+squares on column-scaled data (SVD; never the normal equations).  The
+identified stiffness of strain e is ``-2 *`` the coefficient of its ``q_e^2``
+basis function (the Lagrangian holds ``-V``).  A strain whose stiffness exceeds
+the material maximum ``K_max`` behaves rigidly: it is removed, the basis is
+re-evaluated in the limit ``q_e, qd_e, qdd_e -> 0`` (seed eqs. 20-21) and the
+fit is repeated until no strain is removed.
+
+How the optimizer gets the re-evaluated basis
+---------------------------------------------
+The limit rule needs the basis evaluated again on the states, which a plain
+``fit(Theta, y)`` does not carry.  pysindy's ``BaseOptimizer.fit`` forwards
+extra keyword arguments to ``_reduce``; we use the same idea explicitly:
+``fit(x, y, library=lib, states=(q, qd, qdd))``.  ``lib`` is the
+:class:`~pcs_sindy.identification.library.pcs_lagrangian.PCSLagrangianLibrary` that produced ``x`` and the
+states are the active strains it was evaluated on.  The optimizer asks
+``lib.restrict(mask)`` for the limit-rule library of the remaining strains and
+evaluates its ``euler_lagrange_matrix`` on the kept state columns.  Without
+``library`` the optimizer is a plain scaled least-squares solver (usable inside
+``pysindy.SINDy``), with no stiffness to threshold.
+
+Identification side: never imports :mod:`pcs_sindy.simulation`.
+"""
+
+from __future__ import annotations
+
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pysindy.optimizers import BaseOptimizer
+from sklearn.base import BaseEstimator
+from sklearn.exceptions import ConvergenceWarning
+from sklearn.utils.validation import check_is_fitted, validate_data
+
+__all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq"]
+
+from .least_squares import scaled_lstsq, stiffness_bounds  # noqa: E402 - re-exported: the optimizer's solvers
+
+_STRAIN_LABELS = ("be", "sh", "ax")
+
+
+class StiffnessThresholdOptimizer(BaseOptimizer):
+    """Least squares + removal of strains stiffer than the material maximum.
+
+    Parameters
+    ----------
+    youngs_modulus_max : float, default 100e6
+        ``E_max`` (Pa) of the bending and axial bounds.
+    shear_modulus_max : float, default 0.1e6
+        ``G_max`` (Pa) of the shear bound.
+    radius : float, default 0.02
+        Cross-section radius (m) giving ``A = pi r^2`` and ``I = pi r^4 / 4``.
+    shear_factor : float, default 4/3
+        ``c_sh`` of the shear stiffness ``c_sh G A``.
+    stiffness_scaling : {"seed", "length"}, default "seed"
+        ``f_L = 1`` or ``f_L = L_i`` in ``K_max = f_L diag(...)``; must match
+        the convention of the data (see docs/method.md).
+    max_stiffness : array_like of shape (3m,), optional
+        Explicit bounds per strain (full strain order); overrides the material
+        parameters above.
+    threshold : float, default 1.0
+        Remove a strain whose identified stiffness exceeds ``threshold`` times
+        its bound (``max_stiffness_``); ``np.inf`` fits all strains once.  Lower
+        values treat softer strains as rigid (a hyperparameter to search over).
+    rcond : float, default 1e-10
+        Relative singular-value cut-off of the column-scaled design; a smaller
+        singular value means rank deficiency and raises.
+    bounded : bool, default True
+        When the library declares ``lower_bounds_`` (``PhysicalPCSLibrary``:
+        densities, stiffnesses and damping >= 0), solve the bounded least
+        squares problem, which keeps the identified mass matrix positive
+        definite and the model passive.
+    max_iter : int, default 20
+        Maximum number of fit-and-remove rounds.
+    normalize_columns : bool, default True
+        Kept for pysindy compatibility: columns are always scaled to unit
+        norm inside the solver and the coefficients (and hence the stiffness
+        compared with ``K_max``) are returned in physical units either way.
+    copy_X : bool, default True
+
+    Attributes
+    ----------
+    coef_ : ndarray, shape (n_targets, n_features)
+        Coefficients in the columns of the library passed to ``fit``; columns
+        dropped by strain removal are 0.
+    ind_ : ndarray of bool, same shape
+        Non-zero coefficients.
+    active_strains_ : ndarray of bool, shape (m, 3)
+        Strains kept (only with ``library``).
+    stiffness_ : ndarray, shape (3m,)
+        Identified stiffness; ``inf`` for strains removed as rigid (and for
+        strains the library never modelled).
+    max_stiffness_ : ndarray, shape (3m,)
+        The bounds used.
+    removed_strains_ : list of str
+        Names (``"sh_1"``, ...) of the removed strains, in removal order.
+    library_ : the limit-rule library of the kept strains (``library`` itself
+        if none was removed).
+    column_map_ : ndarray of int
+        Columns of the ``library`` passed to ``fit`` kept by ``library_``.
+    history_ : list of dict
+        One entry per round: ``active_strains`` (m, 3), ``coef`` (n_features,),
+        ``stiffness`` (3m,), ``removed`` (names removed after this round),
+        ``relative_residual``, ``condition_number``.
+    n_rounds_ : int
+    n_iter_ : int
+        Rounds run (``n_rounds_``; sklearn's name).
+    n_features_in_ : int
+        Columns of ``x``.
+    relative_residual_, condition_number_ : float
+        Of the final round.
+
+    Notes
+    -----
+    Without ``library`` this is a scikit-learn regressor without intercept
+    (``predict(x) = x @ coef_.T``, 1-D for a 1-D ``y``) that passes
+    ``sklearn.utils.estimator_checks`` except where the rank check applies
+    (see ``tests/test_sklearn_compat.py``).
+    """
+
+    # pysindy's BaseOptimizer sets these in __init__; as class attributes they
+    # keep sklearn's rule that __init__ stores the constructor arguments only
+    fit_intercept = False
+    positive = False
+    unbias = False
+    initial_guess = None
+
+    def __init__(
+        self,
+        youngs_modulus_max: float = 100e6,
+        shear_modulus_max: float = 0.1e6,
+        radius: float = 0.02,
+        shear_factor: float = 4.0 / 3.0,
+        stiffness_scaling: str = "seed",
+        max_stiffness: ArrayLike | None = None,
+        threshold: float = 1.0,
+        rcond: float = 1e-10,
+        bounded: bool = True,
+        max_iter: int = 20,
+        normalize_columns: bool = True,
+        copy_X: bool = True,
+    ) -> None:
+        # not BaseOptimizer.__init__: it validates max_iter (sklearn validates in fit)
+        # and sets non-parameter attributes
+        self.max_iter = max_iter
+        self.normalize_columns = normalize_columns
+        self.copy_X = copy_X
+        self.youngs_modulus_max = youngs_modulus_max
+        self.shear_modulus_max = shear_modulus_max
+        self.radius = radius
+        self.shear_factor = shear_factor
+        self.stiffness_scaling = stiffness_scaling
+        self.max_stiffness = max_stiffness
+        self.threshold = threshold
+        self.rcond = rcond
+        self.bounded = bounded
+
+    def set_params(self, **params: Any) -> StiffnessThresholdOptimizer:
+        """Set parameters and return ``self`` (pysindy 2.1's returns None, which breaks GridSearchCV)."""
+        BaseEstimator.set_params(self, **params)
+        return self
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.input_tags.sparse = False  # LinearRegression's tag; the SVD solver needs dense columns
+        tags.target_tags.required = True
+        return tags
+
+    def predict(self, x: ArrayLike) -> NDArray[np.float64]:
+        """``x @ coef_.T``: shape (n_rows,) after a fit on 1-D ``y``, else (n_rows, n_targets)."""
+        check_is_fitted(self, "coef_")
+        if isinstance(x, np.ndarray) and x.ndim == 3:  # stacked Psi (n_samples, n, n_features)
+            x = x.reshape(-1, x.shape[-1])
+        x = validate_data(self, x, reset=False, accept_sparse=False, dtype=float)
+        out = x @ np.asarray(self.coef_).T
+        return out.ravel() if self._single_target else out
+
+    def _reduce(self, x: NDArray[np.float64], y: NDArray[np.float64], **kwargs: Any) -> None:
+        # fit() is overridden and does all the work; kept for the abstract API.
+        coef, _ = scaled_lstsq(x, y, rcond=self.rcond)
+        self.coef_ = np.atleast_2d(coef.T)
+
+    # ------------------------------------------------------------------
+    def _check_params(self) -> None:
+        if int(self.max_iter) != self.max_iter or self.max_iter < 1:
+            raise ValueError(f"max_iter must be a positive integer; got {self.max_iter!r}")
+        if not np.isfinite(self.rcond) or not 0 < self.rcond < 1:
+            raise ValueError(f"rcond must be in (0, 1); got {self.rcond!r}")
+        self._threshold()
+
+    def _threshold(self) -> float:
+        """The removal factor; booleans (the former switch) are translated with a FutureWarning."""
+        thr = self.threshold
+        if isinstance(thr, (bool, np.bool_)):
+            warnings.warn(
+                f"threshold={thr!r} (a switch) is deprecated: threshold is the factor on the stiffness bound; "
+                f"use threshold={'1.0' if thr else 'np.inf'}",
+                FutureWarning,
+                stacklevel=4,
+            )
+            return 1.0 if thr else np.inf
+        if not isinstance(thr, (int, float, np.integer, np.floating)) or np.isnan(thr) or not thr > 0:
+            raise ValueError(
+                f"threshold must be a number > 0 (factor on the stiffness bound; np.inf: no removal); got {thr!r}"
+            )
+        return float(thr)
+
+    def _bounds(self, library: Any) -> NDArray[np.float64]:
+        lengths = library.kinematics.segment_lengths
+        if self.max_stiffness is not None:
+            bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)
+            if bounds.shape != (3 * len(lengths),) or np.any(np.isnan(bounds)) or np.any(bounds <= 0):
+                raise ValueError(
+                    f"max_stiffness must hold {3 * len(lengths)} positive values (3 per segment); "
+                    f"got {self.max_stiffness!r}"
+                )
+            return bounds
+        return stiffness_bounds(
+            lengths,
+            youngs_modulus_max=self.youngs_modulus_max,
+            shear_modulus_max=self.shear_modulus_max,
+            radius=self.radius,
+            shear_factor=self.shear_factor,
+            stiffness_scaling=self.stiffness_scaling,
+        )
+
+    def fit(
+        self,
+        x: ArrayLike,
+        y: ArrayLike,
+        sample_weight: ArrayLike | None = None,
+        *,
+        library: Any = None,
+        states: tuple[ArrayLike, ArrayLike, ArrayLike] | None = None,
+        feature_names: Sequence[str] | None = None,
+        design: Callable[[Any, NDArray[np.bool_]], ArrayLike] | None = None,
+        equality: tuple[ArrayLike, float] | None = None,
+    ) -> StiffnessThresholdOptimizer:
+        """Fit, removing over-stiff strains when the library and states are given.
+
+        Parameters
+        ----------
+        x : array_like, shape (n_rows, n_features)
+            Regression matrix.  With ``library``: the Euler–Lagrange matrix
+            ``Psi`` of shape (n_samples, n, n_features) or stacked sample-major
+            to (n_samples * n, n_features).
+        y : array_like, shape (n_rows,) or (n_rows, n_targets)
+            Targets (the generalized forces, stacked like ``x``).
+        sample_weight : array_like, shape (n_rows,), optional
+            Row weights (plain least-squares mode only).
+        library : PCSLagrangianLibrary, optional
+            The library that produced ``x``; enables the stiffness threshold.
+        states : tuple (q, qd, qdd), optional
+            Active strains, rates and accelerations (n_samples, n) on which
+            ``x`` was evaluated; required with ``library``.
+        feature_names : sequence of str, optional
+            Column names used in error messages.
+        design : callable, optional
+            ``design(restricted_library, keep)`` returns the regression matrix
+            of a restricted library (rows stacked like ``x``, ``keep`` the kept
+            strains among the library's active ones), replacing the evaluation
+            of ``euler_lagrange_matrix`` on ``states`` after a removal; e.g.
+            weak-form (window-integrated) rows.  ``x`` and ``y`` then hold
+            ``n_rows * n`` rows ordered row-major like ``(n_rows, n)``.
+        equality : tuple (a, b), optional
+            With ``library``: a linear equality ``a @ coef = b`` over the
+            library's columns, kept in every round (restricted to the kept
+            columns), e.g. a known mass fixing the scale when gains are identified.
+
+        Returns
+        -------
+        self
+        """
+        self._check_params()
+        if library is None:
+            if isinstance(x, np.ndarray) and x.ndim == 3:  # stacked Psi (n_samples, n, n_features)
+                x = x.reshape(-1, x.shape[-1])
+            if y is not None:
+                try:
+                    n_x, n_y = (np.shape(v)[0] if np.ndim(v) else None for v in (x, y))
+                except (TypeError, ValueError):  # not array-like: validate_data names it below
+                    n_x = n_y = None
+                if n_x != n_y:
+                    raise ValueError(f"y must have {n_x} rows like x; got {n_y}")
+            # sklearn's validation: shapes, dtype, sparse / complex / empty input, n_features_in_
+            x, y = validate_data(
+                self, x, y, accept_sparse=False, dtype=float, multi_output=True, y_numeric=True, copy=bool(self.copy_X)
+            )
+            y = np.array(y, dtype=float, copy=True)
+            if x.shape[0] < x.shape[1]:
+                raise ValueError(
+                    f"x has n_samples = {x.shape[0]} rows, fewer than its {x.shape[1]} features (unknowns); "
+                    "the regression is underdetermined: record more samples"
+                )
+        else:
+            x = np.array(x, dtype=float, copy=bool(self.copy_X))
+            y = np.array(y, dtype=float, copy=True)
+        if x.ndim == 3:
+            x = x.reshape(-1, x.shape[-1])
+        if x.ndim != 2:
+            raise ValueError(f"x must have shape (n_rows, n_features) or (n_samples, n, n_features); got {x.shape}")
+        self._single_target = y.ndim == 1 or library is not None
+        if y.ndim == 2 and library is not None:
+            y = y.reshape(-1)
+        if y.ndim not in (1, 2) or y.shape[0] != x.shape[0]:
+            raise ValueError(f"y must have {x.shape[0]} rows like x; got shape {y.shape}")
+        for name, arr in (("x", x), ("y", y)):
+            if not np.all(np.isfinite(arr)):
+                n_bad = int(np.sum(~np.isfinite(arr)))
+                raise ValueError(f"{name} contains {n_bad} NaN or inf value(s); clean the data before fitting")
+        if feature_names is None and library is not None and hasattr(library, "euler_lagrange_names"):
+            try:
+                feature_names = list(library.euler_lagrange_names())
+            except Exception:  # names are only cosmetic here
+                feature_names = None
+        self.n_iter_ = 0
+        self.Theta_ = x
+        self.n_features_in_ = int(x.shape[1])
+
+        if library is None:
+            if states is not None or design is not None or equality is not None:
+                raise ValueError("states, design or equality were given without library; pass them with library")
+            if sample_weight is not None:
+                w = np.asarray(sample_weight, dtype=float)
+                if w.shape != (x.shape[0],) or np.any(~np.isfinite(w)) or np.any(w < 0):
+                    raise ValueError(f"sample_weight must be ({x.shape[0]},) finite and >= 0; got shape {w.shape}")
+                if not np.any(w > 0):
+                    raise ValueError("sample_weight is all zero: no sample is left to fit")
+                sw = np.sqrt(w)
+                x = x * sw[:, None]
+                y = y * (sw if y.ndim == 1 else sw[:, None])
+            coef, info = scaled_lstsq(x, y, rcond=self.rcond, feature_names=feature_names)
+            self.coef_ = np.atleast_2d(coef.T)
+            self.ind_ = self.coef_ != 0
+            self.history_ = [{"coef": self.coef_.copy(), **info}]
+            self.n_rounds_ = 1
+            self.n_iter_ = 1
+            self.relative_residual_ = info["relative_residual"]
+            self.condition_number_ = info["condition_number"]
+            self.intercept_ = 0.0
+            return self
+
+        if sample_weight is not None:
+            raise ValueError(
+                "sample_weight is not supported together with library (rows change when strains are removed)"
+            )
+        kin = library.kinematics
+        m = kin.n_segments
+        start_mask = np.asarray(kin.active_strains, dtype=bool).reshape(-1)
+        n_act = int(start_mask.sum())
+        n_samples = x.shape[0] // n_act if n_act else 0
+        if design is None:
+            if states is None or len(states) != 3:
+                raise ValueError("states=(q, qd, qdd) of the active strains is required with library (or design=)")
+            q, qd, qdd = (np.asarray(s, dtype=float) for s in states)
+            for name, arr in (("q", q), ("qd", qd), ("qdd", qdd)):
+                if arr.shape != (n_samples, n_act) or n_samples * n_act != x.shape[0]:
+                    raise ValueError(
+                        f"states[{name}] must have shape (n_samples, {n_act}) with n_samples * {n_act} = {x.shape[0]} "
+                        "rows of x; "
+                        f"got {arr.shape}"
+                    )
+                if not np.all(np.isfinite(arr)):
+                    raise ValueError(f"states[{name}] contains NaN or inf")
+
+            def design(lib_r: Any, keep: NDArray[np.bool_]) -> Any:
+                return lib_r.euler_lagrange_matrix(q[:, keep], qd[:, keep], qdd[:, keep])
+
+        elif not callable(design):
+            raise ValueError(f"design must be a callable (library, keep) -> rows; got {type(design).__name__}")
+        elif n_samples * n_act != x.shape[0]:
+            raise ValueError(f"x must have a multiple of the {n_act} active strains as rows; got {x.shape[0]}")
+        n_feat = x.shape[1]
+        if n_feat != library.n_coefficients_:
+            raise ValueError(f"x has {n_feat} columns but the library has {library.n_coefficients_} coefficients")
+        tau = y.reshape(n_samples, n_act)
+        bounds = self._bounds(library)
+        factor = self._threshold()
+        names = kin.strain_names()
+
+        mask = start_mask.copy()
+        lib_r = library
+        col_map = np.arange(n_feat)
+        x_r, y_r = x, y
+        history: list[dict[str, Any]] = []
+        removed: list[str] = []
+        converged = False
+        for rnd in range(int(self.max_iter)):
+            sub_names = None if feature_names is None else [feature_names[j] for j in col_map]
+            lb = getattr(lib_r, "lower_bounds_", None) if self.bounded else None
+            eq = None if equality is None else (np.asarray(equality[0], dtype=float)[col_map], float(equality[1]))
+            coef_r, info = scaled_lstsq(
+                x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb, equality=eq
+            )
+            stiff = np.full(3 * m, np.inf)
+            # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
+            stiff[mask] = float(lib_r.stiffness_factor_) * coef_r[np.asarray(lib_r.stiffness_index_)]
+            coef_full = np.zeros(n_feat)
+            coef_full[col_map] = coef_r
+            exceed = mask & (stiff > factor * bounds) if np.isfinite(factor) else np.zeros_like(mask)
+            new_removed = [names[e] for e in np.flatnonzero(exceed)]
+            history.append(
+                {
+                    "active_strains": mask.reshape(m, 3).copy(),
+                    "coef": coef_full,
+                    "stiffness": stiff.copy(),
+                    "removed": new_removed,
+                    **info,
+                }
+            )
+            self.n_iter_ = rnd + 1
+            fitted = (mask.copy(), lib_r, col_map)  # what the last fit used
+            if not new_removed:
+                converged = True
+                break
+            mask = mask & ~exceed
+            removed.extend(new_removed)
+            if not mask.any():
+                raise ValueError(
+                    f"every strain exceeded its maximum stiffness (removed {removed}); check max_stiffness / units"
+                )
+            lib_r = library.restrict(mask.reshape(m, 3))
+            col_map = np.asarray(lib_r.column_map_, dtype=int)
+            keep = mask[start_mask]  # kept columns among the library's active strains
+            x_r = np.asarray(design(lib_r, keep), dtype=float).reshape(-1, len(col_map))
+            if x_r.shape[0] != n_samples * int(keep.sum()):
+                raise ValueError(f"design returned {x_r.shape[0]} rows; expected {n_samples * int(keep.sum())}")
+            y_r = tau[:, keep].reshape(-1)
+        if not converged:
+            warnings.warn(
+                f"strain removal did not settle within max_iter = {self.max_iter} rounds; the last fit still had "
+                f"strains above their bound: {history[-1]['removed']}",
+                ConvergenceWarning,
+                stacklevel=2,
+            )
+        final = history[-1]
+        mask, lib_r, col_map = fitted
+        self.coef_ = final["coef"][None, :]
+        self.ind_ = self.coef_ != 0
+        self.history_ = history
+        self.n_rounds_ = len(history)
+        self.active_strains_ = mask.reshape(m, 3).copy()
+        self.stiffness_ = final["stiffness"]
+        self.max_stiffness_ = bounds
+        # removals of a non-converged last round were never applied
+        self.removed_strains_ = [name for h in history[:-1] for name in h["removed"]]
+        self.library_ = lib_r
+        self.column_map_ = col_map
+        self.relative_residual_ = final["relative_residual"]
+        self.condition_number_ = final["condition_number"]
+        self.intercept_ = 0.0
+        return self

@@ -1,0 +1,810 @@
+"""Euler–Lagrange regression of a PCS model from strain trajectories and forces.
+
+:class:`EulerLagrangeRegressor` composes three parts and adds nothing of its own
+physics:
+
+* a Lagrangian library (the contract :class:`~pcs_sindy.identification.library.base.LagrangianLibrary`:
+  :class:`~pcs_sindy.identification.library.physical.PhysicalPCSLibrary` by default, the seed's
+  monomial :class:`~pcs_sindy.identification.library.pcs_lagrangian.PCSLagrangianLibrary` in the seed preset),
+* a formulation (:mod:`pcs_sindy.identification.formulations`: window integrals by default,
+  sample-wise rows in the seed preset),
+* an optimizer (:class:`~pcs_sindy.identification.optimizers.StiffnessThresholdOptimizer`, which
+  removes strains stiffer than the material maximum, or any pysindy optimizer),
+
+and hands rollouts to the library's compiled forward model
+(:mod:`pcs_sindy.models.forward`).  The defaults are the best measured settings
+(docs/results.md); :meth:`EulerLagrangeRegressor.seed_method` reproduces the
+seed's method.
+"""
+
+from __future__ import annotations
+
+import time
+import warnings
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from pysindy.optimizers import BaseOptimizer
+from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.utils.validation import check_is_fitted
+
+from ..core.kinematics import PlanarPCS
+from ..core.saving import PersistenceMixin
+from ..core.simulate_contract import DivergenceError, simulate_inputs
+from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
+from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
+from ..models.forward import reduce_strains
+from . import formulations as _form
+from . import identifiability as _ident
+from . import recordings as _rec
+from .library.base import LagrangianLibrary
+from .library.with_gains import WithGains
+from .optimizers import StiffnessThresholdOptimizer
+from .recordings import WEAK_WINDOW
+from .variable_projection import fit_offsets
+
+__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
+
+#: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
+#: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
+SCORE_DERIVATIVES = (7, 3)
+_LIBRARIES = ("physical", "monomial")
+
+
+def _is_int(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, np.integer))
+
+
+class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
+    """Identify ``M(q) qdd + C(q, qd) qd + G(q) + K q + D qd = tau`` by regression.
+
+    The defaults are the package's recommended method; :meth:`seed_method`
+    gives the seed's.
+
+    Parameters
+    ----------
+    library : LagrangianLibrary or {"physical", "monomial"}, optional
+        The Lagrangian library, cloned and fitted on the data's segmentation in
+        :meth:`fit`.  Default ``PhysicalPCSLibrary()``: one coefficient per
+        physical unknown (line density, rotary inertia, stiffness, damping,
+        rest force per strain), any number of segments, bounded fits (passive
+        model, positive-definite ``M``).  ``"monomial"``: the seed's symbolic
+        :class:`~pcs_sindy.identification.library.pcs_lagrangian.PCSLagrangianLibrary`.
+    formulation : {"weak", "strong"}, default "weak"
+        ``"weak"``: regress window integrals ``int phi tau dt = int phi Psi dt @ coef``
+        with the bump test function over windows of ``weak_window`` intervals
+        (no ``qdd``; held forces integrated exactly).  ``"strong"``: regress
+        ``tau = Psi(q, qd, qdd) @ coef`` sample by sample.
+    optimizer : pysindy optimizer, optional
+        Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
+        material bounds; removes over-stiff strains).  Any other pysindy
+        ``BaseOptimizer`` (``STLSQ``, ``SR3``, ...) fits the same rows without
+        strain removal or bounds.
+    differentiation_method : callable, optional
+        ``method(x, t)`` giving ``qd`` from ``q`` and ``qdd`` from ``qd`` (e.g. a
+        pysindy differentiation object).  Default: Savitzky–Golay.
+    window_length : int, default 7
+        Savitzky–Golay window (odd, samples) of the rates (and accelerations).
+        Short windows keep the kink of ``qd`` at every jump of a held force.
+    polyorder : int, default 3
+        Savitzky–Golay polynomial order.
+    exclude_force_jumps : bool, default False
+        Strong form: leave out every sample whose Savitzky–Golay window contains
+        a jump of the held actuation (and the ends); for step actuation only.
+    weak_window : int, optional
+        Weak form: window length in sampling intervals (every recording needs
+        more samples).  Default: :data:`WEAK_WINDOW` (160), or half the shortest
+        recording when that is shorter.  Long windows average the noise of the
+        rates: measured best at 160 (0.16 s at 1 kHz) on the scenarios with pose
+        noise (docs/results.md, "Weak-form window").
+    weak_stride : int, optional
+        Weak form: step between windows in samples; default a quarter of the window.
+    weak_hold : {"zoh", "trapezoid"}, default "zoh"
+        Weak form: ``tau`` held on ``[t_k, t_{k+1})`` (exact for held actuation)
+        or integrated by the trapezoid rule (smooth actuation).
+    check_mass_matrix : bool, default True
+        Warn after ``fit`` if ``M(q)`` is not positive definite on some training samples.
+    rtol, atol : float, default 3e-5, 3e-8
+        Default tolerances of :meth:`simulate`.
+    progress : bool, default False
+        Progress bars in :meth:`simulate` (solve_ivp paths).
+    actuation : Actuation or dict, optional
+        How the inputs ``y`` of :meth:`fit` (and ``u`` of :meth:`simulate`) act:
+        default the generalised forces themselves (T, 3m); a
+        :class:`~pcs_sindy.models.actuation.TendonActuation`,
+        :class:`~pcs_sindy.models.actuation.PressureActuation` or
+        :class:`~pcs_sindy.models.actuation.LinearActuation` (or its JSON layout, e.g.
+        a scenario's ``actuation``) maps actuator inputs (T, p) through
+        ``A(q)``, whose unknown offsets and gains are identified with the model
+        (see :mod:`pcs_sindy.models.actuation`, also for when the scale needs the mass).
+
+    Attributes
+    ----------
+    coef_ : ndarray, shape (n_psi,)
+        Coefficients in the columns of ``full_library_``; columns dropped by
+        strain removal are exactly 0.
+    model_coef_ : ndarray
+        ``coef_[column_map_]``: the coefficients of ``library_``.
+    full_library_, library_ : LagrangianLibrary
+        The library fitted on the data and the library of the kept strains.
+    column_map_ : ndarray of int
+        Columns of ``full_library_`` kept in ``library_``.
+    active_strains_ : ndarray of bool, shape (m, 3)
+        Modelled strains after sparsification.
+    stiffness_, damping_, rest_strain_ : ndarray, shape (3m,)
+        Identified stiffness (``inf`` for a strain not modelled), damping (0
+        there) and rest strain ``f0 / stiffness`` (0 without constant forces).
+    removed_strains_ : list of str
+        Strains removed by the stiffness threshold.
+    optimizer_ : the fitted optimizer
+    kinematics_ : PlanarPCS
+        Segmentation with ``active_strains_``.
+    identifiability_ : dict or None
+        What the data determined (see :mod:`pcs_sindy.identification.identifiability`);
+        None when the regression has no more rows than coefficients.
+    mass_matrix_not_pd_fraction_ : float
+        Fraction of training samples where ``M(q)`` is not positive definite.
+    strain_range_ : ndarray, shape (2, n)
+        Smallest and largest value of each modelled strain in the training
+        data: where the model was identified (controllers stay inside it).
+    n_regression_samples_ : int
+        Rows of the regression per strain (samples, or windows in the weak form).
+    actuation_ : Actuation
+        The fitted input map with its identified ``offsets_`` and ``gains_``.
+    fit_time_ : float
+        Wall time of ``fit`` (s).
+    """
+
+    identifiability_tol = 0.1
+
+    def __init__(
+        self,
+        library: Any = None,
+        formulation: str = "weak",
+        optimizer: Any = None,
+        differentiation_method: Any = None,
+        window_length: int = 7,
+        polyorder: int = 3,
+        exclude_force_jumps: bool = False,
+        weak_window: int | None = None,
+        weak_stride: int | None = None,
+        weak_hold: str = "zoh",
+        check_mass_matrix: bool = True,
+        rtol: float = 3e-5,
+        atol: float = 3e-8,
+        progress: bool = False,
+        actuation: Any = None,
+    ) -> None:
+        self.library = library
+        self.formulation = formulation
+        self.optimizer = optimizer
+        self.differentiation_method = differentiation_method
+        self.window_length = window_length
+        self.polyorder = polyorder
+        self.exclude_force_jumps = exclude_force_jumps
+        self.weak_window = weak_window
+        self.weak_stride = weak_stride
+        self.weak_hold = weak_hold
+        self.check_mass_matrix = check_mass_matrix
+        self.rtol = rtol
+        self.atol = atol
+        self.progress = progress
+        self.actuation = actuation
+
+    @classmethod
+    def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
+        """The seed's method: monomial Lagrangian basis, strong form, Savitzky–Golay 25/3.
+
+        Parameters
+        ----------
+        **overrides
+            Other constructor arguments (e.g. ``optimizer``).
+
+        Returns
+        -------
+        EulerLagrangeRegressor
+        """
+        params = {"library": "monomial", "formulation": "strong", "window_length": 25, "polyorder": 3}
+        params.update(overrides)
+        return cls(**params)
+
+    # ------------------------------------------------------------------ parameters and data
+    def _check_params(self) -> None:
+        wl, po = self.window_length, self.polyorder
+        if not _is_int(wl) or wl < 3 or wl % 2 == 0:
+            raise ValueError(f"window_length must be an odd integer >= 3; got {wl!r}")
+        if not _is_int(po) or po < 2 or po >= wl:
+            raise ValueError(f"polyorder must be an integer with 2 <= polyorder < window_length; got {po!r}")
+        if self.formulation not in _form.FORMULATIONS:
+            raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
+        if self.weak_window is not None and (not _is_int(self.weak_window) or self.weak_window < 2):
+            raise ValueError(
+                f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}"
+            )
+        if self.weak_stride is not None and (not _is_int(self.weak_stride) or self.weak_stride < 1):
+            raise ValueError(f"weak_stride must be None or an integer >= 1 (samples); got {self.weak_stride!r}")
+        if self.weak_hold not in ("zoh", "trapezoid"):
+            raise ValueError(f"weak_hold must be 'zoh' or 'trapezoid'; got {self.weak_hold!r}")
+        lib = self.library
+        ok = lib is None or (lib in _LIBRARIES if isinstance(lib, str) else isinstance(lib, LagrangianLibrary))
+        if ok and isinstance(lib, LagrangianLibrary):
+            lib._check_params()
+        if not ok:
+            raise ValueError(
+                f"library must be a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary) or one of "
+                f"{_LIBRARIES}; got {lib!r}"
+            )
+        act = self.actuation
+        if not (act is None or isinstance(act, (dict, Actuation))):
+            raise ValueError(f"actuation must be None, an Actuation or a layout dict; got {type(act).__name__}")
+        opt = self.optimizer
+        if opt is not None and not isinstance(opt, BaseOptimizer):
+            raise ValueError(
+                "optimizer must be a pysindy optimizer (StiffnessThresholdOptimizer, or a pysindy BaseOptimizer "
+                f"such as STLSQ or SR3); got {type(opt).__name__}"
+            )
+        for name in ("rtol", "atol"):
+            val = getattr(self, name)
+            if (
+                isinstance(val, bool)
+                or not isinstance(val, (int, float, np.floating))
+                or not (np.isfinite(val) and val > 0)
+            ):
+                raise ValueError(f"{name} must be a finite number > 0; got {val!r}")
+
+    def make_library(self) -> LagrangianLibrary:
+        """The library this regressor fits: a fresh, unfitted instance of ``library`` (default physical)."""
+        if self.library is None or self.library == "physical":
+            from .library.physical import PhysicalPCSLibrary
+
+            return PhysicalPCSLibrary()
+        if isinstance(self.library, str):
+            from .library.pcs_lagrangian import PCSLagrangianLibrary
+
+            return PCSLagrangianLibrary()
+        return clone(self.library)
+
+    def _new_actuation(self, kin: PlanarPCS) -> Actuation:
+        act = self.actuation
+        if act is None or isinstance(act, dict):
+            act = actuation_from_layout(act)
+        else:
+            act = clone(act)
+        return act.fit(kin)
+
+    def _derivatives(
+        self, rec: StrainTrajectory, k: int, qd: ArrayLike | None, qdd: ArrayLike | None, *, fixed: bool = False
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64] | None]:
+        """Rates (and accelerations) of one recording; ``fixed``: Savitzky–Golay :data:`SCORE_DERIVATIVES`."""
+        wl, po = SCORE_DERIVATIVES if fixed else (self.window_length, self.polyorder)
+        return _rec.derivatives(
+            rec, k, qd, qdd, method=None if fixed else self.differentiation_method, window_length=wl, polyorder=po
+        )
+
+    def _recordings(
+        self,
+        X: Any,
+        y: Any,
+        qd: Any,
+        qdd: Any,
+        *,
+        kin: PlanarPCS | None,
+        formulation: str,
+        actuation: Actuation | None = None,
+    ) -> tuple[PlanarPCS, list[StrainTrajectory], list]:
+        """:func:`pcs_sindy.identification.recordings.prepare` with this estimator's settings."""
+        return _rec.prepare(
+            X,
+            y,
+            qd,
+            qdd,
+            kin=kin,
+            formulation=formulation,
+            actuation=actuation,
+            differentiation_method=self.differentiation_method,
+            window_length=self.window_length,
+            polyorder=self.polyorder,
+            weak_window=self.weak_window,
+            weak_stride=self.weak_stride,
+            exclude_force_jumps=self.exclude_force_jumps,
+        )
+
+    # ------------------------------------------------------------------ fit
+    def fit(
+        self,
+        X: Sequence[StrainTrajectory],
+        y: Sequence[ArrayLike],
+        *,
+        qd: Sequence[ArrayLike] | None = None,
+        qdd: Sequence[ArrayLike] | None = None,
+    ) -> EulerLagrangeRegressor:
+        """Identify the model.
+
+        Parameters
+        ----------
+        X : list of StrainTrajectory
+            Recordings (time stamps, full strains ``q`` (T, 3m), segmentation).
+        y : list of array_like, shape (T, 3m)
+            Generalized forces of each recording (held constant per sample).
+        qd, qdd : list of array_like, optional
+            Known strain rates and accelerations (e.g. from a simulator)
+            instead of differentiating ``q`` (the weak form needs only ``qd``).
+
+        Returns
+        -------
+        self
+        """
+        start = time.perf_counter()
+        self._check_params()
+        X = as_strain_trajectories(X)
+        act = self._new_actuation(kinematics_of(X))
+        kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
+        if not any(np.any(r.u) for r in recs):
+            raise ValueError(
+                "y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
+                "identified; record with actuation"
+            )
+        lib = self.make_library().fit(X)
+        offsets, offset_info = (None, None)
+        if act.n_offsets:
+            offsets, offset_info = fit_offsets(lib, act, recs, self.formulation, self.weak_hold)
+        x, target, design = _form.regression(lib, recs, self.formulation, act, offsets=offsets, hold=self.weak_hold)
+        self.n_regression_samples_ = int(x.shape[0])
+        columns: Any = WithGains(lib, act.gain_names_, act.gain_lower_bound) if act.n_gains else lib
+        equality = columns.scale_constraint() if act.n_gains else None
+        if act.n_gains and equality is None and not np.any(target):
+            raise ValueError(
+                f"{type(act).__name__} with identified gains makes the regression homogeneous: densities, stiffness, "
+                "damping and gains are determined only up to one common factor (the motion is the same when all are "
+                "scaled alike, known gravity included). Give one absolute quantity: the robot's mass, "
+                "library=PhysicalPCSLibrary(mass=...), or the gains themselves"
+            )
+        opt = StiffnessThresholdOptimizer() if self.optimizer is None else clone(self.optimizer)
+        p_lib = lib.n_coefficients_
+        if isinstance(opt, StiffnessThresholdOptimizer):
+            opt.fit(x, target, library=columns, design=design, equality=equality)
+            lib_r = opt.library_.library if act.n_gains else opt.library_
+            coef_all = np.asarray(opt.coef_[0], dtype=float)
+            column_map = np.asarray([c for c in opt.column_map_ if c < p_lib], dtype=int)
+            active, removed = opt.active_strains_, list(opt.removed_strains_)
+        else:
+            if equality is not None:
+                raise ValueError(
+                    f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
+                    "use StiffnessThresholdOptimizer"
+                )
+            opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
+            coef_all = np.asarray(opt.coef_, dtype=float).reshape(-1)
+            if coef_all.shape != (x.shape[-1],) or not np.all(np.isfinite(coef_all)):
+                raise ValueError(
+                    f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
+                    f"expected ({x.shape[-1]},) finite values"
+                )
+            lib_r, column_map = lib, np.arange(p_lib)
+            active, removed = kin.active_strains.copy(), []
+        coef, library_ = coef_all[:p_lib], lib_r
+        self.actuation_ = act.set_identified(
+            coef_all[p_lib:] if act.n_gains else act.gains_,
+            act.offsets_ if offsets is None else act.signed_offsets(offsets),
+        )
+        self.optimizer_ = opt
+        self.full_library_ = lib
+        self.library_ = library_
+        self.column_map_ = column_map
+        self.coef_ = coef
+        self.model_coef_ = coef[column_map]
+        self.active_strains_ = np.asarray(active, dtype=bool).reshape(kin.n_segments, 3)
+        self.removed_strains_ = removed
+        self.kinematics_ = PlanarPCS(kin.segment_lengths, self.active_strains_, kin.base_pose)
+        self._set_physical_attributes(kin)
+        self.n_features_in_ = kin.n_q
+        kept = self.active_strains_.reshape(-1)[kin.active_mask]
+        x_final = x if np.all(kept) else np.asarray(design(self.library_, kept), dtype=float)
+        final_cols = np.r_[column_map, p_lib + np.arange(act.n_gains)]
+        eq = None if equality is None else (equality[0][final_cols], equality[1])
+        self.identifiability_ = self._identifiability(
+            x_final, np.asarray(target)[:, kept], coef_all[final_cols], eq, offset_info
+        )
+        q_kept = np.concatenate([r.q[:, kept] for r in recs])
+        self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
+        self.mass_matrix_not_pd_fraction_ = 0.0
+        if self.check_mass_matrix:
+            self._check_mass_matrix(q_kept)
+        self.__dict__.pop("_forward", None)
+        self.fit_time_ = time.perf_counter() - start
+        return self
+
+    def _set_physical_attributes(self, kin: PlanarPCS) -> None:
+        final = self.active_strains_.reshape(-1)
+        lib, coef = self.library_, self.model_coef_
+        stiff = np.full(kin.n_q, np.inf)
+        stiff[final] = lib.stiffness_from_coef(coef)
+        damping = np.zeros(kin.n_q)
+        damping[final] = lib.damping_from_coef(coef)
+        rest = np.zeros(kin.n_q)
+        f0 = lib.rest_force_from_coef(coef)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            # f0 = K q*; a zero stiffness with a nonzero f0 has no finite rest strain
+            rest[final] = np.where(f0 == 0.0, 0.0, f0 / stiff[final])
+        self.stiffness_, self.damping_, self.rest_strain_ = stiff, damping, rest
+
+    def _identifiability(
+        self,
+        x: NDArray[np.float64],
+        target: NDArray[np.float64],
+        coef: NDArray[np.float64],
+        equality: tuple | None,
+        offset_info: dict | None,
+    ) -> dict | None:
+        x2 = x.reshape(-1, x.shape[-1])
+        y2 = target.reshape(-1)
+        if equality is not None:  # the scale row, as weighted in the fit
+            a = np.asarray(equality[0], dtype=float)
+            w = 1e6 / np.linalg.norm(a / np.where(np.linalg.norm(x2, axis=0) > 0, np.linalg.norm(x2, axis=0), 1.0))
+            x2, y2 = np.vstack([x2, w * a]), np.append(y2, w * equality[1])
+        if x2.shape[0] <= x2.shape[1]:
+            warnings.warn(
+                f"the final regression has {x2.shape[0]} rows for {x2.shape[1]} coefficients: too few to estimate "
+                "standard errors (identifiability_ is None); record more data",
+                UserWarning,
+                stacklevel=3,
+            )
+            return None
+        lib = self.library_
+        names = lib.coefficient_names() + list(self.actuation_.gain_names_)
+        info = _ident.identifiability(x2, y2, coef, names, tol=self.identifiability_tol)
+        info["poorly_excited_strains"] = _ident.strain_excitation(
+            info,
+            self.kinematics_.strain_names(active_only=True),
+            lib.stiffness_index_,
+            lib.damping_index_,
+            self.identifiability_tol,
+        )
+        info["coef"] = np.asarray(coef, dtype=float).copy()
+        info["formulation"] = self.formulation
+        if offset_info is not None:
+            info.update(offset_info)
+            info["poorly_determined"] += [
+                nm
+                for nm, r in zip(offset_info["offset_names"], offset_info["offset_relative_standard_errors"])
+                if not r <= self.identifiability_tol
+            ]
+        return info
+
+    def _check_mass_matrix(self, q: NDArray[np.float64]) -> None:
+        eig = np.linalg.eigvalsh(self.library_.mass_matrix(q, self.model_coef_))
+        frac = float(np.mean(~(eig[:, 0] > 0)))
+        self.mass_matrix_not_pd_fraction_ = frac
+        if frac > 0:
+            warnings.warn(
+                f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
+                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or cleaner "
+                "data, or the default EulerLagrangeRegressor() (physical library, bounded fit: positive definite "
+                "by construction; weak form: no second derivatives)",
+                UserWarning,
+                stacklevel=3,
+            )
+
+    def identifiability_report(self) -> str:
+        """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
+        check_is_fitted(self, "identifiability_")
+        return _ident.report(self.identifiability_, self.identifiability_tol)
+
+    # ------------------------------------------------------------------ the identified model
+    def _model_q(self, q: ArrayLike, name: str = "q") -> NDArray[np.float64]:
+        """Modelled strains from full (..., 3m) or already reduced (..., n_active) input."""
+        check_is_fitted(self, "coef_")
+        return reduce_strains(self.kinematics_, q, name)
+
+    @staticmethod
+    def _batch(fn: Callable, *arrays: NDArray[np.float64]) -> NDArray[np.float64]:
+        lead = arrays[0].shape[:-1]
+        flat = [a.reshape(-1, a.shape[-1]) for a in arrays]
+        out = np.asarray(fn(*flat), dtype=float)
+        return out.reshape(lead + out.shape[1:])
+
+    def forward_model(self) -> Any:
+        """The identified model's :class:`~pcs_sindy.models.forward.ForwardModel` (built once, cached)."""
+        check_is_fitted(self, "coef_")
+        fm = self.__dict__.get("_forward")
+        if fm is None:
+            act = getattr(self, "actuation_", None)
+            fm = self.library_.forward_model(
+                self.model_coef_, actuation=None if isinstance(act, IdentityActuation) else act
+            )
+            self.__dict__["_forward"] = fm
+        return fm
+
+    def __getstate__(self) -> dict:
+        state = super().__getstate__()
+        state.pop("_forward", None)  # compiled kernels are rebuilt on demand
+        return state
+
+    def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
+        """Identified ``M(q)`` over the modelled strains, shape (..., n, n) (``q``: all or modelled strains)."""
+        qa = self._model_q(q)
+        return self._batch(lambda a: self.library_.mass_matrix(a, self.model_coef_), qa)
+
+    def bias_forces(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
+        """``C(q, qd) qd + G(q) + K q + D qd - f0`` of the identified model, shape (..., n)."""
+        qa, qda = self._model_q(q), self._model_q(qd, "qd")
+        if qa.shape != qda.shape:
+            raise ValueError(f"q and qd must have the same shape; got {qa.shape} and {qda.shape}")
+        return self._batch(lambda a, b: self.library_.bias_forces(a, b, self.model_coef_), qa, qda)
+
+    def potential_forces(self, q: ArrayLike) -> NDArray[np.float64]:
+        """``G(q) + K q - f0`` of the identified model, shape (..., n)."""
+        qa = self._model_q(q)
+        return self._batch(lambda a: self.library_.potential_forces(a, self.model_coef_), qa)
+
+    def predict(
+        self,
+        X: Sequence[StrainTrajectory],
+        *,
+        qd: Sequence[ArrayLike] | None = None,
+        qdd: Sequence[ArrayLike] | None = None,
+    ) -> list[NDArray[np.float64]]:
+        """Forces ``tau_hat = Psi(q, qd, qdd) coef`` (inverse dynamics) per recording.
+
+        Rates and accelerations come from ``qd``/``qdd`` or from this
+        estimator's differentiation settings.
+
+        Returns
+        -------
+        list of ndarray, shape (T, 3m)
+            Forces on the modelled strains; 0 in the columns of strains that
+            are not modelled (the model has no equation for a rigid strain).
+        """
+        check_is_fitted(self, "coef_")
+        self._check_params()
+        X = as_strain_trajectories(X)
+        dummy = [np.zeros((r.n_frames, self.kinematics_.n_q)) for r in X]
+        kin, _, recs = self._recordings(X, dummy, qd, qdd, kin=self.kinematics_, formulation="strong")
+        out = []
+        for k, r in enumerate(recs):
+            psi = np.asarray(self.library_.euler_lagrange_matrix(r.q, r.qd, r.qdd), dtype=float)
+            tau = np.zeros((r.q.shape[0], kin.n_q))
+            tau[:, kin.active_mask] = psi @ self.model_coef_
+            if not np.all(np.isfinite(tau)):
+                raise ValueError(f"the model predicts NaN or inf forces on X[{k}]")
+            out.append(tau)
+        return out
+
+    def score(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], sample_weight: None = None) -> float:
+        """R^2 of the tip positions of rollouts of the recordings ``X`` under their forces ``y``.
+
+        Each recording is rolled out from its measured state (as in
+        :meth:`rollout_error`) and the tip path (x, y) compared with the
+        recording's own: ``1 - SS_res / SS_tot``, pooled over recordings and
+        samples, ``SS_tot`` about the mean tip position.  The targets are the
+        recordings themselves, so every candidate of a search is scored on the
+        same numbers whatever its settings, and every strain counts: a strain
+        removed as rigid is predicted by the reduced model (held at 0).  A
+        diverged rollout scores ``-inf`` (never NaN).
+
+        Raises
+        ------
+        ValueError
+            When the tip does not move in ``X`` (R^2 undefined).
+        """
+        check_is_fitted(self, "coef_")
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported; weight recordings by their length instead")
+        pairs = self._rollout_tips(X, y)
+        truth = np.concatenate([true for _, true in pairs])
+        ss_tot = float(np.sum((truth - truth.mean(axis=0)) ** 2))
+        if not ss_tot > 1e-12 * float(np.sum(truth**2)):
+            raise ValueError("the tip does not move in X; the R^2 of its path is undefined")
+        if any(sim is None for sim, _ in pairs):
+            return -np.inf
+        ss_res = float(sum(np.sum((sim - true) ** 2) for sim, true in pairs))
+        return 1.0 - ss_res / ss_tot
+
+    def _rollout_tips(
+        self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any
+    ) -> list[tuple[NDArray[np.float64] | None, NDArray[np.float64]]]:
+        """Per recording: the rolled-out and the recorded tip positions (T', 2); None for a diverged rollout."""
+        check_is_fitted(self, "coef_")
+        X = as_strain_trajectories(X)
+        ys = _rec.check_list(y, len(X), "y")
+        out = []
+        for k, rec in enumerate(X):
+            tau = np.asarray(ys[k], dtype=float)
+            act = getattr(self, "actuation_", None)
+            if act is not None and not isinstance(act, IdentityActuation):
+                tau = act.check_inputs(tau, f"y[{k}]")
+                if tau.shape[0] != rec.n_frames:
+                    raise ValueError(f"y[{k}] has {tau.shape[0]} samples but X[{k}] has {rec.n_frames}")
+            elif tau.shape != rec.q.shape or not np.all(np.isfinite(tau)):
+                raise ValueError(f"y[{k}] must be finite with the shape of X[{k}].q {rec.q.shape}; got {tau.shape}")
+            # start where the fixed Savitzky-Golay estimate of the rate is centred, not at the edge
+            k0 = 0 if rec.qd is not None else min(SCORE_DERIVATIVES[0] // 2, rec.n_frames - 2)
+            qd = rec.qd if rec.qd is not None else self._derivatives(rec, k, None, None, fixed=True)[0]
+            s = np.asarray([rec.kinematics.total_length])
+            true = rec.kinematics.forward_kinematics(rec.q[k0:], s)[:, 0, :2]
+            try:
+                sim = self.simulate(rec.q[k0], qd[k0], rec.t[k0:], tau[k0:], **simulate_kwargs)
+            except DivergenceError:
+                out.append((None, true))
+                continue
+            out.append((self.kinematics_.forward_kinematics(sim.q, s)[:, 0, :2], true))
+        return out
+
+    # ------------------------------------------------------------------ forward dynamics
+    def simulate(
+        self,
+        q0: ArrayLike,
+        qd0: ArrayLike,
+        t: ArrayLike | None = None,
+        u: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        *,
+        tau: ArrayLike | Callable[[float], ArrayLike] | None = None,
+        method: str | None = None,
+        rtol: float | None = None,
+        atol: float | None = None,
+        step: float | None = None,
+        max_step: float | None = None,
+        max_abs_state: float = 1e6,
+        progress: bool | None = None,
+        stats: dict | None = None,
+    ) -> StrainTrajectory:
+        """Roll the identified model out under the input ``u``: the contract of :mod:`pcs_sindy.core.simulate_contract`.
+
+        Parameters
+        ----------
+        q0, qd0 : array_like, shape (3m,) or (n,)
+            Initial strains and rates (all strains, unmodelled ones ignored, or the modelled ones).
+        t : array_like, shape (T,)
+            Output times (strictly increasing).
+        u : array_like, shape (T, 3m), or callable
+            Generalised forces held constant on ``[t[k], t[k+1])``, or ``u(time)``
+            returning (3m,).  Columns of unmodelled strains are ignored.
+        tau : deprecated
+            Former name of ``u`` (FutureWarning).  The former argument order
+            ``simulate(q0, qd0, tau, t)`` also still works with a FutureWarning.
+        method : str, optional
+            Integration scheme (see the forward model's ``methods``); default
+            the model's best measured one (``"rosenbrock"`` for the physical
+            library: L-stable Rosenbrock-W, compiled; ``"radau"`` via solve_ivp
+            for the monomial library).
+        rtol, atol : float, optional
+            Tolerances (default: the estimator's).
+        step : float, optional
+            Fixed step of the compiled schemes (must divide every sample period).
+        max_step : float, optional
+            Bound on the adaptive step.
+        max_abs_state : float
+            A strain or rate larger than this in magnitude means divergence.
+        progress : bool, optional
+            Progress bar (default: the estimator's ``progress``).
+        stats : dict, optional
+            Filled with step counts (compiled schemes).
+
+        Returns
+        -------
+        StrainTrajectory
+            Full strains ``q`` and rates ``qd`` (T, 3m) of the segmentation; strains
+            that are not modelled stay 0.
+
+        Raises
+        ------
+        SimulationError
+            (also importable as ``DivergenceError``) if the state becomes
+            non-finite or unbounded, ``M(q)`` singular or the step collapses.
+        """
+        check_is_fitted(self, "coef_")
+        t, u = simulate_inputs(t, u, tau)
+        return self.forward_model().simulate(
+            q0,
+            qd0,
+            t,
+            u,
+            method=method,
+            rtol=self.rtol if rtol is None else rtol,
+            atol=self.atol if atol is None else atol,
+            step=step,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            progress=self.progress if progress is None else progress,
+            stats=stats,
+        )
+
+    def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
+        """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.
+
+        The rollout starts at the first sample where the Savitzky–Golay rate of
+        :data:`SCORE_DERIVATIVES` is centred (sample 3), or at sample 0 when
+        ``X[k].qd`` is known.  A diverged rollout counts as ``inf``.
+
+        Returns
+        -------
+        ndarray, shape (n_recordings,)
+        """
+        pairs = self._rollout_tips(X, y, **simulate_kwargs)
+        return np.array(
+            [np.inf if sim is None else float(np.linalg.norm(sim - true, axis=1).mean()) for sim, true in pairs]
+        )
+
+    # ------------------------------------------------------------------ text and pysindy
+    def equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
+        """The identified model as text (the library's own format; the last line starts ``D = diag(``).
+
+        Parameters
+        ----------
+        precision : int
+            Significant digits of the coefficients.
+        threshold : float
+            Terms with ``|coefficient| <= threshold`` are hidden (exact zeros always are).
+
+        Returns
+        -------
+        list of str
+        """
+        check_is_fitted(self, "coef_")
+        lines = self.library_.equations(self.model_coef_, precision=precision, threshold=threshold)
+        act = getattr(self, "actuation_", None)
+        if act is None or isinstance(act, IdentityActuation):
+            return lines
+        return lines[:-1] + act.describe(precision) + lines[-1:]
+
+    def print(self, precision: int = 3, threshold: float = 0.0) -> None:
+        """Print :meth:`equations`."""
+        for line in self.equations(precision=precision, threshold=threshold):
+            print(line)
+
+    @classmethod
+    def from_sindy(cls, model: Any) -> EulerLagrangeRegressor:
+        """A fitted regressor from a ``pysindy.SINDy`` fit of the stacked Euler–Lagrange form.
+
+        Parameters
+        ----------
+        model : pysindy.SINDy
+            Fitted with ``feature_library=StackedEulerLagrangeLibrary(library)``
+            (states ``[q, qd, qdd]``, forces as ``x_dot``).
+
+        Returns
+        -------
+        EulerLagrangeRegressor
+            With ``coef_`` the SINDy coefficients, no strain removed; it rolls
+            out (:meth:`simulate`), predicts and prints like any fitted regressor.
+        """
+        from .library.stacked import StackedEulerLagrangeLibrary
+
+        feat = getattr(model, "feature_library", None)
+        if not isinstance(feat, StackedEulerLagrangeLibrary) or not hasattr(model, "optimizer"):
+            raise ValueError(
+                "model must be a pysindy.SINDy fitted with feature_library=StackedEulerLagrangeLibrary(library); "
+                f"got {type(model).__name__} with feature_library {type(feat).__name__}"
+            )
+        coef = np.asarray(model.coefficients(), dtype=float)
+        lib = feat.library
+        if coef.shape != (1, lib.n_coefficients_):
+            raise ValueError(f"model.coefficients() must have shape (1, {lib.n_coefficients_}); got {coef.shape}")
+        reg = cls(library=lib, optimizer=model.optimizer)
+        kin = lib.kinematics
+        reg.optimizer_ = model.optimizer
+        reg.full_library_ = reg.library_ = lib
+        reg.column_map_ = np.arange(lib.n_coefficients_)
+        reg.coef_ = reg.model_coef_ = coef[0].copy()
+        reg.active_strains_ = kin.active_strains.copy()
+        reg.removed_strains_ = []
+        reg.kinematics_ = PlanarPCS(kin.segment_lengths, kin.active_strains, kin.base_pose)
+        reg._set_physical_attributes(kin)
+        reg.actuation_ = IdentityActuation().fit(PlanarPCS(kin.segment_lengths, kin.active_strains))
+        reg.n_features_in_ = kin.n_q
+        reg.identifiability_ = None
+        reg.mass_matrix_not_pd_fraction_ = 0.0
+        reg.n_regression_samples_ = 0
+        reg.fit_time_ = 0.0
+        return reg
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        # samples are recordings (lists of trajectories), not rows of a 2-D array
+        tags.input_tags.two_d_array = False
+        tags.target_tags.required = True
+        tags.target_tags.single_output = False
+        tags.target_tags.multi_output = True
+        return tags

@@ -1,0 +1,359 @@
+"""The plain data files of the ``pcs-sindy`` command line: recordings, poses, forces, strains, models.
+
+Every array file is an ``.npz`` of named arrays, read without pickle; keys a
+reader does not know are ignored, so files written by older versions (and
+recordings, which hold poses and forces) still load.  :data:`FILE_FORMATS`
+lists the keys.  Fitted segmentations and models are JSON + ``.npz`` pairs of
+:mod:`pcs_sindy.io.model_files`; :func:`read_model_file` loads one and checks
+its class.
+
+Readers raise :class:`DataFileError` (a ``ValueError``) naming the file and
+what is wrong with it, or ``FileNotFoundError``.
+"""
+
+from __future__ import annotations
+
+import json
+import zipfile
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..core.trajectory import StrainTrajectory
+
+__all__ = [
+    "FILE_FORMATS",
+    "DataFileError",
+    "output_dir",
+    "read_arrays",
+    "read_poses",
+    "write_poses",
+    "read_tau",
+    "write_tau",
+    "read_strains",
+    "write_strains",
+    "write_recording",
+    "read_training_files",
+    "read_model_file",
+    "write_model_file",
+]
+
+FILE_FORMATS = """\
+file formats (all .npz, read without pickle; extra keys are ignored):
+  recording    t (T,), q, qd, tau (T, n), poses, poses_true (T, N+1, 3)  (written by 'simulate');
+               actuated scenarios add u (T, p), the actuator inputs (tau is then A(q) u at the samples)
+  pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
+               optional rest_length (): the robot's measured length in m (written by 'extract --robot-length')
+  tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
+  strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
+               base_pose (3,), base_poses (T, 3), marker_arc_lengths (N+1,)  (written by 'fuse')
+  model files  JSON + .npz sibling written by pcs_sindy.io.model_files (no pickle)
+"""
+
+_RECORDING_KEYS = ("t", "q", "qd", "tau", "poses", "poses_true")
+_STRAIN_METADATA = ("base_poses", "marker_arc_lengths", "boundaries")
+
+
+class DataFileError(ValueError):
+    """A data file that cannot be read: not an ``.npz`` of named arrays, missing keys or wrong shapes."""
+
+
+def output_dir(path: str | Path) -> Path:
+    """Create ``path`` (and parents) and check that it is writable.
+
+    Raises
+    ------
+    DataFileError
+        If it cannot be created or written to.
+    """
+    out = Path(path)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        probe = out / ".write_test"
+        probe.write_text("")
+        probe.unlink()
+    except OSError as err:
+        raise DataFileError(f"output directory {str(out)!r} is not writable: {err.strerror or err}") from None
+    return out
+
+
+def read_arrays(
+    path: str | Path, required: Sequence[str], what: str = "data file", optional: Sequence[str] = ()
+) -> dict[str, NDArray]:
+    """The ``required`` arrays (and those of ``optional`` that are present) of an ``.npz`` file.
+
+    Parameters
+    ----------
+    path : str or Path
+    required, optional : sequence of str
+        Keys that must be present / are read when present.
+    what : str
+        The kind of file, named in error messages (e.g. ``"pose file"``).
+
+    Returns
+    -------
+    dict of str to ndarray
+
+    Raises
+    ------
+    FileNotFoundError
+        If ``path`` is not a file.
+    DataFileError
+        If it is not an ``.npz`` of named arrays or lacks a required key.
+    """
+    src = Path(path)
+    if not src.is_file():
+        raise FileNotFoundError(f"{what} {str(path)!r} does not exist")
+    try:
+        data = np.load(src, allow_pickle=False)
+    except (OSError, EOFError, ValueError, zipfile.BadZipFile) as err:
+        raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
+    if not isinstance(data, np.lib.npyio.NpzFile):
+        raise DataFileError(f"{what} {str(path)!r} is a single .npy array, not an .npz file with named arrays")
+    with data:
+        missing = [k for k in required if k not in data.files]
+        if missing:
+            raise DataFileError(f"{what} {str(path)!r} lacks {missing} (found {sorted(data.files)})")
+        try:
+            return {k: np.asarray(data[k]) for k in (*required, *optional) if k in data.files}
+        except (OSError, ValueError, zipfile.BadZipFile) as err:  # e.g. an object array (pickle refused)
+            raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
+
+
+def read_poses(path: str | Path, key: str = "poses") -> tuple[NDArray[np.float64] | None, NDArray[np.float64]]:
+    """Time stamps (None when the file has none) and poses (T, N + 1, 3) of a pose file or recording.
+
+    Parameters
+    ----------
+    path : str or Path
+    key : str
+        The poses' key: ``"poses"`` (measured) or ``"poses_true"`` (a recording's noise-free poses).
+
+    Returns
+    -------
+    t : ndarray, shape (T,), or None
+    poses : ndarray, shape (T, N + 1, 3)
+    """
+    data = read_arrays(path, [key], "pose file", optional=["t"])
+    poses = data[key].astype(float)
+    if poses.ndim != 3 or poses.shape[-1] != 3 or poses.shape[1] < 2:
+        raise DataFileError(f"pose file {str(path)!r}: '{key}' must have shape (T, N + 1, 3); got {poses.shape}")
+    t = data.get("t")
+    if t is not None and t.shape != (poses.shape[0],):
+        raise DataFileError(f"pose file {str(path)!r}: 't' must have shape ({poses.shape[0]},); got {t.shape}")
+    return (None if t is None else t.astype(float)), poses
+
+
+def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike, rest_length: float | None = None) -> Path:
+    """Write a pose file (``t``, ``poses`` and, when known, the robot's ``rest_length``); returns its path."""
+    t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float)
+    if poses.ndim != 3 or poses.shape[-1] != 3 or t.shape != (poses.shape[0],):
+        raise ValueError(f"need t (T,) and poses (T, N + 1, 3); got {t.shape} and {poses.shape}")
+    extra = {} if rest_length is None else {"rest_length": np.float64(rest_length)}
+    np.savez(path, t=t, poses=poses, **extra)
+    return Path(path)
+
+
+def read_rest_length(path: str | Path) -> float | None:
+    """The robot's rest length in metres stored in a pose file, or None."""
+    data = read_arrays(path, [], "pose file", optional=["rest_length"])
+    value = data.get("rest_length")
+    if value is None:
+        return None
+    value = float(np.asarray(value))
+    if not np.isfinite(value) or value <= 0:
+        raise DataFileError(f"pose file {str(path)!r}: 'rest_length' must be a length > 0 in metres; got {value!r}")
+    return value
+
+
+def read_tau(path: str | Path, key: str = "tau") -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Time stamps (T,) and generalised forces (T, n) of a tau file or recording (``key="u"``: actuator inputs)."""
+    what = "tau file" if key == "tau" else "input file"
+    data = read_arrays(path, ["t", key], what)
+    t, tau = data["t"].astype(float), data[key].astype(float)
+    if tau.ndim != 2 or t.shape != (tau.shape[0],):
+        raise DataFileError(f"{what} {str(path)!r}: need t (T,) and {key} (T, n); got {t.shape} and {tau.shape}")
+    return t, tau
+
+
+def read_layout(path: str | Path) -> dict[str, Any]:
+    """An actuation layout from JSON: the layout itself, or a file holding it under ``"actuation"``.
+
+    A layout names its ``type`` (``"tendon"``, ``"pressure"``, ``"linear"``,
+    ``"identity"``) and the design parameters of :mod:`pcs_sindy.models.actuation`,
+    e.g. ``{"type": "tendon", "end": [0.07, 0.17], "side": [1, -1]}``; the
+    ``scenario.json`` written by ``pcs-sindy simulate`` qualifies.
+    """
+    src = Path(path)
+    try:
+        doc = json.loads(src.read_text())
+    except FileNotFoundError:
+        raise DataFileError(f"layout file {str(path)!r} does not exist") from None
+    except (OSError, ValueError) as err:
+        raise DataFileError(f"cannot read layout file {str(path)!r}: {err}") from None
+    layout = doc.get("actuation", doc) if isinstance(doc, dict) else None
+    if not isinstance(layout, dict) or "type" not in layout:
+        raise DataFileError(f"layout file {str(path)!r} holds no actuation layout (a JSON object with a 'type')")
+    return layout
+
+
+def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike) -> Path:
+    """Write a tau file (``t``, ``tau``); returns its path."""
+    t, tau = np.asarray(t, dtype=float), np.asarray(tau, dtype=float)
+    if tau.ndim != 2 or t.shape != (tau.shape[0],):
+        raise ValueError(f"need t (T,) and tau (T, n); got {t.shape} and {tau.shape}")
+    np.savez(path, t=t, tau=tau)
+    return Path(path)
+
+
+def read_strains(path: str | Path) -> StrainTrajectory:
+    """A strain file as a :class:`~pcs_sindy.core.trajectory.StrainTrajectory`.
+
+    ``base_poses``, ``marker_arc_lengths`` and ``boundaries``, when present,
+    go to ``metadata`` (with ``source``, the path).
+    """
+    data = read_arrays(
+        path,
+        ["t", "q", "segment_lengths"],
+        "strain file",
+        optional=["active_strains", "base_pose", *_STRAIN_METADATA],
+    )
+    meta: dict[str, Any] = {"source": str(path)}
+    meta.update({key: data[key] for key in _STRAIN_METADATA if key in data})
+    try:
+        return StrainTrajectory(
+            data["q"],
+            data["t"],
+            segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
+            active_strains=data.get("active_strains"),
+            base_pose=tuple(data["base_pose"]) if "base_pose" in data else (0.0, 0.0, 0.0),
+            metadata=meta,
+        )
+    except ValueError as err:
+        raise DataFileError(f"strain file {str(path)!r}: {err}") from None
+
+
+def write_strains(path: str | Path, st: StrainTrajectory) -> Path:
+    """Write a strain trajectory (and its ``base_poses``, ``marker_arc_lengths``, ``boundaries`` metadata)."""
+    arrays = {
+        "t": st.t,
+        "q": st.q,
+        "segment_lengths": np.asarray(st.segment_lengths, dtype=float),
+        "active_strains": st.active_strains,
+        "base_pose": np.asarray(st.kinematics.base_pose, dtype=float),
+    }
+    arrays.update({key: np.asarray(st.metadata[key]) for key in _STRAIN_METADATA if key in st.metadata})
+    np.savez(path, **arrays)
+    return Path(path)
+
+
+def write_recording(path: str | Path, rec: Any) -> Path:
+    """Write a simulated recording (its ``t``, ``q``, ``qd``, ``tau``, ``poses``, ``poses_true`` that are not None).
+
+    An actuated recording also writes its actuator inputs ``u``.
+    """
+    arrays = {k: getattr(rec, k) for k in _RECORDING_KEYS if getattr(rec, k, None) is not None}
+    u = getattr(rec, "u", None)
+    if u is not None and u is not getattr(rec, "tau", None):
+        arrays["u"] = u
+    np.savez(path, **arrays)
+    return Path(path)
+
+
+def _match_by_stem(strain_files: Sequence[str | Path], tau_files: Sequence[str | Path]) -> list[str | Path]:
+    """Tau file of each strain file: by stem when every stem has one, else by order."""
+    by_stem = {Path(p).stem: p for p in tau_files}
+    if len(by_stem) == len(tau_files) and all(Path(s).stem in by_stem for s in strain_files):
+        return [by_stem[Path(s).stem] for s in strain_files]
+    if len(tau_files) != len(strain_files):
+        raise DataFileError(
+            f"got {len(strain_files)} strain file(s) but {len(tau_files)} tau file(s), and their names (stems) "
+            "do not match; give one tau file per strain file, in the same order or with the same names"
+        )
+    return list(tau_files)
+
+
+def read_training_files(
+    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path], key: str = "tau"
+) -> tuple[list[StrainTrajectory], list[NDArray[np.float64]]]:
+    """Strain trajectories and their forces, checked to belong together.
+
+    Parameters
+    ----------
+    strain_files : sequence of path
+        Strain files (written by ``pcs-sindy fuse``).
+    tau_files : sequence of path
+        Tau files, matched to the strain files by name (stem) when every strain
+        file has one of the same stem, else by order.
+    key : {"tau", "u"}
+        ``"u"``: the files hold actuator inputs (any width), not generalised forces.
+
+    Returns
+    -------
+    strains : list of StrainTrajectory
+    taus : list of ndarray, shape (T, 3m)
+
+    Raises
+    ------
+    DataFileError
+        If the files do not pair up, a tau file's width differs from the
+        strains' or its time stamps from the strain file's by more than half a sample.
+    """
+    strains = [read_strains(p) for p in strain_files]
+    taus = []
+    for sfile, tfile, st in zip(strain_files, _match_by_stem(strain_files, tau_files), strains):
+        t, tau = read_tau(tfile, key)
+        n = st.kinematics.n_q
+        if key == "tau" and tau.shape[1] != n:
+            raise DataFileError(
+                f"tau file {str(tfile)!r} has {tau.shape[1]} force columns but strain file {str(sfile)!r} has {n} "
+                f"strains ({st.kinematics.n_segments} segment(s) x 3): tau must act on the same segmentation"
+            )
+        if t.shape[0] != st.n_frames:
+            raise DataFileError(
+                f"tau file {str(tfile)!r} has {t.shape[0]} samples but strain file {str(sfile)!r} has {st.n_frames}"
+            )
+        dt = float(np.median(np.diff(st.t))) if st.n_frames > 1 else 1.0
+        if np.max(np.abs((t - t[0]) - (st.t - st.t[0]))) > 0.5 * dt:
+            raise DataFileError(
+                f"time stamps of tau file {str(tfile)!r} and strain file {str(sfile)!r} differ by more than half a "
+                "sample"
+            )
+        taus.append(tau)
+    return strains, taus
+
+
+def read_model_file(path: str | Path, expected: type, what: str = "model file") -> Any:
+    """An object saved by :func:`pcs_sindy.io.model_files.save`, checked to be an ``expected`` instance.
+
+    Parameters
+    ----------
+    path : str or Path
+        ``model.json`` (or the stem, or the ``.npz``).
+    expected : type
+        E.g. ``EulerLagrangeRegressor`` or ``KinematicFusion`` (a segmentation file).
+    what : str
+        The kind of file, named in error messages.
+    """
+    from .model_files import load
+
+    src = Path(path)
+    if not (src.exists() or src.with_suffix(".json").exists()):
+        raise FileNotFoundError(f"{what} {str(path)!r} does not exist")
+    try:
+        obj = load(src)
+    except (ValueError, OSError, KeyError, TypeError) as err:
+        raise DataFileError(f"cannot read {what} {str(path)!r}: {err}") from None
+    if not isinstance(obj, expected):
+        raise DataFileError(f"{what} {str(path)!r} holds a {type(obj).__name__}, not a {expected.__name__}")
+    return obj
+
+
+def write_model_file(obj: Any, path: str | Path) -> Path:
+    """Save a fitted estimator as JSON + ``.npz`` (:func:`pcs_sindy.io.model_files.save`); returns the JSON path."""
+    from .model_files import save
+
+    return Path(save(obj, path))

@@ -1,0 +1,741 @@
+"""Safe model files: fitted estimators as JSON plus ``.npz``, never pickle.
+
+``save(obj, "model")`` writes ``model.json`` (human-readable: format name and
+version, package version, class names, constructor parameters, learned
+scalars and lists, references to arrays) and ``model.npz`` (every array,
+uncompressed, bit-exact).  ``load("model")`` rebuilds the object.
+
+Loading an untrusted file cannot execute code:
+
+* classes are looked up in a fixed registry (:data:`REGISTRY`, name -> module
+  and attribute written in this file); a stored string is never imported,
+  evaluated, ``getattr``-ed or ``sympify``-ed;
+* arrays are read with ``np.load(..., allow_pickle=False)`` and only numeric,
+  boolean and unicode dtypes are accepted;
+* objects are rebuilt through their constructors with the stored parameters
+  (names checked against the constructor's signature) and validated with the
+  class's own parameter checks; learned attributes are restricted to
+  ``name_`` attributes that are not properties of the class;
+* symbolic libraries are rebuilt from their specification (segment lengths,
+  active strains, basis) and re-derive or read their own cache; a model file
+  may not choose that cache directory (it holds generated code that the
+  library executes), see ``cache_dir`` of :func:`load`;
+* a ``Pipeline``'s ``memory`` (a joblib cache of pickles) must be None.
+
+A file names its format version; files from a newer format are refused.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import importlib
+import inspect
+import io
+import json
+import math
+import os
+import re
+import secrets
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .._version import __version__
+
+__all__ = ["save", "load", "FORMAT_VERSION", "FORMAT_NAME", "REGISTRY"]
+
+#: Name written in every model file.
+FORMAT_NAME = "pcs_sindy.model"
+#: Version of the file layout; bumped on incompatible changes.
+FORMAT_VERSION = 1
+
+# largest JSON part we parse: a model's JSON holds no bulk data (arrays go to the npz)
+_MAX_JSON_BYTES = 64 * 2**20
+# largest total of array bytes we unpack from the npz (a crafted zip can claim far more than its size)
+_MAX_ARRAY_BYTES = 2**30
+_ALLOWED_DTYPE_KINDS = "biufcU"
+_SCALAR_DTYPES = (
+    "bool",
+    "int8",
+    "int16",
+    "int32",
+    "int64",
+    "uint8",
+    "uint16",
+    "uint32",
+    "uint64",
+    "float16",
+    "float32",
+    "float64",
+    "complex64",
+    "complex128",
+)
+_STATE_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*_$")
+_TAGS = ("$float", "$tuple", "$dict", "$array", "$scalar", "$complex", "$object", "$ref")
+
+
+class _Unset:
+    def __repr__(self) -> str:
+        return "<stored>"
+
+
+_UNSET = _Unset()
+
+
+# --------------------------------------------------------------------------
+# Registry of the classes a model file may contain
+# --------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True)
+class ClassSpec:
+    """How one registered class is stored.
+
+    Parameters
+    ----------
+    module, attribute : str
+        Where the class lives (fixed here, never read from a file).
+    kind : {"estimator", "dataclass", "init"}
+        ``"estimator"``: sklearn ``get_params(deep=False)`` plus learned
+        attributes; ``"dataclass"``: the ``init`` fields; ``"init"``: the
+        attributes named in ``fields`` passed to the constructor.
+    fields : tuple of str
+        Constructor arguments of an ``"init"`` class (read back with getattr).
+    params_only : bool
+        Store no learned state (stateless transformers).
+    skip_state : frozenset of str
+        Learned attributes deliberately not stored (training-data artefacts).
+    validate : callable, optional
+        ``validate(obj)`` raises on invalid parameters (the class's own checks).
+    optional : bool
+        The module may be missing (e.g. not written yet).
+    """
+
+    module: str
+    attribute: str
+    kind: str = "estimator"
+    fields: tuple[str, ...] = ()
+    params_only: bool = False
+    skip_state: frozenset = frozenset()
+    validate: Callable[[Any], Any] | None = None
+    optional: bool = False
+
+
+def _validate_library(obj: Any) -> None:
+    obj._check_params()
+
+
+def _validate_pipeline(obj: Any) -> None:
+    if obj.memory is not None:
+        raise ValueError(f"memory must be None (a joblib cache is not stored in model files); got {obj.memory!r}")
+    obj._validate_steps()
+
+
+#: Classes a model file may hold, by the name written in the file.
+REGISTRY: dict[str, ClassSpec] = {
+    "KinematicFusion": ClassSpec(
+        "pcs_sindy.fusion.kinematic_fusion", "KinematicFusion", validate=lambda o: o._check_params()
+    ),
+    "EulerLagrangeRegressor": ClassSpec(
+        "pcs_sindy.identification.regressor", "EulerLagrangeRegressor", validate=lambda o: o._check_params()
+    ),
+    # Theta_ is the training regression matrix (can be 100 MB); prediction does not use it
+    "StiffnessThresholdOptimizer": ClassSpec(
+        "pcs_sindy.identification.optimizers",
+        "StiffnessThresholdOptimizer",
+        skip_state=frozenset({"Theta_"}),
+        validate=lambda o: o._check_params(),
+    ),
+    "PCSLagrangianLibrary": ClassSpec(
+        "pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library
+    ),
+    "PhysicalPCSLibrary": ClassSpec(
+        "pcs_sindy.identification.library.physical", "PhysicalPCSLibrary", validate=_validate_library
+    ),
+    # actuation terms: parameters (the layout) and the identified offsets and gains
+    "IdentityActuation": ClassSpec("pcs_sindy.models.actuation", "IdentityActuation"),
+    "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
+    "PressureActuation": ClassSpec("pcs_sindy.models.actuation", "PressureActuation"),
+    "LinearActuation": ClassSpec("pcs_sindy.models.actuation", "LinearActuation"),
+    "MarkerPoseExtractor": ClassSpec(
+        "pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True, validate=lambda o: o._validate()
+    ),
+    "Camera": ClassSpec("pcs_sindy.core.camera", "Camera", kind="dataclass"),
+    "PlanarPCS": ClassSpec("pcs_sindy.core.kinematics", "PlanarPCS", kind="dataclass"),
+    "PoseTrajectory": ClassSpec(
+        "pcs_sindy.core.trajectory", "PoseTrajectory", kind="init", fields=("poses", "t", "metadata")
+    ),
+    "StrainTrajectory": ClassSpec(
+        "pcs_sindy.core.trajectory",
+        "StrainTrajectory",
+        kind="init",
+        fields=("q", "t", "segment_lengths", "active_strains", "qd", "base_pose", "metadata"),
+    ),
+    "Pipeline": ClassSpec("sklearn.pipeline", "Pipeline", validate=_validate_pipeline),
+    "PCSPipeline": ClassSpec("pcs_sindy.pipeline.pcs_pipeline", "PCSPipeline", validate=_validate_pipeline),
+    # plain-parameter pysindy differentiation (no callables among its parameters); what it keeps
+    # after a call (stencils, the last smoothed input) is recomputed on every call
+    "FiniteDifference": ClassSpec("pysindy.differentiation", "FiniteDifference", params_only=True),
+}
+
+
+def _resolve(name: str) -> type | None:
+    """The registered class called ``name`` (None if its optional module is missing)."""
+    spec = REGISTRY[name]
+    try:
+        module = importlib.import_module(spec.module)
+    except ImportError:
+        if spec.optional:
+            return None
+        raise
+    return getattr(module, spec.attribute, None) if spec.optional else getattr(module, spec.attribute)
+
+
+def _name_of(obj: Any) -> str | None:
+    """Registry name of ``type(obj)`` (exact type: a subclass may behave differently)."""
+    cls = type(obj)
+    for name, spec in REGISTRY.items():
+        if spec.attribute != cls.__name__ or spec.module.split(".")[0] != cls.__module__.split(".")[0]:
+            continue
+        if _resolve(name) is cls:
+            return name
+    return None
+
+
+# --------------------------------------------------------------------------
+# Encoding
+# --------------------------------------------------------------------------
+class _Encoder:
+    def __init__(self) -> None:
+        self.arrays: dict[str, np.ndarray] = {}
+        self._array_keys: dict[int, str] = {}
+        self._object_ids: dict[int, int] = {}
+        self._alive: list[Any] = []  # keep ids unique while encoding
+
+    def encode(self, value: Any, where: str) -> Any:
+        if value is None or isinstance(value, (bool, str)):
+            return value
+        if isinstance(value, np.ndarray):
+            return self._array(value, where)
+        if isinstance(value, np.generic):
+            return self._scalar(value, where)
+        if isinstance(value, int):
+            return int(value)
+        if isinstance(value, float):
+            v = float(value)
+            return v if math.isfinite(v) else {"$float": repr(v)}
+        if isinstance(value, complex):
+            return {"$complex": [self.encode(value.real, where), self.encode(value.imag, where)]}
+        if isinstance(value, tuple) and type(value) is tuple:
+            return {"$tuple": [self.encode(v, f"{where}[{k}]") for k, v in enumerate(value)]}
+        if type(value) is list:
+            return [self.encode(v, f"{where}[{k}]") for k, v in enumerate(value)]
+        if type(value) is dict:
+            return {
+                "$dict": [[self.encode(k, f"{where} key"), self.encode(v, f"{where}[{k!r}]")] for k, v in value.items()]
+            }
+        name = _name_of(value)
+        if name is not None:
+            return self._object(value, name, where)
+        raise ValueError(
+            f"cannot store {where} of type {type(value).__module__}.{type(value).__qualname__}: model files hold "
+            "None, bool, int, float, str, tuples, lists, dicts, numpy arrays and scalars, and the classes of "
+            f"pcs_sindy.io.model_files.REGISTRY ({', '.join(REGISTRY)})"
+        )
+
+    def _array(self, value: np.ndarray, where: str) -> dict:
+        key = self._array_keys.get(id(value))
+        if key is None:
+            arr = np.asarray(value)  # drops ndarray subclasses such as pysindy's AxesArray
+            if arr.dtype.kind not in _ALLOWED_DTYPE_KINDS or arr.dtype.fields is not None:
+                raise ValueError(
+                    f"cannot store {where}: arrays of dtype {arr.dtype} are not supported (numeric, bool and "
+                    "unicode only; object arrays would need pickle)"
+                )
+            key = f"a{len(self.arrays)}"
+            self.arrays[key] = arr
+            self._array_keys[id(value)] = key
+            self._alive.append(value)
+        return {"$array": key}
+
+    def _scalar(self, value: np.generic, where: str) -> dict:
+        name = value.dtype.name
+        if name not in _SCALAR_DTYPES:
+            raise ValueError(f"cannot store {where}: numpy scalars of dtype {name} are not supported")
+        item = value.item()
+        return {"$scalar": name, "value": self.encode(item, where)}
+
+    def _object(self, obj: Any, name: str, where: str) -> dict:
+        if id(obj) in self._object_ids:
+            return {"$ref": self._object_ids[id(obj)]}
+        oid = len(self._object_ids)
+        self._object_ids[id(obj)] = oid
+        self._alive.append(obj)
+        spec = REGISTRY[name]
+        label = f"{where}<{name}>" if where else name
+        if spec.kind == "dataclass":
+            params = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj) if f.init}
+            state: dict[str, Any] = {}
+        elif spec.kind == "init":
+            params = {f: getattr(obj, f) for f in spec.fields}
+            state = {}
+        else:
+            params = obj.get_params(deep=False)
+            if name in ("Pipeline", "PCSPipeline") and params.get("memory") is not None:
+                raise ValueError(
+                    f"cannot store {label}.memory = {params['memory']!r}: a joblib cache holds pickles; "
+                    "set memory=None before saving"
+                )
+            state = {}
+            if not spec.params_only:
+                for key, val in vars(obj).items():
+                    if key.startswith("_") or key in params or key in spec.skip_state:
+                        continue
+                    state[key] = val
+        return {
+            "$object": name,
+            "id": oid,
+            "params": {k: self.encode(v, f"{label}.{k}") for k, v in params.items()},
+            "state": {k: self.encode(v, f"{label}.{k}") for k, v in state.items()},
+        }
+
+
+# --------------------------------------------------------------------------
+# Decoding
+# --------------------------------------------------------------------------
+class _Decoder:
+    def __init__(self, arrays: dict[str, np.ndarray], source: str, cache_dir: Any) -> None:
+        self.arrays = arrays
+        self.source = source
+        self.cache_dir = cache_dir
+        self.objects: dict[int, Any] = {}
+
+    def error(self, where: str, msg: str) -> ValueError:
+        return ValueError(f"model file {self.source}: {where or 'root'}: {msg}")
+
+    def decode(self, data: Any, where: str) -> Any:
+        if data is None or isinstance(data, (bool, str)):
+            return data
+        if isinstance(data, int):
+            return data
+        if isinstance(data, float):
+            return data
+        if isinstance(data, list):
+            return [self.decode(v, f"{where}[{k}]") for k, v in enumerate(data)]
+        if not isinstance(data, dict):
+            raise self.error(where, f"unexpected JSON value of type {type(data).__name__}")
+        tags = [t for t in _TAGS if t in data]
+        if len(tags) != 1:
+            raise self.error(
+                where, f"a JSON object must carry exactly one of the tags {_TAGS}; got keys {sorted(data)[:8]}"
+            )
+        tag = tags[0]
+        if tag == "$float":
+            self._keys(data, {"$float"}, where)
+            text = data["$float"]
+            if text not in ("inf", "-inf", "nan"):
+                raise self.error(where, f"$float must be 'inf', '-inf' or 'nan'; got {text!r}")
+            return float(text)
+        if tag == "$complex":
+            self._keys(data, {"$complex"}, where)
+            parts = data["$complex"]
+            if not (isinstance(parts, list) and len(parts) == 2):
+                raise self.error(where, "$complex must be [real, imag]")
+            re_, im_ = (self.decode(p, where) for p in parts)
+            if not all(isinstance(p, float) or (isinstance(p, int) and not isinstance(p, bool)) for p in (re_, im_)):
+                raise self.error(where, "$complex parts must be numbers")
+            return complex(re_, im_)
+        if tag == "$tuple":
+            self._keys(data, {"$tuple"}, where)
+            if not isinstance(data["$tuple"], list):
+                raise self.error(where, "$tuple must hold a list")
+            return tuple(self.decode(v, f"{where}[{k}]") for k, v in enumerate(data["$tuple"]))
+        if tag == "$dict":
+            self._keys(data, {"$dict"}, where)
+            items = data["$dict"]
+            if not isinstance(items, list) or not all(isinstance(p, list) and len(p) == 2 for p in items):
+                raise self.error(where, "$dict must hold a list of [key, value] pairs")
+            out = {}
+            for k, v in items:
+                key = self.decode(k, f"{where} key")
+                try:
+                    hash(key)
+                except TypeError:
+                    raise self.error(where, f"dict key of type {type(key).__name__} is not hashable") from None
+                out[key] = self.decode(v, f"{where}[{key!r}]")
+            return out
+        if tag == "$array":
+            self._keys(data, {"$array"}, where)
+            key = data["$array"]
+            if not isinstance(key, str) or key not in self.arrays:
+                raise self.error(where, f"refers to array {key!r}, which the npz file does not hold")
+            return self.arrays[key]
+        if tag == "$scalar":
+            self._keys(data, {"$scalar", "value"}, where)
+            name = data["$scalar"]
+            if name not in _SCALAR_DTYPES:
+                raise self.error(where, f"numpy scalar dtype must be one of {_SCALAR_DTYPES}; got {name!r}")
+            value = self.decode(data["value"], where)
+            if isinstance(value, (list, tuple, dict, str)) or value is None or isinstance(value, np.ndarray):
+                raise self.error(where, f"numpy scalar value must be a number; got {type(value).__name__}")
+            try:
+                return np.dtype(name).type(value)
+            except (TypeError, ValueError, OverflowError) as err:
+                raise self.error(where, f"invalid {name} value {value!r}: {err}") from None
+        if tag == "$ref":
+            self._keys(data, {"$ref"}, where)
+            ref = data["$ref"]
+            if isinstance(ref, bool) or not isinstance(ref, int) or ref not in self.objects:
+                raise self.error(where, f"refers to object {ref!r}, which is not defined before this point")
+            return self.objects[ref]
+        return self._object(data, where)
+
+    def _keys(self, data: dict, expected: set[str], where: str) -> None:
+        if set(data) != expected:
+            raise self.error(where, f"expected the keys {sorted(expected)}; got {sorted(data)}")
+
+    def _object(self, data: dict, where: str) -> Any:
+        self._keys(data, {"$object", "id", "params", "state"}, where)
+        name = data["$object"]
+        if not isinstance(name, str) or name not in REGISTRY:
+            raise self.error(
+                where,
+                f"class {name!r} is not allowed in model files (allowed: {', '.join(REGISTRY)}); "
+                "the file was not written by pcs_sindy.io.model_files.save or was altered",
+            )
+        spec = REGISTRY[name]
+        label = f"{where}<{name}>" if where else name
+        cls = _resolve(name)
+        if cls is None:
+            raise self.error(label, f"class {name} is not available in this installation (module {spec.module})")
+        oid = data["id"]
+        if isinstance(oid, bool) or not isinstance(oid, int) or oid in self.objects:
+            raise self.error(label, f"object id must be a new integer; got {oid!r}")
+        params, state = data["params"], data["state"]
+        if not isinstance(params, dict) or not isinstance(state, dict):
+            raise self.error(label, "params and state must be JSON objects")
+        allowed = self._param_names(cls, spec)
+        unknown = sorted(k for k in params if k not in allowed)
+        if unknown:
+            raise self.error(label, f"unknown constructor parameter(s) {unknown}; {name} takes {sorted(allowed)}")
+        kwargs = {k: self.decode(v, f"{label}.{k}") for k, v in params.items()}
+        self._check_kinds(cls, kwargs, label)
+        if "cache_dir" in allowed:
+            kwargs["cache_dir"] = self._cache_dir(kwargs.get("cache_dir"), label)
+        if spec.kind == "init" and set(kwargs) != set(spec.fields):
+            raise self.error(label, f"needs exactly the fields {list(spec.fields)}; got {sorted(kwargs)}")
+        try:
+            obj = cls(**kwargs)
+            if spec.validate is not None:
+                spec.validate(obj)
+        except (ValueError, TypeError, ArithmeticError, KeyError, IndexError, AttributeError, OSError) as err:
+            raise self.error(label, f"invalid parameters: {type(err).__name__}: {err}") from None
+        if state and (spec.kind != "estimator" or spec.params_only):
+            raise self.error(label, f"{name} has no learned state in model files; got {sorted(state)}")
+        fresh_public = {k for k in vars(obj) if not k.startswith("_")}
+        for key, raw in state.items():
+            if not isinstance(key, str) or not (_STATE_NAME.match(key) or (key in fresh_public and key not in allowed)):
+                raise self.error(label, f"attribute {key!r} is not a learned attribute of {name}")
+            static = inspect.getattr_static(cls, key, None)
+            if key in spec.skip_state or callable(static) or hasattr(static, "__set__") or hasattr(static, "__get__"):
+                raise self.error(
+                    label, f"attribute {key!r} cannot be set on {name} (a method, property or skipped attribute)"
+                )
+            value = self.decode(raw, f"{label}.{key}")
+            try:
+                setattr(obj, key, value)
+            except (AttributeError, TypeError, ValueError) as err:
+                raise self.error(label, f"cannot set {key}: {err}") from None
+        self.objects[oid] = obj
+        return obj
+
+    def _check_kinds(self, cls: type, kwargs: dict[str, Any], label: str) -> None:
+        """Numbers where the constructor's default is a number, booleans where it is a boolean.
+
+        The classes' own checks run later but may fail with messages that do
+        not name the parameter (``int('x')``); this names it.
+        """
+        try:
+            defaults = {
+                p.name: p.default for p in inspect.signature(cls).parameters.values() if p.default is not p.empty
+            }
+        except (TypeError, ValueError):
+            return
+        for key, value in kwargs.items():
+            default = defaults.get(key)
+            if value is None:
+                continue  # an optional value (e.g. a camera's open base frame): the class's own checks decide
+            if isinstance(default, bool):
+                if not isinstance(value, (bool, np.bool_)):
+                    raise self.error(label, f"parameter {key} must be a boolean like its default; got {value!r}")
+            elif isinstance(default, (int, float)):
+                number = isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(
+                    value, (bool, np.bool_)
+                )
+                # several numeric parameters also take one value per segment
+                if not (number or isinstance(value, (list, tuple, np.ndarray))):
+                    raise self.error(
+                        label, f"parameter {key} must be a number like its default {default!r}; got {value!r}"
+                    )
+
+    @staticmethod
+    def _param_names(cls: type, spec: ClassSpec) -> set[str]:
+        if spec.kind == "dataclass":
+            return {f.name for f in dataclasses.fields(cls) if f.init}
+        if spec.kind == "init":
+            return set(spec.fields)
+        return set(cls._get_param_names())
+
+    def _cache_dir(self, stored: Any, label: str) -> Any:
+        if self.cache_dir is not _UNSET:
+            return self.cache_dir
+        if stored is None or stored is False:
+            return stored
+        raise self.error(
+            label,
+            f"the file sets cache_dir={stored!r}; a derivation cache holds generated code that the library "
+            "executes, so a model file may not choose it. Pass load(..., cache_dir=None) for your default "
+            "cache, or a directory you trust",
+        )
+
+
+# --------------------------------------------------------------------------
+# Paths and files
+# --------------------------------------------------------------------------
+def _paths(path: str | os.PathLike) -> tuple[Path, Path]:
+    if isinstance(path, bytes) or not isinstance(path, (str, os.PathLike)):
+        raise ValueError(f"path must be a str or path-like; got {type(path).__name__}")
+    p = Path(path)
+    if p.name in ("", ".", ".."):
+        raise ValueError(f"path must name a file; got {str(path)!r}")
+    if p.suffix in (".json", ".npz"):
+        stem = p.with_suffix("")
+    else:
+        stem = p
+    return stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")
+
+
+def _atomic_write(path: Path, payload: bytes) -> None:
+    """Write ``payload`` to a fresh sibling file, then rename it over ``path`` (readers never see half a file)."""
+    for _ in range(100):
+        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
+        try:
+            # mode 0o666 minus the umask, like a plain open(); O_EXCL never follows a planted link
+            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+        except FileExistsError:
+            continue
+        break
+    else:
+        raise OSError(f"cannot create a temporary file next to {str(path)!r}")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(payload)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except OSError:
+            pass
+        raise
+
+
+def _package_version() -> str:
+    return __version__
+
+
+def save(obj: Any, path: str | os.PathLike) -> Path:
+    """Write a fitted estimator (or pipeline) to ``path`` as JSON plus ``.npz``.
+
+    Parameters
+    ----------
+    obj : object
+        An instance of a registered class (:data:`REGISTRY`): ``KinematicFusion``,
+        ``EulerLagrangeRegressor``, ``MarkerPoseExtractor`` (parameters only),
+        the libraries and optimizer, ``Camera``, ``PlanarPCS``, trajectories,
+        an sklearn ``Pipeline`` / ``PCSPipeline`` of such steps; fitted or not.
+    path : str or path-like
+        ``model``, ``model.json`` or ``model.npz``: writes ``model.json`` and
+        ``model.npz`` side by side (replacing existing files).
+
+    Returns
+    -------
+    pathlib.Path
+        The JSON file (pass it, or the stem, to :func:`load`).
+
+    Raises
+    ------
+    ValueError
+        If ``obj`` or one of its parameters or learned attributes has a type
+        that model files cannot hold; the message names the attribute.
+    OSError
+        If the files cannot be written.
+    """
+    json_path, npz_path = _paths(path)
+    if _name_of(obj) is None:
+        raise ValueError(
+            f"obj must be an instance of a class in pcs_sindy.io.model_files.REGISTRY ({', '.join(REGISTRY)}); "
+            f"got {type(obj).__module__}.{type(obj).__qualname__}"
+        )
+    enc = _Encoder()
+    root = enc.encode(obj, "")
+    buf = io.BytesIO()
+    np.savez(buf, **enc.arrays)
+    npz_bytes = buf.getvalue()
+    doc = {
+        "format": FORMAT_NAME,
+        "format_version": FORMAT_VERSION,
+        "package_version": _package_version(),
+        "class": root["$object"],
+        "arrays": {
+            "sha256": hashlib.sha256(npz_bytes).hexdigest(),
+            "entries": {k: {"dtype": a.dtype.str, "shape": list(a.shape)} for k, a in enc.arrays.items()},
+        },
+        "object": root,
+    }
+    text = _NUMBER_LIST.sub(_one_line, json.dumps(doc, indent=1, allow_nan=False)) + "\n"
+    if not json_path.parent.is_dir():
+        raise OSError(f"cannot save to path={str(path)!r}: directory {str(json_path.parent)!r} does not exist")
+    try:
+        # npz first: the JSON, written last, names the npz content it belongs to (sha256)
+        _atomic_write(npz_path, npz_bytes)
+        _atomic_write(json_path, text.encode("utf-8"))
+    except OSError as err:
+        raise OSError(f"cannot save model to path={str(path)!r}: {err}") from err
+    return json_path
+
+
+# a JSON list of numbers spread over lines by indent=1 (strings never hold raw newlines)
+_NUMBER_LIST = re.compile(r"\[\n\s*((?:-?[0-9][0-9.eE+-]*,\n\s*)*-?[0-9][0-9.eE+-]*)\n\s*\]")
+
+
+def _one_line(match: re.Match) -> str:
+    return "[" + re.sub(r",\n\s*", ", ", match.group(1)) + "]"
+
+
+def _reject_constant(name: str) -> Any:
+    raise ValueError(f"non-standard JSON constant {name}")
+
+
+def _read_npz_bytes(npz_path: Path, source: str) -> bytes:
+    try:
+        data = npz_path.read_bytes()
+    except FileNotFoundError:
+        raise OSError(f"model file {source}: its array file {str(npz_path)!r} is missing") from None
+    except OSError as err:
+        raise OSError(f"model file {source}: cannot read {str(npz_path)!r}: {err}") from err
+    return data
+
+
+def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
+    """Read an object written by :func:`save`.
+
+    Parameters
+    ----------
+    path : str or path-like
+        ``model``, ``model.json`` or ``model.npz``.
+    cache_dir : path, None or False, optional
+        Derivation cache for the symbolic libraries of the model (sets the
+        ``cache_dir`` parameter of every object that has one).  By default the
+        stored value is kept if it is None (your default cache) or False (no
+        cache); a file storing a directory is refused, because the cache holds
+        generated code that is executed and a model file must not choose it.
+
+    Returns
+    -------
+    object
+        The saved object, with its parameters and learned attributes.
+
+    Raises
+    ------
+    OSError
+        If a file is missing or unreadable.
+    ValueError
+        If the files are not a pcs_sindy model of a supported format version,
+        are inconsistent, name a class outside :data:`REGISTRY`, hold object
+        (pickled) arrays, or hold invalid parameters.
+    """
+    json_path, npz_path = _paths(path)
+    source = repr(str(json_path))
+    try:
+        size = json_path.stat().st_size
+        if size > _MAX_JSON_BYTES:
+            raise ValueError(f"model file {source} is {size} bytes; model JSON files are at most {_MAX_JSON_BYTES}")
+        raw = json_path.read_bytes()
+    except FileNotFoundError:
+        raise OSError(f"model file {source} does not exist") from None
+    except IsADirectoryError:
+        raise OSError(f"model file {source} is a directory") from None
+    try:
+        doc = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
+    except (UnicodeDecodeError, ValueError, RecursionError) as err:
+        raise ValueError(f"model file {source} is not valid JSON (truncated or corrupt?): {err}") from None
+    if not isinstance(doc, dict) or doc.get("format") != FORMAT_NAME:
+        got = doc.get("format") if isinstance(doc, dict) else type(doc).__name__
+        raise ValueError(f"model file {source} is not a {FORMAT_NAME} file (format {got!r})")
+    version = doc.get("format_version")
+    if isinstance(version, bool) or not isinstance(version, int) or version < 1:
+        raise ValueError(f"model file {source} has an invalid format_version {version!r}")
+    if version > FORMAT_VERSION:
+        raise ValueError(
+            f"model file {source} has format_version {version}, written by a newer pcs_sindy "
+            f"({doc.get('package_version')!r}); this version ({_package_version()}) reads format versions up to "
+            f"{FORMAT_VERSION}"
+        )
+    missing = [k for k in ("class", "arrays", "object") if k not in doc]
+    if missing:
+        raise ValueError(f"model file {source} lacks {missing}")
+    meta = doc["arrays"]
+    if (
+        not isinstance(meta, dict)
+        or not isinstance(meta.get("entries"), dict)
+        or not isinstance(meta.get("sha256"), str)
+    ):
+        raise ValueError(f"model file {source}: 'arrays' must hold 'sha256' and 'entries'")
+    data = _read_npz_bytes(npz_path, source)
+    if hashlib.sha256(data).hexdigest() != meta["sha256"]:
+        raise ValueError(
+            f"model file {source}: {str(npz_path)!r} does not belong to it (sha256 mismatch; "
+            "the npz was replaced or the pair was saved separately)"
+        )
+    arrays = _parse_npz(data, meta["entries"], source)
+    root = doc["object"]
+    if not isinstance(root, dict) or root.get("$object") != doc["class"]:
+        raise ValueError(f"model file {source}: 'object' must be the stored {doc['class']!r} object")
+    try:
+        return _Decoder(arrays, source, cache_dir).decode(root, "")
+    except RecursionError:
+        raise ValueError(f"model file {source} is nested too deeply") from None
+
+
+def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]:
+    try:
+        npz = np.load(io.BytesIO(data), allow_pickle=False)
+    except (ValueError, OSError, EOFError) as err:
+        raise ValueError(f"model file {source}: the array file is not a valid npz archive: {err}") from None
+    if not isinstance(npz, np.lib.npyio.NpzFile):
+        raise ValueError(f"model file {source}: the array file is not an npz archive")
+    arrays = {}
+    with npz:
+        unpacked = sum(info.file_size for info in npz.zip.infolist())
+        if unpacked > _MAX_ARRAY_BYTES:
+            raise ValueError(f"model file {source}: the npz unpacks to {unpacked} bytes (at most {_MAX_ARRAY_BYTES})")
+        if sorted(npz.files) != sorted(entries):
+            raise ValueError(
+                f"model file {source}: the npz holds arrays {sorted(npz.files)[:10]}, "
+                f"the JSON lists {sorted(entries)[:10]}"
+            )
+        for key, info in entries.items():
+            try:
+                arr = npz[key]
+            except (ValueError, OSError, EOFError) as err:  # object arrays need pickle, which we never allow
+                raise ValueError(f"model file {source}: array {key!r} cannot be read safely: {err}") from None
+            if arr.dtype.kind not in _ALLOWED_DTYPE_KINDS or arr.dtype.fields is not None:
+                raise ValueError(f"model file {source}: array {key!r} has unsupported dtype {arr.dtype}")
+            if not isinstance(info, dict) or info.get("dtype") != arr.dtype.str or info.get("shape") != list(arr.shape):
+                raise ValueError(
+                    f"model file {source}: array {key!r} is {arr.dtype.str} {list(arr.shape)}, the JSON says {info!r}"
+                )
+            arrays[key] = arr
+    return arrays
+
