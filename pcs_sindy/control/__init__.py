@@ -8,8 +8,12 @@ model's strains:
 * :class:`ComputedTorqueController` — tracking of strain or tip trajectories;
 * :class:`TipRegulator` — equilibrium inputs for a tip target, then feedback, within input bounds.
 
-:func:`closed_loop` runs one against the ground-truth simulator, observing
+:func:`closed_loop` runs one against a plant (the ground-truth simulator), observing
 its state or its noisy marker poses at a camera rate; :mod:`.plots` draws the results.
+
+Takes in identified models (and targets), gives inputs: generalised forces or actuator
+commands.  Imports only :mod:`pcs_sindy.core` and :mod:`pcs_sindy.models`; the plant and the
+fusion that observes it are passed in, never imported.
 """
 
 import lazy_loader as _lazy

@@ -1,15 +1,17 @@
 """The simulate contract shared by the ground-truth robot and identified models.
 
-``PCSRobot.simulate`` and ``EulerLagrangeRegressor.simulate`` (and any forward
-model of a library) take the same arguments in the same order,
+``PCSRobot.simulate``, ``EulerLagrangeRegressor.simulate``, ``PCSPipeline.simulate`` and
+any forward model's ``simulate`` take the same arguments in the same order,
 
-    simulate(q0, qd0, t, tau, *, method=..., rtol=..., atol=..., step=..., max_step=..., progress=...)
+    simulate(q0, qd0, t, u, *, method=..., rtol=..., atol=..., step=..., max_step=..., progress=...)
 
-return a :class:`~pcs_sindy.core.trajectory.StrainTrajectory`, raise
-:class:`SimulationError` when the integration fails, and name their
-integration schemes from one vocabulary (:data:`METHODS`).  This module holds
-that vocabulary and the error class; it is part of the ground floor and
-imports nothing else of the package.
+with ``u`` the inputs held constant on ``[t[k], t[k+1])`` (generalised forces, or actuator
+inputs of an actuated robot or model), return a :class:`~pcs_sindy.core.StrainTrajectory`,
+raise :class:`SimulationError` when the integration fails, and name their integration
+schemes from one vocabulary (:data:`METHODS`).  This module holds that vocabulary, the error
+class and :func:`simulate_inputs`, which reads the arguments the same way for everyone
+(including the former ``tau=`` spelling); it is part of the ground floor and imports nothing
+else of the package.
 """
 
 from __future__ import annotations
@@ -106,7 +108,26 @@ def canonical_method(method: str, supported: Iterable[str], *, owner: str = "sim
 
 
 def simulate_inputs(t: Any, u: Any, tau: Any) -> tuple[Any, Any]:
-    """``(t, u)`` of the simulate contract, accepting the former ``tau=`` name and argument order."""
+    """``(t, u)`` of the simulate contract, accepting the former ``tau=`` name and argument order.
+
+    Parameters
+    ----------
+    t, u : array_like, callable or None
+        The times and inputs as passed to ``simulate(q0, qd0, t, u)``.
+    tau : array_like, callable or None
+        The former keyword name of ``u`` (a FutureWarning); not with ``u``.
+
+    Returns
+    -------
+    t, u
+        In the contract's order; the former order ``simulate(q0, qd0, tau, t)`` (times given
+        second, as a callable or after a 2-D input) is swapped back with a FutureWarning.
+
+    Raises
+    ------
+    ValueError
+        When both ``u`` and ``tau`` are given, or the times or the inputs are missing.
+    """
     if tau is not None:
         if u is not None:
             raise ValueError("give the input as u (tau is its former name), not both")

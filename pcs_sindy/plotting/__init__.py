@@ -23,7 +23,8 @@ is importable from here:
 * :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10);
 * :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`).
 
-This package sits on top of the library: nothing in the core imports it.
+Takes in arrays and fitted estimators' attributes, gives :class:`matplotlib.figure.Figure` objects.
+Imports only :mod:`pcs_sindy.core`; nothing but the command line imports it.
 """
 
 import lazy_loader as _lazy

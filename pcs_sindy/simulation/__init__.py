@@ -1,8 +1,17 @@
 """Ground-truth simulators, scenarios and synthetic videos.
 
-This package is the independent truth the identification side is checked
-against: it never imports the library, optimizer or regressor, and they never
-import it.
+Takes in robot parameters (or a scenario name, :func:`get_scenario`) and gives what a lab
+would record: strains and rates, marker poses (noisy on request), the forces or actuator
+inputs that drove the robot, and rendered videos of it.
+
+* :mod:`.dynamics` - :class:`PCSRobot`: the PCS dynamics, integrated by its own stiff solver;
+* :mod:`.actuation` - the robot's actuators: :class:`Tendons`, :class:`PressureChambers`;
+* :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
+* :mod:`.scenarios`, :mod:`.catalog` - the seed's scenarios and how their data are generated;
+* :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances.
+
+This package is the independent truth the identification side is checked against: it
+imports only :mod:`pcs_sindy.core`, and identification, fusion and vision never import it.
 """
 
 import lazy_loader as _lazy
