@@ -34,6 +34,7 @@ ORDER = [
     "model_selection",
     "actuation",
     "control",
+    "cli_startup",
 ]
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]

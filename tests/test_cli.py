@@ -9,15 +9,20 @@ single stderr line and the absence of a traceback.
 
 from __future__ import annotations
 
+import importlib
+import inspect
 import json
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
 
+from pcs_sindy.cli import main as cli_main
 from pcs_sindy.cli.commands import CLIError, build_regressor, fit, pipeline_step, rollout
+from pcs_sindy.cli.defaults import read_default
 from pcs_sindy.cli.main import build_parser, command_kwargs, main
 from pcs_sindy.core import PlanarPCS, wrap_angle
 
@@ -70,6 +75,72 @@ def test_console_script_help_lists_every_command():
     for name in COMMANDS:
         assert name in res.stdout
     assert "file formats" in res.stdout
+
+
+# --------------------------------------------------------------------------
+# start-up: parsing imports no stage (speed: benchmarks/cli_startup.py)
+# --------------------------------------------------------------------------
+#: what a command loads when it runs, never the parser
+HEAVY = ("numpy", "scipy", "sklearn", "cv2", "numba", "pysindy", "sympy", "matplotlib", "joblib")
+
+_FRESH_PROCESS = """
+import contextlib, io, json, sys
+
+import pcs_sindy
+
+root = set(sys.modules)  # what importing the package root loads (not the command line's doing)
+from pcs_sindy.cli.main import build_parser, main
+
+build_parser()
+runs = []
+for argv in json.loads(sys.argv[1]):
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        try:
+            code = main(argv)
+        except SystemExit as exc:
+            code = exc.code
+    runs.append({"argv": argv, "code": code, "out": out.getvalue(), "err": err.getvalue(),
+                 "modules": sorted(sys.modules)})
+print(json.dumps({"root": sorted(root), "runs": runs}))
+"""
+
+
+def test_help_version_and_usage_errors_import_no_stage():
+    argvs = [
+        ["--help"],
+        *([command, "--help"] for command in COMMANDS),
+        ["--version"],
+        ["fit", "s.npz", "--tau", "t.npz", "--out", "m", "--no-such-option"],
+        ["fit", "s.npz", "--tau", "t.npz"],
+        ["rollout", "m.json", "--tau", "t.npz", "--out", "o", "--method", "euler"],
+    ]
+    res = subprocess.run(
+        [sys.executable, "-c", _FRESH_PROCESS, json.dumps(argvs)], capture_output=True, text=True, timeout=120
+    )
+    assert res.returncode == 0, res.stderr
+    report = json.loads(res.stdout)
+    assert len(report["runs"]) == len(argvs)
+    for run in report["runs"]:
+        assert run["code"] == (0 if run["argv"][-1] in ("--help", "--version") else 2), run
+        modules = set(run["modules"])
+        heavy = sorted(m for m in modules if m.split(".")[0] in HEAVY)
+        assert not heavy, f"{run['argv']} imported {heavy[:5]}"
+        stages = sorted(m for m in modules - set(report["root"]) if m.startswith("pcs_sindy."))
+        assert all(m == "pcs_sindy.cli" or m.startswith("pcs_sindy.cli.") for m in stages), f"{run['argv']}: {stages}"
+
+
+def test_version_is_the_packages(capsys):
+    import pcs_sindy
+
+    with pytest.raises(SystemExit) as exc:
+        main(["--version"])
+    assert exc.value.code == 0
+    assert capsys.readouterr().out == f"pcs-sindy {pcs_sindy.__version__}\n"
+    exe = Path(sys.executable).with_name("pcs-sindy")
+    cmd = [str(exe), "--version"] if exe.exists() else [sys.executable, "-m", "pcs_sindy.cli.main", "--version"]
+    res = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert (res.returncode, res.stdout) == (0, f"pcs-sindy {pcs_sindy.__version__}\n"), res.stderr
 
 
 @pytest.mark.parametrize("command", COMMANDS)
@@ -370,6 +441,85 @@ def test_help_prints_the_estimators_defaults(capsys):
     assert f"(default {KinematicFusion().shape_fit})" in out
 
 
+def _imported(where: str) -> Any:
+    """What ``read_default(where)`` must find, taken from the imported code instead of its source."""
+    module, _, dotted = where.partition(":")
+    obj: Any = importlib.import_module(f"pcs_sindy.{module}")
+    *path, name = dotted.split(".")
+    for part in path:
+        obj = getattr(obj, part)
+    if isinstance(obj, type) and name in vars(obj):  # a class attribute (dataclass fields included)
+        return vars(obj)[name]
+    if callable(obj):  # a parameter of a function, or of a class's constructor
+        return inspect.signature(obj).parameters[name].default
+    return getattr(obj, name)  # a module constant
+
+
+def _commands_estimators() -> dict[str, Any]:
+    """The estimators the commands run with options left out, by where the help reads their defaults."""
+    return {
+        cli_main.POSES: pipeline_step("poses"),
+        cli_main.SEGMENTS: pipeline_step("segments"),
+        cli_main.DYNAMICS: pipeline_step("dynamics"),
+        cli_main.LIBRARY: pipeline_step("dynamics").make_library(),
+        cli_main.OPTIMIZER: pipeline_step("dynamics").optimizer,
+    }
+
+
+def test_every_default_the_help_reads_from_the_source_is_the_codes(monkeypatch, capsys):
+    """The help reads defaults from the stages' source; each equals the imported code's (and the pipeline's)."""
+    read: dict[str, Any] = {}
+
+    def recording(where: str) -> Any:
+        read[where] = read_default(where)
+        return read[where]
+
+    monkeypatch.setattr(cli_main, "read_default", recording)
+    build_parser()  # read when the parser is built: --method's choices
+    for argv in [["--help"], *([command, "--help"] for command in COMMANDS)]:
+        with pytest.raises(SystemExit):
+            main(argv)
+    capsys.readouterr()
+    assert len(read) >= 20, sorted(read)  # every command's help, the file formats, the integrators
+    estimators = _commands_estimators()
+    for where, value in read.items():
+        assert value == _imported(where), where
+        owner, name = where.rsplit(".", 1)
+        if owner in estimators:  # and what the command runs with the option left out
+            assert value == estimators[owner].get_params()[name], where
+    assert set(estimators) <= {where.rsplit(".", 1)[0] for where in read}
+
+
+def test_rollout_help_lists_the_methods_of_each_model(capsys):
+    from pcs_sindy.core import METHODS
+    from pcs_sindy.models.forward import CallableModel, LumpedPCSModel
+
+    with pytest.raises(SystemExit):
+        main(["rollout", "--help"])
+    out = " ".join(capsys.readouterr().out.split())
+    assert f"{{{','.join(METHODS)}}}" in out  # the choices
+    assert (
+        f"physical library: {', '.join(LumpedPCSModel.methods)}; monomial: {', '.join(CallableModel.methods)}); "
+        f"default: the model's best ({LumpedPCSModel.default_method} / {CallableModel.default_method})"
+    ) in out
+
+
+@pytest.mark.parametrize(
+    "where, found",
+    [
+        ("models.forward:LumpedPCSModel.methods", "not a literal"),  # computed
+        ("fusion.kinematic_fusion:KinematicFusion.no_such", "no parameter 'no_such'"),
+        ("simulation.scenarios:Scenario.name", "no 'name' with a value"),  # a dataclass field without default
+        ("simulation.scenarios:Scenario.generate", "names a function"),
+        ("no_such_module:X", "cannot read its source"),
+    ],
+)
+def test_read_default_names_what_it_could_not_read(where, found):
+    with pytest.raises(LookupError, match=found) as exc:
+        read_default(where)
+    assert where.split(":")[0] in str(exc.value)
+
+
 def test_rollout_method_and_tolerances_default_to_the_models(work, tmp_path, monkeypatch):
     from pcs_sindy.io import load
 
@@ -476,6 +626,10 @@ def test_failures_are_one_line_without_traceback(work, tmp_path, capsys):
         (["fuse", "x.npz", "--out", "o", "--threshold", "-1"], "--threshold"),
         (["fit", "x.npz", "--tau", "t.npz", "--out", "m", "--window-length", "two"], "--window-length"),
         (["rollout", "m.json", "--tau", "t.npz", "--out", "o", "--method", "euler"], "--method"),
+        (["fit", "s.npz", "--tau", "t.npz", "--out", "m", "--no-such-option"], "--no-such-option"),
+        (["fit", "s.npz", "--tau", "t.npz"], "--out"),  # a required option missing
+        (["simulate", "--out", "o"], "scenario"),  # a required positional argument missing
+        (["no-such-command"], "no-such-command"),
     ],
 )
 def test_usage_errors_are_one_line(argv, option, capsys):
@@ -484,6 +638,7 @@ def test_usage_errors_are_one_line(argv, option, capsys):
     assert exc.value.code == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and option in err[0]
+    assert err[0].startswith("pcs-sindy") and ": error: " in err[0]
 
 
 def test_debug_reraises(tmp_path):

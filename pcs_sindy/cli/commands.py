@@ -13,6 +13,10 @@ are the steps of :func:`~pcs_sindy.pipeline.pcs_pipeline.make_pcs_pipeline`
 (:func:`pipeline_step`), so the pipeline, the command line and the demo share
 one source of defaults.  File formats: :mod:`pcs_sindy.io.data_files`; the demo
 report: :mod:`pcs_sindy.cli.report`.
+
+Importing this module loads no stage and no numpy: :mod:`pcs_sindy.cli.main` builds the
+parser from these functions' signatures, and ``pcs-sindy --help`` must not wait for the
+stages.  Each function imports what it uses.
 """
 
 from __future__ import annotations
@@ -22,11 +26,10 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-import numpy as np
-
-from ..io import data_files as files
+if TYPE_CHECKING:
+    import numpy as np
 
 __all__ = [
     "CLIError",
@@ -118,6 +121,7 @@ def simulate(
     list of Path
         The recordings, validation last.
     """
+    from ..io import data_files as files
     from ..simulation.catalog import get_scenario
 
     try:
@@ -164,7 +168,10 @@ def _render_one(
     progress: bool,
 ) -> tuple[str, int]:
     """Render one pose file (module level so joblib can run it in a worker)."""
+    import numpy as np
+
     from ..core.camera import Camera
+    from ..io import data_files as files
     from ..simulation.rendering import render_video
 
     t, poses = files.read_poses(src)
@@ -240,6 +247,8 @@ def render(
     list of Path
         The videos.
     """
+    from ..io import data_files as files
+
     folder = files.output_dir(out)
     for name in inputs:  # fail before any work on a bad input
         files.read_arrays(name, ["poses"], "pose file")
@@ -362,6 +371,7 @@ def extract(
     from sklearn.base import clone
 
     from ..core.camera import Camera
+    from ..io import data_files as files
 
     if camera is not None:
         if not Path(camera).is_file():
@@ -420,6 +430,7 @@ def fuse(
     pose_trajectories : list of PoseTrajectory
     """
     from ..core.trajectory import PoseTrajectory
+    from ..io import data_files as files
 
     trajs = []
     for name in poses:
@@ -566,6 +577,8 @@ def fit(
     EulerLagrangeRegressor
         The fitted model.
     """
+    from ..io import data_files as files
+
     if (tau is None) == (inputs is None):
         raise CLIError("give the forces (--tau) or the actuator inputs (--inputs with --actuation), not both")
     if inputs is not None and actuation is None:
@@ -659,9 +672,12 @@ def rollout(
     -------
     RolloutResult
     """
+    import numpy as np
+
     from ..core.metrics import distributed_errors, end_effector_errors
     from ..fusion.kinematic_fusion import KinematicFusion
     from ..identification.regressor import EulerLagrangeRegressor
+    from ..io import data_files as files
     from .report import rollout_figure
 
     model_name = str(model) if not isinstance(model, EulerLagrangeRegressor) else "(in memory)"

@@ -2,7 +2,8 @@
 
 :func:`demo` runs the command-line steps of :mod:`pcs_sindy.cli.commands` on files
 (simulate, render, extract, fuse, fit, rollout) with the estimators' default
-settings and writes the report of :mod:`pcs_sindy.cli.report`.
+settings and writes the report of :mod:`pcs_sindy.cli.report`.  Importing this module loads no
+stage (the parser of :mod:`pcs_sindy.cli.main` reads :func:`demo`'s signature).
 """
 
 from __future__ import annotations
@@ -14,9 +15,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..io import data_files as files
 from .commands import extract, fit, fuse, render, rollout, say, simulate
-from .report import DEMO_MARKER_SIZE, DEMO_SIZE, demo_report, write_report_md
 
 __all__ = ["demo"]
 
@@ -66,6 +65,9 @@ def demo(
     Path
         ``report.md``.
     """
+    from ..io import data_files as files
+    from .report import DEMO_MARKER_SIZE, DEMO_SIZE, demo_report, write_report_md
+
     try:
         warmup = subprocess.Popen(
             [sys.executable, "-c", _ROLLOUT_WARMUP], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL

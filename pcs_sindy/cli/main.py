@@ -15,20 +15,24 @@ its options in :func:`build_parser`.
 
 Errors in user input end with a one-line message and exit code 2;
 ``--debug`` shows the traceback instead.
+
+Building the parser and parsing the arguments import no stage and no numpy (``pcs-sindy
+--help`` answers at once): the commands import the stages when they run, and the defaults
+the help shows are read from the stages' source when the help is printed
+(:func:`~pcs_sindy.cli.defaults.read_default`), not imported.
 """
 
 from __future__ import annotations
 
 import argparse
 import inspect
+import math
 import sys
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import numpy as np
-
-from ..io.data_files import FILE_FORMATS
+from .._version import __version__
 from .commands import (
     CLIError,
     RolloutResult,
@@ -43,6 +47,7 @@ from .commands import (
     scenarios,
     simulate,
 )
+from .defaults import read_default
 from .demo import demo
 
 __all__ = [
@@ -75,9 +80,57 @@ example ('pcs-sindy demo' step by step):
 """
 
 
+#: where the estimators behind the commands are written (their defaults are read from there)
+POSES = "vision.extractor:MarkerPoseExtractor"
+SEGMENTS = "fusion.kinematic_fusion:KinematicFusion"
+DYNAMICS = "identification.regressor:EulerLagrangeRegressor"
+LIBRARY = "identification.library.physical:PhysicalPCSLibrary"  # the regressor's default library
+OPTIMIZER = "identification.optimizers:StiffnessThresholdOptimizer"  # and its default optimizer
+CAMERA = "core.camera:Camera"
+
+
 def _default(func: Callable, name: str) -> Any:
-    """Default of parameter ``name`` of ``func`` (help texts read defaults, never re-type them)."""
+    """Default of parameter ``name`` of ``func``, a function of the command line (never re-typed)."""
     return inspect.signature(func).parameters[name].default
+
+
+def _of(owner: str, name: str) -> Any:
+    """Default ``name`` of ``owner`` (``"module:Class"``), read from the source (see :func:`read_default`)."""
+    return read_default(f"{owner}.{name}")
+
+
+def _on_off(value: bool) -> str:
+    return "on" if value else "off"
+
+
+# --------------------------------------------------------------------------
+# help texts written when printed: only the help asked for reads the stages' source
+# --------------------------------------------------------------------------
+class _Deferred(str):
+    """A help text (or epilog) written by ``write()`` when it is printed, not when the parser is built.
+
+    Its value as a string is a placeholder; :class:`_HelpFormatter` prints ``write()`` instead.
+    """
+
+    write: Callable[[], str]
+
+
+def _later(write: Callable[[], str]) -> str:
+    """A help text that ``write()`` writes when the help is printed."""
+    text = _Deferred("(written when the help is printed)")
+    text.write = write
+    return text
+
+
+class _HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Description and epilog kept as written; help texts made by :func:`_later` written when printed."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help
+        return text.write() if isinstance(text, _Deferred) else text
+
+    def _format_text(self, text: str) -> str:
+        return super()._format_text(text.write() if isinstance(text, _Deferred) else text)
 
 
 # --------------------------------------------------------------------------
@@ -88,6 +141,13 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str) -> None:  # type: ignore[override]
         self.exit(2, f"{self.prog}: error: {message} (see '{self.prog} --help')\n")
+
+    def _check_help(self, action: argparse.Action) -> None:
+        # Python >= 3.14 formats every help text as its option is added, to check it: that would
+        # read the stages' source for every command on every run. A deferred text is checked
+        # when it is printed (tests/test_cli.py prints them all).
+        if not isinstance(action.help, _Deferred):
+            super()._check_help(action)  # type: ignore[misc]
 
 
 def _number(kind: type, check: Callable[[Any], bool], expected: str) -> Callable[[str], Any]:
@@ -117,7 +177,7 @@ def _pattern(text: str) -> tuple[int, int]:
 
 
 _n_jobs = _number(int, lambda v: v >= 1 or v == -1, "a positive integer or -1 (all cores)")
-_positive_float = _number(float, lambda v: np.isfinite(v) and v > 0, "a finite number > 0")
+_positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 _threshold = _number(float, lambda v: v > 0, "a number > 0 or inf")
 
 
@@ -136,7 +196,7 @@ def _pair(text: str) -> tuple[float, float]:
         a, b = (float(v) for v in text.split(","))
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected two numbers 'A,B'; got {text!r}") from None
-    if not (np.isfinite(a) and np.isfinite(b)) or a <= 0 or b <= 0:
+    if not (math.isfinite(a) and math.isfinite(b)) or a <= 0 or b <= 0:
         raise argparse.ArgumentTypeError(f"expected two numbers > 0; got {text!r}")
     return a, b
 
@@ -149,7 +209,7 @@ def _noise(text: str) -> tuple[float, float] | str | None:
     except ValueError:
         expected = "'seed', 'none' or 'SIGMA_P_M,SIGMA_THETA_DEG'"
         raise argparse.ArgumentTypeError(f"expected {expected}; got {text!r}") from None
-    return sigma_p, float(np.deg2rad(sigma_deg))
+    return sigma_p, math.radians(sigma_deg)
 
 
 def command_kwargs(func: Callable, args: argparse.Namespace) -> dict[str, Any]:
@@ -161,30 +221,25 @@ def command_kwargs(func: Callable, args: argparse.Namespace) -> dict[str, Any]:
 def build_parser() -> argparse.ArgumentParser:
     """The ``pcs-sindy`` argument parser (one sub-command per pipeline step).
 
-    Defaults shown in the help are read from the estimators (``get_params()``),
-    never written here.
+    Defaults shown in the help are the estimators' and the commands' own, read from where they are
+    written (:func:`~pcs_sindy.cli.defaults.read_default`; signatures of :mod:`.commands`), never
+    re-typed here.  Building it imports no stage.
     """
-    from ..core.camera import Camera
-    from ..core.simulate_contract import METHODS
-    from ..identification.library.physical import PhysicalPCSLibrary
-    from ..identification.recordings import WEAK_WINDOW
-    from ..models.forward import CallableModel, LumpedPCSModel
-    from ..simulation.rendering import render_frames
-    from ..simulation.scenarios import Scenario
-
-    step = {name: pipeline_step(name) for name in ("poses", "segments", "dynamics")}
-    ext, fus, reg = (step[k].get_params() for k in ("poses", "segments", "dynamics"))
-    lib, opt = PhysicalPCSLibrary().get_params(), step["dynamics"].optimizer.get_params()
-    fmt = argparse.RawDescriptionHelpFormatter
+    file_formats = _later(lambda: read_default("io.data_files:FILE_FORMATS"))
+    fmt = _HelpFormatter
     parser = _Parser(
-        prog="pcs-sindy", description=__doc__.split("\n\n")[1], epilog=FILE_FORMATS + EXAMPLE, formatter_class=fmt
+        prog="pcs-sindy",
+        description=__doc__.split("\n\n")[1],
+        epilog=_later(lambda: file_formats.write() + EXAMPLE),
+        formatter_class=fmt,
     )
+    parser.add_argument("--version", action="version", version=f"pcs-sindy {__version__}")
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name: str, help_: str, func: Callable) -> argparse.ArgumentParser:
         """A sub-command calling ``func`` with the parsed options named like its parameters."""
-        p = sub.add_parser(name, help=help_, description=help_, epilog=FILE_FORMATS, formatter_class=fmt)
+        p = sub.add_parser(name, help=help_, description=help_, epilog=file_formats, formatter_class=fmt)
         p.set_defaults(func=lambda args: func(**command_kwargs(func, args)))
         params = inspect.signature(func).parameters
         if "n_jobs" in params:
@@ -201,25 +256,26 @@ def build_parser() -> argparse.ArgumentParser:
 
     add("scenarios", "list the built-in scenarios", scenarios)
 
+    scenario = "simulation.scenarios:Scenario"
     p = add("simulate", "simulate a scenario: recordings (.npz with t, q, qd, tau, poses, poses_true)", simulate)
     p.add_argument("scenario", help="scenario name (see 'pcs-sindy scenarios')")
     p.add_argument("--out", required=True, help="output directory (train_00.npz ..., validation.npz, scenario.json)")
-    p.add_argument("--seed", type=int, help=f"random seed (default {_default(Scenario.generate, 'seed')})")
+    p.add_argument("--seed", type=int, help=_later(lambda: f"random seed (default {_of(scenario, 'generate.seed')})"))
     p.add_argument("--noise", type=_noise, help="pose noise: 'seed', 'none' (default) or 'SIGMA_P_M,SIGMA_THETA_DEG'")
     p.add_argument(
         "--n-train",
         type=_positive_int,
-        help=f"training recordings (default: the scenario's, {_default(Scenario, 'n_train')})",
+        help=_later(lambda: f"training recordings (default: the scenario's, {_of(scenario, 'n_train')})"),
     )
     p.add_argument(
         "--train-duration",
         type=_positive_float,
-        help=f"seconds per training recording (default {_default(Scenario, 'train_duration'):g})",
+        help=_later(lambda: f"seconds per training recording (default {_of(scenario, 'train_duration'):g})"),
     )
     p.add_argument(
         "--validation-duration",
         type=_positive_float,
-        help=f"seconds of validation (default {_default(Scenario, 'validation_duration'):g})",
+        help=_later(lambda: f"seconds of validation (default {_of(scenario, 'validation_duration'):g})"),
     )
     p.add_argument(
         "--no-validation", dest="validation", action="store_false", help="do not simulate the validation recording"
@@ -232,16 +288,24 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--format",
         dest="video_format",
-        default=".avi",
+        default=_default(render, "video_format"),
         choices=[".avi", ".mp4"],
         help=".avi (MJPG, default: sharp marker edges) or .mp4 (mp4v, lossy: larger pose errors)",
     )
-    size = _default(Camera.fit_poses, "image_size")
-    p.add_argument("--size", type=_size, help=f"image WIDTHxHEIGHT (default {size[0]}x{size[1]})")
+    p.add_argument(
+        "--size",
+        type=_size,
+        help=_later(lambda: "image WIDTHxHEIGHT (default {}x{})".format(*_of(CAMERA, "fit_poses.image_size"))),
+    )
     p.add_argument(
         "--marker-size",
         type=_pair,
-        help=f"marker WIDTH,THICKNESS in metres (default {','.join(map(str, _default(render_frames, 'marker_size')))})",
+        help=_later(
+            lambda: (
+                "marker WIDTH,THICKNESS in metres (default "
+                f"{','.join(map(str, _of('simulation.rendering:render_frames', 'marker_size')))})"
+            )
+        ),
     )
 
     p = add("calibrate", "lens distortion and the robot's plane from checkerboard views: a camera JSON", calibrate)
@@ -257,7 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--every",
         type=_positive_int,
         default=_default(calibrate, "every"),
-        help=f"use every N-th frame of a video (default {_default(calibrate, 'every')})",
+        help="use every N-th frame of a video (default %(default)s)",
     )
 
     p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", extract)
@@ -278,13 +342,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--on-missing",
         choices=["raise", "interpolate"],
-        help=f"frames whose markers cannot be found: fail or interpolate (default {ext['on_missing']})",
+        help=_later(
+            lambda: f"frames whose markers cannot be found: fail or interpolate (default {_of(POSES, 'on_missing')})"
+        ),
     )
 
     p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)
     p.add_argument("poses", nargs="+", help="pose files (.npz with t, poses)")
     p.add_argument("--out", required=True, help="output directory")
-    p.add_argument("--threshold", type=_positive_float, help=f"merge threshold h (default {fus['threshold']:g})")
+    p.add_argument(
+        "--threshold",
+        type=_positive_float,
+        help=_later(lambda: f"merge threshold h (default {_of(SEGMENTS, 'threshold'):g})"),
+    )
     p.add_argument(
         "--total-length",
         type=_positive_float,
@@ -294,7 +364,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--shape-fit",
         choices=["least_squares", "end_pose"],
-        help=f"strains fitted to all markers or from segment end poses (the seed) (default {fus['shape_fit']})",
+        help=_later(
+            lambda: (
+                "strains fitted to all markers or from segment end poses (the seed) "
+                f"(default {_of(SEGMENTS, 'shape_fit')})"
+            )
+        ),
     )
 
     p = add("fit", "identify the dynamics from strain files and tau files: a model file", fit)
@@ -327,17 +402,32 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--formulation",
         choices=["weak", "strong"],
-        help="regress window integrals (weak: no accelerations, robust to noise) or every sample with "
-        f"Savitzky-Golay accelerations (strong; the seed's) (default {reg['formulation']})",
+        help=_later(
+            lambda: (
+                "regress window integrals (weak: no accelerations, robust to noise) or every sample with "
+                f"Savitzky-Golay accelerations (strong; the seed's) (default {_of(DYNAMICS, 'formulation')})"
+            )
+        ),
     )
     p.add_argument(
-        "--window-length", type=_positive_int, help=f"Savitzky-Golay window (odd; default {reg['window_length']})"
+        "--window-length",
+        type=_positive_int,
+        help=_later(lambda: f"Savitzky-Golay window (odd; default {_of(DYNAMICS, 'window_length')})"),
     )
-    p.add_argument("--polyorder", type=_positive_int, help=f"Savitzky-Golay order (default {reg['polyorder']})")
+    p.add_argument(
+        "--polyorder",
+        type=_positive_int,
+        help=_later(lambda: f"Savitzky-Golay order (default {_of(DYNAMICS, 'polyorder')})"),
+    )
     p.add_argument(
         "--weak-window",
         type=_positive_int,
-        help=f"weak form: window in sampling intervals (default {WEAK_WINDOW}, or half the shortest recording)",
+        help=_later(
+            lambda: (
+                "weak form: window in sampling intervals (default "
+                f"{read_default('identification.recordings:WEAK_WINDOW')}, or half the shortest recording)"
+            )
+        ),
     )
     p.add_argument(
         "--weak-stride",
@@ -347,27 +437,43 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--exclude-force-jumps",
         action=argparse.BooleanOptionalAction,
-        help="strong form: leave out samples whose window straddles a jump of the held actuation "
-        f"(default {'on' if reg['exclude_force_jumps'] else 'off'})",
+        help=_later(
+            lambda: (
+                "strong form: leave out samples whose window straddles a jump of the held actuation "
+                f"(default {_on_off(_of(DYNAMICS, 'exclude_force_jumps'))})"
+            )
+        ),
     )
     p.add_argument(
         "--rest-strain",
         action=argparse.BooleanOptionalAction,
-        help="physical library: identify a constant force per strain, i.e. a rest strain (pre-curved "
-        "robots, or a rest length estimated rather than measured) "
-        f"(default {'on' if lib['rest_strain'] else 'off'})",
+        help=_later(
+            lambda: (
+                "physical library: identify a constant force per strain, i.e. a rest strain (pre-curved "
+                "robots, or a rest length estimated rather than measured) "
+                f"(default {_on_off(_of(LIBRARY, 'rest_strain'))})"
+            )
+        ),
     )
     p.add_argument(
         "--rotary-inertia",
         choices=["free", "tied", "none"],
-        help="physical library: identify rotary inertia (free), tie it to the line density (tied) or "
-        f"neglect it (default {lib['rotary_inertia']})",
+        help=_later(
+            lambda: (
+                "physical library: identify rotary inertia (free), tie it to the line density (tied) or "
+                f"neglect it (default {_of(LIBRARY, 'rotary_inertia')})"
+            )
+        ),
     )
     p.add_argument(
         "--stiffness-threshold",
         type=_threshold,
-        help="remove strains stiffer than this factor times the material bound (inf: no removal; "
-        f"default {opt['threshold']:g})",
+        help=_later(
+            lambda: (
+                "remove strains stiffer than this factor times the material bound (inf: no removal; "
+                f"default {_of(OPTIMIZER, 'threshold'):g})"
+            )
+        ),
     )
 
     p = add("rollout", "simulate a model under tau: predicted strains and poses, metrics against a truth", rollout)
@@ -390,30 +496,55 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--no-plot", dest="plot", action="store_false", help="do not draw rollout.png")
     p.add_argument(
         "--method",
-        choices=list(METHODS),
-        help="integrator, one the model supports (physical library: "
-        f"{', '.join(LumpedPCSModel.methods)}; monomial: {', '.join(CallableModel.methods)}); "
-        f"default: the model's best ({LumpedPCSModel.default_method} / "
-        f"{CallableModel.default_method})",
+        choices=list(read_default("core.simulate_contract:METHODS")),  # checked when parsing: read now
+        help=_later(_method_help),
     )
-    p.add_argument("--rtol", type=_positive_float, help=f"relative tolerance (default: the model's, {reg['rtol']:g})")
-    p.add_argument("--atol", type=_positive_float, help=f"absolute tolerance (default: the model's, {reg['atol']:g})")
+    p.add_argument(
+        "--rtol",
+        type=_positive_float,
+        help=_later(lambda: f"relative tolerance (default: the model's, {_of(DYNAMICS, 'rtol'):g})"),
+    )
+    p.add_argument(
+        "--atol",
+        type=_positive_float,
+        help=_later(lambda: f"absolute tolerance (default: the model's, {_of(DYNAMICS, 'atol'):g})"),
+    )
 
     p = add("demo", "the whole pipeline on two_segment from rendered videos, with a report folder", demo)
     p.add_argument(
         "--out", default=_default(demo, "out"), help="output directory (default %(default)s; the report in OUT/report)"
     )
     p.add_argument("--seed", type=int, default=_default(demo, "seed"), help="random seed (default %(default)s)")
-    p.add_argument("--threshold", type=_positive_float, help=f"fusion threshold h (default {fus['threshold']:g})")
+    p.add_argument(
+        "--threshold",
+        type=_positive_float,
+        help=_later(lambda: f"fusion threshold h (default {_of(SEGMENTS, 'threshold'):g})"),
+    )
     p.add_argument("--quick", action="store_true", help="2 short recordings and a 1 s validation (a smoke test)")
     return parser
 
 
+def _method_help() -> str:
+    """Help of ``rollout --method``: the integrators each kind of model supports, and its default."""
+    # LumpedPCSModel.methods is computed in models/forward.py (the compiled schemes first, then scipy's
+    # others): the same rule here, checked against the class by tests/test_cli.py
+    compiled = read_default("models.integrators:COMPILED_METHODS")
+    scipy = list(read_default("core.simulate_contract:SCIPY_METHODS"))
+    lumped = [*compiled, *(m for m in scipy if m not in compiled)]
+    best = [_of(f"models.forward:{cls}", "default_method") for cls in ("LumpedPCSModel", "CallableModel")]
+    return (
+        f"integrator, one the model supports (physical library: {', '.join(lumped)}; monomial: {', '.join(scipy)}); "
+        f"default: the model's best ({best[0]} / {best[1]})"
+    )
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``pcs-sindy`` console script; returns the exit code."""
-    from ..core.simulate_contract import SimulationError
-
     args = build_parser().parse_args(argv)
+    # Only now that a command runs: the errors it may raise come from numpy and the stages.
+    import numpy as np
+
+    from ..core.simulate_contract import SimulationError
 
     def one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
         print(f"pcs-sindy {args.command}: warning: {' '.join(str(message).split())}", file=sys.stderr)
