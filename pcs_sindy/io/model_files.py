@@ -44,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from .._version import __version__
+from ..core.validation import validate_parameters
 
 __all__ = ["save", "load", "FORMAT_VERSION", "FORMAT_NAME", "REGISTRY"]
 
@@ -120,6 +121,10 @@ class ClassSpec:
     skip_state: frozenset = frozenset()
     validate: Callable[[Any], Any] | None = None
     optional: bool = False
+
+
+#: the sklearn pipelines: their ``_parameter_constraints`` is scikit-learn's, not a table of ours
+_PIPELINES = ("Pipeline", "PCSPipeline")
 
 
 def _validate_library(obj: Any) -> None:
@@ -429,6 +434,8 @@ class _Decoder:
             obj = cls(**kwargs)
             if spec.validate is not None:
                 spec.validate(obj)
+            elif name not in _PIPELINES and hasattr(cls, "_parameter_constraints"):
+                validate_parameters(obj)
         except (ValueError, TypeError, ArithmeticError, KeyError, IndexError, AttributeError, OSError) as err:
             raise self.error(label, f"invalid parameters: {type(err).__name__}: {err}") from None
         if state and (spec.kind != "estimator" or spec.params_only):
