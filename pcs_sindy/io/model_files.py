@@ -139,9 +139,7 @@ def _validate_pipeline(obj: Any) -> None:
 
 #: Classes a model file may hold, by the name written in the file.
 REGISTRY: dict[str, ClassSpec] = {
-    "KinematicFusion": ClassSpec(
-        "pcs_sindy.fusion.kinematic_fusion", "KinematicFusion", validate=lambda o: o._check_params()
-    ),
+    "KinematicFusion": ClassSpec("pcs_sindy.fusion.kinematic_fusion", "KinematicFusion"),
     "EulerLagrangeRegressor": ClassSpec(
         "pcs_sindy.identification.regressor", "EulerLagrangeRegressor", validate=lambda o: o._check_params()
     ),
