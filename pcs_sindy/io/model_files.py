@@ -127,10 +127,6 @@ class ClassSpec:
 _PIPELINES = ("Pipeline", "PCSPipeline")
 
 
-def _validate_library(obj: Any) -> None:
-    obj._check_params()
-
-
 def _validate_pipeline(obj: Any) -> None:
     if obj.memory is not None:
         raise ValueError(f"memory must be None (a joblib cache is not stored in model files); got {obj.memory!r}")
@@ -140,22 +136,13 @@ def _validate_pipeline(obj: Any) -> None:
 #: Classes a model file may hold, by the name written in the file.
 REGISTRY: dict[str, ClassSpec] = {
     "KinematicFusion": ClassSpec("pcs_sindy.fusion.kinematic_fusion", "KinematicFusion"),
-    "EulerLagrangeRegressor": ClassSpec(
-        "pcs_sindy.identification.regressor", "EulerLagrangeRegressor", validate=lambda o: o._check_params()
-    ),
+    "EulerLagrangeRegressor": ClassSpec("pcs_sindy.identification.regressor", "EulerLagrangeRegressor"),
     # Theta_ is the training regression matrix (can be 100 MB); prediction does not use it
     "StiffnessThresholdOptimizer": ClassSpec(
-        "pcs_sindy.identification.optimizers",
-        "StiffnessThresholdOptimizer",
-        skip_state=frozenset({"Theta_"}),
-        validate=lambda o: o._check_params(),
+        "pcs_sindy.identification.optimizers", "StiffnessThresholdOptimizer", skip_state=frozenset({"Theta_"})
     ),
-    "PCSLagrangianLibrary": ClassSpec(
-        "pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library
-    ),
-    "PhysicalPCSLibrary": ClassSpec(
-        "pcs_sindy.identification.library.physical", "PhysicalPCSLibrary", validate=_validate_library
-    ),
+    "PCSLagrangianLibrary": ClassSpec("pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary"),
+    "PhysicalPCSLibrary": ClassSpec("pcs_sindy.identification.library.physical", "PhysicalPCSLibrary"),
     # actuation terms: parameters (the layout) and the identified offsets and gains
     "IdentityActuation": ClassSpec("pcs_sindy.models.actuation", "IdentityActuation"),
     "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
