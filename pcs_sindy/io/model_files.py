@@ -148,9 +148,7 @@ REGISTRY: dict[str, ClassSpec] = {
     "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
     "PressureActuation": ClassSpec("pcs_sindy.models.actuation", "PressureActuation"),
     "LinearActuation": ClassSpec("pcs_sindy.models.actuation", "LinearActuation"),
-    "MarkerPoseExtractor": ClassSpec(
-        "pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True, validate=lambda o: o._validate()
-    ),
+    "MarkerPoseExtractor": ClassSpec("pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True),
     "Camera": ClassSpec("pcs_sindy.core.camera", "Camera", kind="dataclass"),
     "PlanarPCS": ClassSpec("pcs_sindy.core.kinematics", "PlanarPCS", kind="dataclass"),
     "PoseTrajectory": ClassSpec(
