@@ -151,6 +151,8 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         -------
         self
         """
+        validate_parameters(self)
+        self._check_segmentation()
         width = self._set_segmentation(x)
         if kinematics_of(x) is None:
             arrays = x if isinstance(x, (list, tuple)) else [x]
@@ -160,16 +162,10 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
                     f"x must have 2n = {width} columns [q, qd] of the {width // 2} active strains; "
                     f"got widths {sorted(map(str, got))}"
                 )
-        self._check_structure()
+        _ = self.n_coefficients_  # builds (and checks) the column layout
         self.n_features_in_ = width
         self.n_output_features_ = self.n_lagrangian_terms
         return self
-
-    def _check_structure(self) -> None:
-        """Validate the parameters and build the structure."""
-        validate_parameters(self)
-        self._check_segmentation()
-        _ = self.n_coefficients_  # builds the column layout
 
     # ------------------------------------------------------------------ column layout
     @property
