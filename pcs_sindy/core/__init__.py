@@ -54,6 +54,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "InstanceOf",
             "HasMethods",
             "Check",
+            "Constraint",
         ],
     },
 )

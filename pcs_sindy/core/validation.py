@@ -51,6 +51,7 @@ __all__ = [
     "InstanceOf",
     "HasMethods",
     "Check",
+    "Constraint",
 ]
 
 
