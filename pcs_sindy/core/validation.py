@@ -81,12 +81,29 @@ class InvalidParameterError(ValueError, TypeError):
 
 
 class Constraint:
-    """Base of the constraint kinds: :meth:`is_satisfied_by` and a readable ``description``."""
+    """Base of the constraint kinds: a readable ``description`` and :meth:`is_satisfied_by`.
+
+    A new kind subclasses it, sets ``description`` and implements :meth:`is_satisfied_by`.
+
+    Attributes
+    ----------
+    description : str
+        What the constraint accepts, readable after "must be" (e.g. "a finite number > 0").
+    """
 
     description: str = ""
 
     def is_satisfied_by(self, value: Any) -> bool:
-        """True when ``value`` meets the constraint."""
+        """Whether ``value`` meets the constraint.
+
+        Parameters
+        ----------
+        value : object
+
+        Returns
+        -------
+        bool
+        """
         raise NotImplementedError
 
     def __repr__(self) -> str:
