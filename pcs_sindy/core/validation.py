@@ -46,12 +46,12 @@ import numpy as np
 __all__ = [
     "InvalidParameterError",
     "validate_parameters",
+    "Constraint",
     "Interval",
     "Options",
     "InstanceOf",
     "HasMethods",
     "Check",
-    "Constraint",
 ]
 
 
@@ -105,9 +105,6 @@ class Constraint:
         bool
         """
         raise NotImplementedError
-
-    def __repr__(self) -> str:
-        return f"<{type(self).__name__}: {self.description}>"
 
 
 class Interval(Constraint):
@@ -246,25 +243,15 @@ class Check(Constraint):
             return False
 
 
-class _NoneConstraint(Constraint):
-    description = "None"
-
-    def is_satisfied_by(self, value: Any) -> bool:
-        return value is None
-
-
-class _Boolean(Constraint):
-    description = "a boolean"
-
-    def is_satisfied_by(self, value: Any) -> bool:
-        return isinstance(value, (bool, np.bool_))
+_NONE = Check(lambda value: value is None, "None")
+_BOOLEAN = Check(lambda value: isinstance(value, (bool, np.bool_)), "a boolean")
 
 
 def _make_constraint(item: Any) -> Constraint:
     if item is None:
-        return _NoneConstraint()
+        return _NONE
     if isinstance(item, str) and item == "boolean":
-        return _Boolean()
+        return _BOOLEAN
     if isinstance(item, Constraint):
         return item
     raise TypeError(
