@@ -148,7 +148,7 @@ def test_per_tendon_offsets_from_noisy_poses(tendon_data):
 def test_offset_weighting_is_validated(tendon_data):
     scenario, data = tendon_data
     act = {**scenario.actuation, "weighting": "ols"}
-    with pytest.raises(ValueError, match=r"weighting must be one of \('residual', 'none'\); got 'ols'"):
+    with pytest.raises(ValueError, match=r"TendonActuation: weighting must be one of 'residual', 'none'; got 'ols'"):
         EulerLagrangeRegressor(actuation=act).fit(
             _strains(data.train[:1], scenario.robot.kinematics.segment_lengths), [data.train[0].u]
         )

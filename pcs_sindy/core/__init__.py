@@ -46,5 +46,15 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "camera": ["Camera", "read_camera_json"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
+        "validation": [
+            "validate_parameters",
+            "InvalidParameterError",
+            "Interval",
+            "Options",
+            "InstanceOf",
+            "HasMethods",
+            "Check",
+            "Constraint",
+        ],
     },
 )

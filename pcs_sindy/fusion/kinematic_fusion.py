@@ -24,6 +24,7 @@ Every public name of those modules is importable from :mod:`pcs_sindy.fusion`.
 from __future__ import annotations
 
 from collections.abc import Sequence
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -37,6 +38,7 @@ from ..core.kinematics import SEED_Q_MAX, forward_kinematics, se2_compose
 from ..core.metrics import distributed_errors
 from ..core.saving import PersistenceMixin
 from ..core.trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
+from ..core.validation import Check, Interval, Options, validate_parameters
 from .chain_geometry import (
     chain_poses,
     frame_chain,
@@ -51,6 +53,23 @@ __all__ = ["KinematicFusion"]
 
 _SHAPE_FITS = ("end_pose", "least_squares")
 _SCALINGS = ("q_max", "data")
+
+
+def _three_scales(value: Any) -> bool:
+    return check_q_max(value) is not None  # raises on anything else
+
+
+def _two_positive(value: Any) -> bool:
+    std = np.asarray(value, dtype=float)
+    return std.shape == (2,) and bool(np.all(np.isfinite(std)) and np.all(std > 0))
+
+
+def _whole_at_least_one(value: Any) -> bool:
+    return not isinstance(value, (bool, np.bool_)) and int(value) == value and value >= 1
+
+
+def _nonzero_int(value: Any) -> bool:
+    return not isinstance(value, (bool, np.bool_)) and isinstance(value, (int, np.integer)) and value != 0
 
 
 class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
@@ -166,33 +185,23 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.n_jobs = n_jobs
         self.progress = progress
 
-    # -- validation ----------------------------------------------------------
-    def _check_params(self) -> None:
-        h = self.threshold
-        if isinstance(h, bool) or not isinstance(h, (int, float, np.number)) or not np.isfinite(h) or h <= 0:
-            raise ValueError(f"threshold must be a finite number > 0; got {h!r}")
-        check_q_max(self.q_max)
-        if self.scaling not in _SCALINGS:
-            raise ValueError(f"scaling must be one of {_SCALINGS}; got {self.scaling!r}")
-        if self.merge not in MERGE_RULES:
-            raise ValueError(f"merge must be one of {MERGE_RULES}; got {self.merge!r}")
-        if self.shape_fit not in _SHAPE_FITS:
-            raise ValueError(f"shape_fit must be one of {_SHAPE_FITS}; got {self.shape_fit!r}")
-        if self.total_length is not None and (not np.isfinite(self.total_length) or self.total_length <= 0):
-            raise ValueError(f"total_length must be None or finite and > 0; got {self.total_length!r}")
-        std = np.asarray(self.pose_std, dtype=float)
-        if std.shape != (2,) or not np.all(np.isfinite(std)) or np.any(std <= 0):
-            raise ValueError(
-                f"pose_std must be two positive numbers (position [m], angle [rad]); got {self.pose_std!r}"
-            )
-        m = self.min_segment_markers
-        if isinstance(m, bool) or not isinstance(m, (int, np.integer)) or m < 1:
-            raise ValueError(f"min_segment_markers must be a positive integer; got {m!r}")
-        if int(self.max_refine_frames) != self.max_refine_frames or self.max_refine_frames < 1:
-            raise ValueError(f"max_refine_frames must be a positive integer; got {self.max_refine_frames!r}")
-        nj = self.n_jobs
-        if nj is not None and (isinstance(nj, bool) or not isinstance(nj, (int, np.integer)) or nj == 0):
-            raise ValueError(f"n_jobs must be None or a non-zero integer (joblib's convention); got {nj!r}")
+    # -- validation: the table read by validate_parameters in fit and transform, and by model files
+    _parameter_constraints: dict = {
+        "threshold": [Interval(Real, 0, None, closed="neither")],
+        "q_max": [Check(_three_scales, "three finite numbers > 0 (bending [1/m], shear and axial scales)")],
+        "scaling": [Options(_SCALINGS)],
+        "total_length": [None, Interval(Real, 0, None, closed="neither")],
+        "shape_fit": [Options(_SHAPE_FITS)],
+        "refine_boundaries": "no_validation",
+        "min_segment_markers": [Interval(Integral, 1, None, closed="left")],
+        "merge": [Options(MERGE_RULES)],
+        "pose_std": [Check(_two_positive, "two finite numbers > 0 (position [m], angle [rad])")],
+        "fixed_base": "no_validation",
+        # integral floats (500.0) have always been accepted here
+        "max_refine_frames": [Check(_whole_at_least_one, "an integer >= 1")],
+        "n_jobs": [None, Check(_nonzero_int, "a non-zero integer (joblib's convention)")],
+        "progress": "no_validation",
+    }
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
         trajs = as_pose_trajectories(X, name=name)
@@ -223,7 +232,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         X : PoseTrajectory, array (T, N + 1, 3), or a list of them
         y : ignored
         """
-        self._check_params()
+        validate_parameters(self)
         _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
         total, source, std = self._rest_length(X, chains)
@@ -337,7 +346,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         trajs, chains, bases = self._chains(X)
         if chains[0].shape[1] - 1 != self.n_markers_:
             raise ValueError(f"X has {chains[0].shape[1] - 1} markers; the fusion was fitted with {self.n_markers_}")
-        self._check_params()
+        validate_parameters(self)
         if self.n_jobs in (None, 1) or len(chains) == 1:
             qs = [self._strains(c) for c in tqdm(chains, desc="fusion", disable=not self.progress, leave=False)]
         else:

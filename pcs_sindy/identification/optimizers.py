@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Callable, Sequence
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -37,11 +38,26 @@ from sklearn.base import BaseEstimator
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.utils.validation import check_is_fitted, validate_data
 
+from ..core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
+
 __all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq"]
 
 from .least_squares import scaled_lstsq, stiffness_bounds  # noqa: E402 - re-exported: the optimizer's solvers
 
 _STRAIN_LABELS = ("be", "sh", "ax")
+
+
+def _positive_bounds(value: Any) -> bool:
+    bounds = np.asarray(value, dtype=float).reshape(-1)
+    return bounds.size > 0 and not np.any(np.isnan(bounds)) and bool(np.all(bounds > 0))
+
+
+def _whole_at_least_one(value: Any) -> bool:
+    return not isinstance(value, (bool, np.bool_)) and int(value) == value and value >= 1
+
+
+def _is_switch(value: Any) -> bool:
+    return isinstance(value, (bool, np.bool_))
 
 
 class StiffnessThresholdOptimizer(BaseOptimizer):
@@ -186,39 +202,46 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.coef_ = np.atleast_2d(coef.T)
 
     # ------------------------------------------------------------------
-    def _check_params(self) -> None:
-        if int(self.max_iter) != self.max_iter or self.max_iter < 1:
-            raise ValueError(f"max_iter must be a positive integer; got {self.max_iter!r}")
-        if not np.isfinite(self.rcond) or not 0 < self.rcond < 1:
-            raise ValueError(f"rcond must be in (0, 1); got {self.rcond!r}")
-        self._threshold()
+    #: read by validate_parameters in fit, and by model files
+    _parameter_constraints: dict = {
+        "youngs_modulus_max": [Interval(Real, 0, None, closed="neither")],
+        "shear_modulus_max": [Interval(Real, 0, None, closed="neither")],
+        "radius": [Interval(Real, 0, None, closed="neither")],
+        "shear_factor": [Interval(Real, 0, None, closed="neither")],
+        "stiffness_scaling": [Options(("seed", "length"))],
+        "max_stiffness": [None, Check(_positive_bounds, "an array of numbers > 0 (3 per segment; inf: unbounded)")],
+        "threshold": [
+            Interval(Real, 0, None, closed="right"),
+            Check(_is_switch, "a boolean (deprecated: use 1.0 or np.inf)"),
+        ],
+        "rcond": [Interval(Real, 0, 1, closed="neither")],
+        "bounded": "no_validation",
+        # integral floats (20.0) have always been accepted here
+        "max_iter": [Check(_whole_at_least_one, "an integer >= 1")],
+        "normalize_columns": "no_validation",
+        "copy_X": "no_validation",
+    }
 
     def _threshold(self) -> float:
-        """The removal factor; booleans (the former switch) are translated with a FutureWarning."""
+        """The removal factor (validated); booleans (the former switch) are translated with a FutureWarning."""
         thr = self.threshold
         if isinstance(thr, (bool, np.bool_)):
             warnings.warn(
                 f"threshold={thr!r} (a switch) is deprecated: threshold is the factor on the stiffness bound; "
                 f"use threshold={'1.0' if thr else 'np.inf'}",
                 FutureWarning,
-                stacklevel=4,
+                stacklevel=3,
             )
             return 1.0 if thr else np.inf
-        if not isinstance(thr, (int, float, np.integer, np.floating)) or np.isnan(thr) or not thr > 0:
-            raise ValueError(
-                f"threshold must be a number > 0 (factor on the stiffness bound; np.inf: no removal); got {thr!r}"
-            )
         return float(thr)
 
     def _bounds(self, library: Any) -> NDArray[np.float64]:
         lengths = library.kinematics.segment_lengths
         if self.max_stiffness is not None:
-            bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)
-            if bounds.shape != (3 * len(lengths),) or np.any(np.isnan(bounds)) or np.any(bounds <= 0):
-                raise ValueError(
-                    f"max_stiffness must hold {3 * len(lengths)} positive values (3 per segment); "
-                    f"got {self.max_stiffness!r}"
-                )
+            bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)  # values checked by the table
+            if bounds.shape != (3 * len(lengths),):
+                want = f"{3 * len(lengths)} values (3 per segment of the library)"
+                raise InvalidParameterError.of(self, "max_stiffness", want, self.max_stiffness)
             return bounds
         return stiffness_bounds(
             lengths,
@@ -276,7 +299,8 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         -------
         self
         """
-        self._check_params()
+        validate_parameters(self)
+        factor = self._threshold()
         if library is None:
             if isinstance(x, np.ndarray) and x.ndim == 3:  # stacked Psi (n_samples, n, n_features)
                 x = x.reshape(-1, x.shape[-1])
@@ -380,7 +404,6 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             raise ValueError(f"x has {n_feat} columns but the library has {library.n_coefficients_} coefficients")
         tau = y.reshape(n_samples, n_act)
         bounds = self._bounds(library)
-        factor = self._threshold()
         names = kin.strain_names()
 
         mask = start_mask.copy()

@@ -22,6 +22,7 @@ from __future__ import annotations
 import time
 import warnings
 from collections.abc import Callable, Sequence
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -34,6 +35,7 @@ from ..core.kinematics import PlanarPCS
 from ..core.saving import PersistenceMixin
 from ..core.simulate_contract import DivergenceError, simulate_inputs
 from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
+from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
 from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
 from ..models.forward import reduce_strains
 from . import formulations as _form
@@ -53,8 +55,8 @@ SCORE_DERIVATIVES = (7, 3)
 _LIBRARIES = ("physical", "monomial")
 
 
-def _is_int(value: Any) -> bool:
-    return not isinstance(value, bool) and isinstance(value, (int, np.integer))
+def _odd_window(value: Any) -> bool:
+    return not isinstance(value, bool) and isinstance(value, (int, np.integer)) and value >= 3 and value % 2 == 1
 
 
 class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
@@ -211,48 +213,41 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         return cls(**params)
 
     # ------------------------------------------------------------------ parameters and data
-    def _check_params(self) -> None:
-        wl, po = self.window_length, self.polyorder
-        if not _is_int(wl) or wl < 3 or wl % 2 == 0:
-            raise ValueError(f"window_length must be an odd integer >= 3; got {wl!r}")
-        if not _is_int(po) or po < 2 or po >= wl:
-            raise ValueError(f"polyorder must be an integer with 2 <= polyorder < window_length; got {po!r}")
-        if self.formulation not in _form.FORMULATIONS:
-            raise ValueError(f"formulation must be one of {_form.FORMULATIONS}; got {self.formulation!r}")
-        if self.weak_window is not None and (not _is_int(self.weak_window) or self.weak_window < 2):
-            raise ValueError(
-                f"weak_window must be None or an integer >= 2 (sampling intervals); got {self.weak_window!r}"
-            )
-        if self.weak_stride is not None and (not _is_int(self.weak_stride) or self.weak_stride < 1):
-            raise ValueError(f"weak_stride must be None or an integer >= 1 (samples); got {self.weak_stride!r}")
-        if self.weak_hold not in ("zoh", "trapezoid"):
-            raise ValueError(f"weak_hold must be 'zoh' or 'trapezoid'; got {self.weak_hold!r}")
-        lib = self.library
-        ok = lib is None or (lib in _LIBRARIES if isinstance(lib, str) else isinstance(lib, LagrangianLibrary))
-        if ok and isinstance(lib, LagrangianLibrary):
-            lib._check_params()
-        if not ok:
-            raise ValueError(
-                f"library must be a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary) or one of "
-                f"{_LIBRARIES}; got {lib!r}"
-            )
-        act = self.actuation
-        if not (act is None or isinstance(act, (dict, Actuation))):
-            raise ValueError(f"actuation must be None, an Actuation or a layout dict; got {type(act).__name__}")
-        opt = self.optimizer
-        if opt is not None and not isinstance(opt, BaseOptimizer):
-            raise ValueError(
-                "optimizer must be a pysindy optimizer (StiffnessThresholdOptimizer, or a pysindy BaseOptimizer "
-                f"such as STLSQ or SR3); got {type(opt).__name__}"
-            )
-        for name in ("rtol", "atol"):
-            val = getattr(self, name)
-            if (
-                isinstance(val, bool)
-                or not isinstance(val, (int, float, np.floating))
-                or not (np.isfinite(val) and val > 0)
-            ):
-                raise ValueError(f"{name} must be a finite number > 0; got {val!r}")
+    #: read by validate_parameters in fit and predict, and by model files
+    _parameter_constraints: dict = {
+        "library": [
+            InstanceOf(LagrangianLibrary, "a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary)"),
+            Options(_LIBRARIES),
+            None,
+        ],
+        "formulation": [Options(_form.FORMULATIONS)],
+        "optimizer": [
+            InstanceOf(
+                BaseOptimizer,
+                "a pysindy optimizer (StiffnessThresholdOptimizer, or a pysindy BaseOptimizer such as STLSQ or SR3)",
+            ),
+            None,
+        ],
+        "differentiation_method": "no_validation",
+        "window_length": [Check(_odd_window, "an odd integer >= 3")],
+        "polyorder": [Interval(Integral, 2, None, closed="left")],
+        "exclude_force_jumps": "no_validation",
+        "weak_window": [None, Interval(Integral, 2, None, closed="left")],
+        "weak_stride": [None, Interval(Integral, 1, None, closed="left")],
+        "weak_hold": [Options(("zoh", "trapezoid"))],
+        "check_mass_matrix": "no_validation",
+        "rtol": [Interval(Real, 0, None, closed="neither")],
+        "atol": [Interval(Real, 0, None, closed="neither")],
+        "progress": "no_validation",
+        "actuation": [None, InstanceOf(Actuation, "an Actuation"), InstanceOf(dict, "a layout dict")],
+    }
+
+    def _check_joint_parameters(self) -> None:
+        """What the table cannot say: ``polyorder < window_length``, and a library instance's own table."""
+        if self.polyorder >= self.window_length:
+            raise InvalidParameterError.of(self, "polyorder", f"< window_length = {self.window_length}", self.polyorder)
+        if isinstance(self.library, LagrangianLibrary):
+            validate_parameters(self.library)
 
     def make_library(self) -> LagrangianLibrary:
         """The library this regressor fits: a fresh, unfitted instance of ``library`` (default physical)."""
@@ -337,7 +332,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self
         """
         start = time.perf_counter()
-        self._check_params()
+        validate_parameters(self)
+        self._check_joint_parameters()
         X = as_strain_trajectories(X)
         act = self._new_actuation(kinematics_of(X))
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
@@ -558,7 +554,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             are not modelled (the model has no equation for a rigid strain).
         """
         check_is_fitted(self, "coef_")
-        self._check_params()
+        validate_parameters(self)
+        self._check_joint_parameters()
         X = as_strain_trajectories(X)
         dummy = [np.zeros((r.n_frames, self.kinematics_.n_q)) for r in X]
         kin, _, recs = self._recordings(X, dummy, qd, qdd, kin=self.kinematics_, formulation="strong")

@@ -13,14 +13,16 @@ Loading an untrusted file cannot execute code:
 * arrays are read with ``np.load(..., allow_pickle=False)`` and only numeric,
   boolean and unicode dtypes are accepted;
 * objects are rebuilt through their constructors with the stored parameters
-  (names checked against the constructor's signature) and validated with the
-  class's own parameter checks; learned attributes are restricted to
-  ``name_`` attributes that are not properties of the class;
+  (names checked against the constructor's signature) and validated against the
+  class's ``_parameter_constraints`` table (:func:`pcs_sindy.core.validation.validate_parameters`,
+  the check of its ``fit``); learned attributes are restricted to ``name_``
+  attributes that are not properties of the class;
 * symbolic libraries are rebuilt from their specification (segment lengths,
   active strains, basis) and re-derive or read their own cache; a model file
   may not choose that cache directory (it holds generated code that the
   library executes), see ``cache_dir`` of :func:`load`;
-* a ``Pipeline``'s ``memory`` (a joblib cache of pickles) must be None.
+* a ``Pipeline``'s ``memory`` (a joblib cache of pickles) must be None, and its steps
+  a list of uniquely named (name, estimator) pairs.
 
 A file names its format version; files from a newer format are refused.
 """
@@ -37,13 +39,13 @@ import math
 import os
 import re
 import secrets
-from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._version import __version__
+from ..core.validation import InvalidParameterError, validate_parameters
 
 __all__ = ["save", "load", "FORMAT_VERSION", "FORMAT_NAME", "REGISTRY"]
 
@@ -106,10 +108,11 @@ class ClassSpec:
         Store no learned state (stateless transformers).
     skip_state : frozenset of str
         Learned attributes deliberately not stored (training-data artefacts).
-    validate : callable, optional
-        ``validate(obj)`` raises on invalid parameters (the class's own checks).
-    optional : bool
-        The module may be missing (e.g. not written yet).
+
+    Notes
+    -----
+    Parameters are validated on load by the class's ``_parameter_constraints`` table when it has
+    one (pipelines by :func:`_check_pipeline`), so a spec holds no checks of its own.
     """
 
     module: str
@@ -118,49 +121,53 @@ class ClassSpec:
     fields: tuple[str, ...] = ()
     params_only: bool = False
     skip_state: frozenset = frozenset()
-    validate: Callable[[Any], Any] | None = None
-    optional: bool = False
 
 
-def _validate_library(obj: Any) -> None:
-    obj._check_params()
+#: the sklearn pipelines: their ``_parameter_constraints`` is scikit-learn's, checked by :func:`_check_pipeline`
+_PIPELINES = ("Pipeline", "PCSPipeline")
 
 
-def _validate_pipeline(obj: Any) -> None:
+def _check_pipeline(obj: Any) -> None:
+    """What a rebuilt pipeline must be: no joblib cache, uniquely named steps that fit (and transform on the way)."""
+    name = type(obj).__name__
     if obj.memory is not None:
-        raise ValueError(f"memory must be None (a joblib cache is not stored in model files); got {obj.memory!r}")
-    obj._validate_steps()
+        raise InvalidParameterError.of(obj, "memory", "None (a joblib cache is not stored in model files)", obj.memory)
+    steps = obj.steps
+    if not (isinstance(steps, list) and steps and all(isinstance(s, tuple) and len(s) == 2 for s in steps)):
+        raise InvalidParameterError.of(obj, "steps", "a non-empty list of (name, estimator) pairs", steps)
+    names = [step_name for step_name, _ in steps]
+    if not all(isinstance(n, str) and n and "__" not in n for n in names) or len(set(names)) != len(names):
+        raise InvalidParameterError(
+            f"{name}: steps must have unique non-empty string names without '__'; got names {names!r}"
+        )
+    last = len(steps) - 1
+    for k, (step_name, est) in enumerate(steps):
+        if est is None or (isinstance(est, str) and est == "passthrough"):
+            continue  # sklearn's way of skipping a step
+        missing = [m for m in (("fit",) if k == last else ("fit", "transform")) if not callable(getattr(est, m, None))]
+        if missing:
+            raise InvalidParameterError(
+                f"{name}: steps must fit (and transform, but for the last); got step {step_name!r} "
+                f"({type(est).__name__}) without {' and '.join(missing)}"
+            )
 
 
 #: Classes a model file may hold, by the name written in the file.
 REGISTRY: dict[str, ClassSpec] = {
-    "KinematicFusion": ClassSpec(
-        "pcs_sindy.fusion.kinematic_fusion", "KinematicFusion", validate=lambda o: o._check_params()
-    ),
-    "EulerLagrangeRegressor": ClassSpec(
-        "pcs_sindy.identification.regressor", "EulerLagrangeRegressor", validate=lambda o: o._check_params()
-    ),
+    "KinematicFusion": ClassSpec("pcs_sindy.fusion.kinematic_fusion", "KinematicFusion"),
+    "EulerLagrangeRegressor": ClassSpec("pcs_sindy.identification.regressor", "EulerLagrangeRegressor"),
     # Theta_ is the training regression matrix (can be 100 MB); prediction does not use it
     "StiffnessThresholdOptimizer": ClassSpec(
-        "pcs_sindy.identification.optimizers",
-        "StiffnessThresholdOptimizer",
-        skip_state=frozenset({"Theta_"}),
-        validate=lambda o: o._check_params(),
+        "pcs_sindy.identification.optimizers", "StiffnessThresholdOptimizer", skip_state=frozenset({"Theta_"})
     ),
-    "PCSLagrangianLibrary": ClassSpec(
-        "pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary", validate=_validate_library
-    ),
-    "PhysicalPCSLibrary": ClassSpec(
-        "pcs_sindy.identification.library.physical", "PhysicalPCSLibrary", validate=_validate_library
-    ),
+    "PCSLagrangianLibrary": ClassSpec("pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary"),
+    "PhysicalPCSLibrary": ClassSpec("pcs_sindy.identification.library.physical", "PhysicalPCSLibrary"),
     # actuation terms: parameters (the layout) and the identified offsets and gains
     "IdentityActuation": ClassSpec("pcs_sindy.models.actuation", "IdentityActuation"),
     "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
     "PressureActuation": ClassSpec("pcs_sindy.models.actuation", "PressureActuation"),
     "LinearActuation": ClassSpec("pcs_sindy.models.actuation", "LinearActuation"),
-    "MarkerPoseExtractor": ClassSpec(
-        "pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True, validate=lambda o: o._validate()
-    ),
+    "MarkerPoseExtractor": ClassSpec("pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True),
     "Camera": ClassSpec("pcs_sindy.core.camera", "Camera", kind="dataclass"),
     "PlanarPCS": ClassSpec("pcs_sindy.core.kinematics", "PlanarPCS", kind="dataclass"),
     "PoseTrajectory": ClassSpec(
@@ -172,24 +179,18 @@ REGISTRY: dict[str, ClassSpec] = {
         kind="init",
         fields=("q", "t", "segment_lengths", "active_strains", "qd", "base_pose", "metadata"),
     ),
-    "Pipeline": ClassSpec("sklearn.pipeline", "Pipeline", validate=_validate_pipeline),
-    "PCSPipeline": ClassSpec("pcs_sindy.pipeline.pcs_pipeline", "PCSPipeline", validate=_validate_pipeline),
+    "Pipeline": ClassSpec("sklearn.pipeline", "Pipeline"),
+    "PCSPipeline": ClassSpec("pcs_sindy.pipeline.pcs_pipeline", "PCSPipeline"),
     # plain-parameter pysindy differentiation (no callables among its parameters); what it keeps
     # after a call (stencils, the last smoothed input) is recomputed on every call
     "FiniteDifference": ClassSpec("pysindy.differentiation", "FiniteDifference", params_only=True),
 }
 
 
-def _resolve(name: str) -> type | None:
-    """The registered class called ``name`` (None if its optional module is missing)."""
+def _resolve(name: str) -> type:
+    """The registered class called ``name``."""
     spec = REGISTRY[name]
-    try:
-        module = importlib.import_module(spec.module)
-    except ImportError:
-        if spec.optional:
-            return None
-        raise
-    return getattr(module, spec.attribute, None) if spec.optional else getattr(module, spec.attribute)
+    return getattr(importlib.import_module(spec.module), spec.attribute)
 
 
 def _name_of(obj: Any) -> str | None:
@@ -407,8 +408,6 @@ class _Decoder:
         spec = REGISTRY[name]
         label = f"{where}<{name}>" if where else name
         cls = _resolve(name)
-        if cls is None:
-            raise self.error(label, f"class {name} is not available in this installation (module {spec.module})")
         oid = data["id"]
         if isinstance(oid, bool) or not isinstance(oid, int) or oid in self.objects:
             raise self.error(label, f"object id must be a new integer; got {oid!r}")
@@ -427,8 +426,10 @@ class _Decoder:
             raise self.error(label, f"needs exactly the fields {list(spec.fields)}; got {sorted(kwargs)}")
         try:
             obj = cls(**kwargs)
-            if spec.validate is not None:
-                spec.validate(obj)
+            if name in _PIPELINES:
+                _check_pipeline(obj)
+            elif hasattr(cls, "_parameter_constraints"):
+                validate_parameters(obj)
         except (ValueError, TypeError, ArithmeticError, KeyError, IndexError, AttributeError, OSError) as err:
             raise self.error(label, f"invalid parameters: {type(err).__name__}: {err}") from None
         if state and (spec.kind != "estimator" or spec.params_only):

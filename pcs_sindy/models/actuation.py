@@ -35,6 +35,7 @@ A user-supplied actuation subclasses :class:`Actuation` and implements
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
+from numbers import Real
 from typing import Any
 
 import numpy as np
@@ -42,6 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator
 
 from ..core.kinematics import PlanarPCS
+from ..core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 
 __all__ = [
     "Actuation",
@@ -59,14 +61,41 @@ __all__ = [
 ACT_IDENTITY, ACT_TENDON, ACT_CONSTANT = 0, 1, 2
 
 
-def _vector(value: ArrayLike, name: str, size: int | None = None) -> NDArray[np.float64]:
+def _per_actuator(obj: Actuation, name: str, size: int | None = None) -> NDArray[np.float64]:
+    """The 1-D array of parameter ``name`` (its values checked by the table); with ``size``, one per actuator."""
+    value = getattr(obj, name)
     arr = np.atleast_1d(np.asarray(value, dtype=float))
-    if arr.ndim != 1 or arr.size == 0 or (size is not None and arr.size != size):
-        want = f"({size},)" if size is not None else "(p,) with p >= 1"
-        raise ValueError(f"{name} must have shape {want}; got {np.asarray(value).tolist()!r}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite; got {arr.tolist()}")
+    if size is not None and arr.size != size:
+        raise InvalidParameterError.of(obj, name, f"{size} values, one per actuator of end", value)
     return arr
+
+
+def _finite_vector(value: Any) -> bool:
+    arr = np.atleast_1d(np.asarray(value, dtype=float))
+    return arr.ndim == 1 and arr.size > 0 and bool(np.all(np.isfinite(arr)))
+
+
+def _positive_vector(value: Any) -> bool:
+    return _finite_vector(value) and bool(np.all(np.asarray(value, dtype=float) > 0))
+
+
+def _non_negative_vector(value: Any) -> bool:
+    return _finite_vector(value) and bool(np.all(np.asarray(value, dtype=float) >= 0))
+
+
+def _sides(value: Any) -> bool:
+    return _finite_vector(value) and bool(np.all(np.abs(np.asarray(value, dtype=float)) == 1))
+
+
+def _pattern(value: Any) -> bool:
+    pat = np.asarray(value)
+    return pat.ndim == 2 and pat.shape[1] >= 1 and (pat.dtype == bool or bool(np.all(np.isin(pat, (0, 1)))))
+
+
+_ARC_LENGTHS = "a non-empty 1-D array of finite arc lengths"
+#: the per-value checks of the layouts (the checks against a segmentation stay in fit)
+_END = Check(_positive_vector, f"{_ARC_LENGTHS} > 0 [m]")
+_SIDE = Check(_sides, "a non-empty 1-D array of -1 or 1 (one side per actuator)")
 
 
 def _cover(start: NDArray, end: NDArray, lengths: NDArray) -> NDArray[np.float64]:
@@ -101,6 +130,8 @@ class Actuation(BaseEstimator, ABC):
     possibly none) and ``offset_names_`` (nonlinear parameters, possibly none).
     """
 
+    #: read by validate_parameters in fit (and by model files); a subclass lists its parameters
+    _parameter_constraints: dict = {}
     #: lower bound of every identified gain (0: gains are positive by design)
     gain_lower_bound = 0.0
     #: the layout type written in layouts and model files ("identity", "tendon", "pressure", "linear")
@@ -123,6 +154,7 @@ class Actuation(BaseEstimator, ABC):
         -------
         self
         """
+        validate_parameters(self)
         if not isinstance(kinematics, PlanarPCS):
             raise ValueError(f"kinematics must be a PlanarPCS; got {type(kinematics).__name__}")
         self.kinematics_ = kinematics
@@ -280,6 +312,7 @@ class IdentityActuation(Actuation):
     """The inputs are the generalised forces themselves: ``u`` (T, 3m), ``A = I``."""
 
     kind = "identity"
+    _parameter_constraints: dict = {}  # no parameters
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
         return {
@@ -359,6 +392,14 @@ class TendonActuation(Actuation):
     kind = "tendon"
     _design_keys = ("end", "side")
     depends_on_q = True
+    _parameter_constraints: dict = {
+        "end": [_END],
+        "side": [_SIDE],
+        "offset": [None, Check(_positive_vector, "a non-empty 1-D array of finite magnitudes > 0 [m]")],
+        "max_offset": [Interval(Real, 0, None, closed="neither")],
+        "shared": ["boolean"],
+        "weighting": [Options(_WEIGHTINGS)],
+    }
 
     def input_bounds(self):
         """Tensions pull: ``[0, inf)``."""
@@ -381,13 +422,9 @@ class TendonActuation(Actuation):
         self.weighting = weighting
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
-        end = _vector(self.end, "end")
+        end = _per_actuator(self, "end")
         p = end.size
-        side = _vector(self.side, "side", p)
-        if np.any(np.abs(side) != 1):
-            raise ValueError(f"side must hold -1 or 1 per tendon; got {side.tolist()}")
-        if not (np.isfinite(self.max_offset) and self.max_offset > 0):
-            raise ValueError(f"max_offset must be finite and > 0; got {self.max_offset!r}")
+        side = _per_actuator(self, "side", p)
         lengths = np.asarray(kinematics.segment_lengths, dtype=float)
         total = float(lengths.sum())
         _inside(end, "end", total, allow_zero=False)
@@ -398,17 +435,11 @@ class TendonActuation(Actuation):
             "gain_names": [],
             "gains": np.zeros(0),
         }
-        if not isinstance(self.shared, (bool, np.bool_)):
-            raise ValueError(f"shared must be True or False; got {self.shared!r}")
-        if self.weighting not in _WEIGHTINGS:
-            raise ValueError(f"weighting must be one of {_WEIGHTINGS}; got {self.weighting!r}")
         if self.offset is None:
             names = ["d"] if self.shared else [f"d_{k + 1}" for k in range(p)]
             out.update(offset_names=names, offsets=side * min(0.01, 0.5 * self.max_offset))
         else:
-            mag = _vector(self.offset, "offset", p)
-            if np.any(mag <= 0):
-                raise ValueError(f"offset must hold magnitudes > 0 (the side gives the sign); got {mag.tolist()}")
+            mag = _per_actuator(self, "offset", p)
             out.update(offset_names=[], offsets=side * mag)
         return out
 
@@ -555,6 +586,13 @@ class PressureActuation(_ConstantActuation):
 
     kind = "pressure"
     _design_keys = ("start", "end", "side")
+    _parameter_constraints: dict = {
+        "start": [Check(_non_negative_vector, f"{_ARC_LENGTHS} >= 0 [m]")],
+        "end": [_END],
+        "side": [_SIDE],
+        "bending_gain": [None, Check(_finite_vector, "a non-empty 1-D array of finite gains [m^3]")],
+        "axial_gain": [None, Check(_finite_vector, "a non-empty 1-D array of finite gains [m^2]")],
+    }
 
     def __init__(
         self,
@@ -571,21 +609,22 @@ class PressureActuation(_ConstantActuation):
         self.axial_gain = axial_gain
 
     def _entries(self, kinematics):
-        end = _vector(self.end, "end")
+        end = _per_actuator(self, "end")
         p = end.size
-        start = _vector(self.start, "start", p)
-        side = _vector(self.side, "side", p)
-        if np.any(np.abs(side) != 1):
-            raise ValueError(f"side must hold -1 or 1 per chamber; got {side.tolist()}")
+        start = _per_actuator(self, "start", p)
+        side = _per_actuator(self, "side", p)
         if np.any(start >= end):
             k = int(np.argmax(start >= end))
-            raise ValueError(f"start[{k}] = {float(start[k])!r} must be < end[{k}] = {float(end[k])!r}")
+            want = f"below end, chamber by chamber (start[{k}] = {start[k]:g} >= end[{k}] = {end[k]:g})"
+            raise InvalidParameterError.of(self, "start", want, self.start)
         lengths = np.asarray(kinematics.segment_lengths, dtype=float)
         total = float(lengths.sum())
         _inside(start, "start", total, allow_zero=True)
         _inside(end, "end", total, allow_zero=False)
         if (self.bending_gain is None) != (self.axial_gain is None):
-            raise ValueError("give both bending_gain and axial_gain, or neither (identified)")
+            like = "None like bending_gain" if self.bending_gain is None else "given like bending_gain"
+            want = f"{like} (give both gains, or neither: identified)"
+            raise InvalidParameterError.of(self, "axial_gain", want, self.axial_gain)
         cover = _cover(start, np.minimum(end, total), lengths)  # (p, m)
         out = []
         for kind, row in (("b", 0), ("a", 2)):
@@ -598,8 +637,8 @@ class PressureActuation(_ConstantActuation):
     def _given_gains(self, n_inputs):
         if self.bending_gain is None:
             return None
-        gb = _vector(self.bending_gain, "bending_gain", n_inputs)
-        ga = _vector(self.axial_gain, "axial_gain", n_inputs)
+        gb = _per_actuator(self, "bending_gain", n_inputs)
+        ga = _per_actuator(self, "axial_gain", n_inputs)
         return np.concatenate([gb, ga])
 
     def describe(self, precision: int = 3) -> list[str]:
@@ -629,16 +668,17 @@ class LinearActuation(_ConstantActuation):
 
     kind = "linear"
     gain_lower_bound = -np.inf
+    _parameter_constraints: dict = {
+        "pattern": [Check(_pattern, "a boolean (or 0/1) array of shape (3m, p) with p >= 1 (strains x inputs)")],
+    }
 
     def __init__(self, pattern: ArrayLike = ()) -> None:
         self.pattern = pattern
 
     def _entries(self, kinematics):
-        pat = np.asarray(self.pattern)
-        if pat.ndim != 2 or pat.shape[0] != kinematics.n_q or pat.shape[1] < 1:
+        pat = np.asarray(self.pattern)  # its values checked by the table
+        if pat.shape[0] != kinematics.n_q:
             raise ValueError(f"pattern must have shape ({kinematics.n_q}, p) (strains x inputs); got {pat.shape}")
-        if pat.dtype != bool and not np.all(np.isin(pat, (0, 1))):
-            raise ValueError("pattern must be boolean")
         pat = pat.astype(bool)
         names = kinematics.strain_names()
         out = []

@@ -19,6 +19,7 @@ Knows nothing of dynamics.
 from __future__ import annotations
 
 import os
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -28,6 +29,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from ..core.camera import Camera
 from ..core.saving import PersistenceMixin
 from ..core.trajectory import PoseTrajectory
+from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
 from .extraction import MarkerStream, extract_recording
 from .frame_source import check_recordings, describe, read_frames
 from .markers import detect_markers
@@ -35,6 +37,46 @@ from .markers import detect_markers
 __all__ = ["MarkerPoseExtractor", "MarkerStream", "detect_markers", "read_frames"]
 
 _THRESHOLDS = ("auto", "otsu", "local", "colour")
+_POSITIVE = Interval(Real, 0, None, closed="neither")
+
+
+def _colour_range(value: Any) -> bool:
+    if not (isinstance(value, tuple) and len(value) == 2):
+        return False
+    lo, hi = (np.atleast_1d(np.asarray(b, dtype=float)) for b in value)
+    return (
+        lo.shape == hi.shape
+        and lo.size in (1, 3)
+        and bool(np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)))
+        and bool(np.all(lo <= hi) and np.all(lo >= 0) and np.all(hi <= 255))
+    )
+
+
+def _blur_kernel(value: Any) -> bool:
+    return (
+        isinstance(value, (int, np.integer))
+        and not isinstance(value, bool)
+        and (value == 0 or (value > 0 and value % 2 == 1))
+    )
+
+
+def _roi(value: Any) -> bool:
+    r = np.asarray(value)  # not dtype=float: strings of digits are no pixel counts
+    return (
+        r.shape == (4,)
+        and bool(np.all(np.isfinite(r)) and np.all(r == np.round(r)))
+        and bool(np.all(r[:2] >= 0) and np.all(r[2:] >= 1))
+    )
+
+
+def _area_tolerance(value: Any) -> bool:
+    tol = np.asarray(value, dtype=float)
+    return tol.shape == (2,) and bool(np.all(np.isfinite(tol))) and bool(0 < tol[0] < 1 < tol[1])
+
+
+def _pixel(value: Any) -> bool:
+    bp = np.asarray(value, dtype=float)
+    return bp.shape == (2,) and bool(np.all(np.isfinite(bp)))
 
 
 class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, auto_wrap_output_keys=None):
@@ -214,99 +256,68 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         self.progress = progress
 
     # -- validation ---------------------------------------------------------
-    def _validate(self) -> dict[str, Any]:
-        def positive(name: str, value: Any, allow_none: bool = True) -> None:
-            if value is None and allow_none:
-                return
-            if isinstance(value, bool) or not np.isscalar(value) or not np.isfinite(value) or value <= 0:
-                raise ValueError(f"{name} must be a finite number > 0; got {value!r}")
+    #: read by validate_parameters in fit, transform and stream, and by model files
+    _parameter_constraints: dict = {
+        "n_markers": [None, Interval(Integral, 1, None, closed="left")],
+        "threshold": [
+            Options(_THRESHOLDS),
+            Interval(Real, 0, 255, closed="both"),
+            Check(
+                _colour_range,
+                "a (lower, upper) colour range of grey levels or BGR triples with lower <= upper in [0, 255]",
+            ),
+        ],
+        "polarity": [Options(("dark", "bright"))],
+        "blur": [Check(_blur_kernel, "0 or an odd integer >= 1")],
+        "roi": [None, Check(_roi, "(x, y, width, height) integers with x, y >= 0 and width, height >= 1")],
+        "marker_area": [None, _POSITIVE],
+        "area_tolerance": [Check(_area_tolerance, "(low, high) with 0 < low < 1 < high, both finite")],
+        "aspect_tolerance": [Interval(Real, 1, None, closed="left")],
+        "camera": [
+            Options(("auto",)),
+            None,
+            InstanceOf(Camera, "a Camera"),
+            InstanceOf(dict, "a camera dict"),
+            InstanceOf((str, os.PathLike), "the path of a camera JSON"),
+        ],
+        "pixels_per_metre": [None, _POSITIVE],
+        "robot_length": [None, _POSITIVE],
+        "base_position": [None, Check(_pixel, "(u, v) pixels: two finite numbers")],
+        "rest_direction": [None, Interval(Real, None, None, closed="neither")],
+        "reference_frame": [Interval(Integral, 0, None, closed="left")],
+        "fps": [None, _POSITIVE],
+        "dt": [None, _POSITIVE],
+        "refine": "no_validation",
+        "on_missing": [Options(("raise", "interpolate", "predict"))],
+        "fill_missing": ["boolean"],
+        "min_area": [_POSITIVE],
+        "n_jobs": "no_validation",
+        "progress": "no_validation",
+    }
 
-        if self.n_markers is not None and (
-            isinstance(self.n_markers, bool) or not isinstance(self.n_markers, (int, np.integer)) or self.n_markers < 1
-        ):
-            raise ValueError(f"n_markers must be a positive integer or None; got {self.n_markers!r}")
-        thr = self.threshold
-        if isinstance(thr, str):
-            if thr not in _THRESHOLDS:
-                raise ValueError(
-                    f"threshold must be one of {_THRESHOLDS}, a grey level or a (lower, upper) colour range; "
-                    f"got {thr!r}"
-                )
-        elif isinstance(thr, tuple):
-            if len(thr) != 2:
-                raise ValueError(f"threshold as a colour range must be (lower, upper); got {thr!r}")
-            lo, hi = (np.atleast_1d(np.asarray(b, dtype=float)) for b in thr)
-            if lo.shape != hi.shape or lo.size not in (1, 3) or np.any(lo > hi) or np.any(lo < 0) or np.any(hi > 255):
-                raise ValueError(
-                    "threshold colour range must be two grey levels or BGR triples with lower <= upper in [0, 255]; "
-                    f"got {thr!r}"
-                )
-        elif not np.isscalar(thr) or isinstance(thr, bool) or not 0 <= float(thr) <= 255:
-            raise ValueError(
-                f"threshold must be one of {_THRESHOLDS}, a grey level in [0, 255] or a (lower, upper) colour "
-                f"range; got {thr!r}"
-            )
-        if self.polarity not in ("dark", "bright"):
-            raise ValueError(f"polarity must be 'dark' or 'bright'; got {self.polarity!r}")
-        if not isinstance(self.blur, (int, np.integer)) or self.blur < 0 or (self.blur and self.blur % 2 == 0):
-            raise ValueError(f"blur must be 0 or an odd positive integer; got {self.blur!r}")
-        roi = self.roi
-        if roi is not None:
-            r = np.asarray(roi)
-            if r.shape != (4,) or np.any(r != np.round(r)) or np.any(r[:2] < 0) or np.any(r[2:] < 1):
-                raise ValueError(f"roi must be (x, y, width, height) integers with width, height >= 1; got {roi!r}")
-            roi = tuple(int(v) for v in r)
-        positive("marker_area", self.marker_area)
-        tol = np.asarray(self.area_tolerance, dtype=float)
-        if tol.shape != (2,) or not (0 < tol[0] < 1 < tol[1]) or not np.all(np.isfinite(tol)):
-            raise ValueError(f"area_tolerance must be (low < 1, high > 1), both > 0; got {self.area_tolerance!r}")
-        positive("aspect_tolerance", self.aspect_tolerance, allow_none=False)
-        if self.aspect_tolerance < 1:
-            raise ValueError(f"aspect_tolerance must be >= 1; got {self.aspect_tolerance!r}")
-        cam = self.camera
-        if isinstance(cam, str) and cam == "auto":
-            pass
-        elif cam is None or isinstance(cam, Camera):
-            pass
-        elif isinstance(cam, dict):
-            cam = Camera.from_dict(cam)
-        elif isinstance(cam, (str, os.PathLike)):
-            cam = Camera.from_json(cam)
-        else:
-            raise ValueError(f"camera must be 'auto', None, a Camera, a dict or a JSON path; got {type(cam).__name__}")
-        positive("pixels_per_metre", self.pixels_per_metre)
-        positive("robot_length", self.robot_length)
-        if self.base_position is not None:
-            bp = np.asarray(self.base_position, dtype=float)
-            if bp.shape != (2,) or not np.all(np.isfinite(bp)):
-                raise ValueError(f"base_position must be (u, v) pixels; got {self.base_position!r}")
-        if self.rest_direction is not None and (
-            not np.isscalar(self.rest_direction) or not np.isfinite(self.rest_direction)
-        ):
-            raise ValueError(f"rest_direction must be a finite angle in radians; got {self.rest_direction!r}")
-        if (
-            isinstance(self.reference_frame, bool)
-            or not isinstance(self.reference_frame, (int, np.integer))
-            or self.reference_frame < 0
-        ):
-            raise ValueError(f"reference_frame must be a non-negative integer; got {self.reference_frame!r}")
-        positive("fps", self.fps)
-        positive("dt", self.dt)
+    def _check_frame_rate(self) -> None:
+        """What the table cannot say: a frame rate or a period, not both."""
         if self.fps is not None and self.dt is not None:
-            raise ValueError(f"give fps or dt, not both; got fps={self.fps!r}, dt={self.dt!r}")
-        if self.on_missing not in ("raise", "interpolate", "predict"):
-            raise ValueError(f"on_missing must be 'raise', 'interpolate' or 'predict'; got {self.on_missing!r}")
-        if not isinstance(self.fill_missing, (bool, np.bool_)):
-            raise ValueError(f"fill_missing must be True or False; got {self.fill_missing!r}")
-        positive("min_area", self.min_area, allow_none=False)
+            want = f"None when fps is given (fps = {self.fps!r}; give fps or dt, not both)"
+            raise InvalidParameterError.of(self, "dt", want, self.dt)
+
+    def _extraction_params(self) -> dict[str, Any]:
+        """The (checked) parameters as the extraction takes them: a camera dict or path read, the roi in ints."""
+        cam = self.camera
+        if isinstance(cam, dict):
+            cam = Camera.from_dict(cam)
+        elif isinstance(cam, (str, os.PathLike)) and not (isinstance(cam, str) and cam == "auto"):
+            cam = Camera.from_json(cam)
         params = self.get_params()
-        params.update(camera=cam, roi=roi)
+        params.update(camera=cam, roi=None if self.roi is None else tuple(int(v) for v in np.asarray(self.roi)))
         return params
 
     # -- sklearn API -----------------------------------------------------------
     def fit(self, X: Any = None, y: Any = None) -> MarkerPoseExtractor:
         """Validate the parameters and, if given, the form of ``X`` (extraction is stateless); returns self."""
-        self._validate()
+        validate_parameters(self)
+        self._check_frame_rate()
+        self._extraction_params()  # reads a camera dict or JSON: refuses an invalid one now
         if X is not None:
             check_recordings(X)
         return self
@@ -327,7 +338,9 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
             Poses (T, N + 1, 3) in metres/radians in the robot's base frame;
             ``metadata`` holds the source, the camera and the diagnostics.
         """
-        params = self._validate()
+        validate_parameters(self)
+        self._check_frame_rate()
+        params = self._extraction_params()
         if params["on_missing"] == "predict":
             raise ValueError(
                 "on_missing='predict' is for stream(); recordings take 'raise' or 'interpolate' (which uses the "
@@ -389,7 +402,9 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
             ``update(frame)``, plus ``camera``, ``n_markers``, ``last``,
             ``last_predicted``, ``diagnostics``.
         """
-        params = self._validate()
+        validate_parameters(self)
+        self._check_frame_rate()
+        params = self._extraction_params()
         for name, value in (("max_predicted", max_predicted), ("max_run", max_run)):
             if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < 1:
                 raise ValueError(f"{name} must be a positive integer; got {value!r}")

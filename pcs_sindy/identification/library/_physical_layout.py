@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 
 from ...core.kinematics import STRAIN_NAMES, PlanarPCS
+from ...core.validation import validate_parameters
 from ...models import pcs_numeric as _num
 
 __all__ = ["Spec", "rest_kinds"]
@@ -31,7 +32,7 @@ class Spec:
     """Validated structure of a library (column layout, quadrature, constant matrices)."""
 
     def __init__(self, lib: Any, kin: PlanarPCS) -> None:
-        lib._check_params()
+        validate_parameters(lib)
         lengths = np.asarray(kin.segment_lengths, dtype=float)
         self.kin = kin
         m = self.kin.n_segments

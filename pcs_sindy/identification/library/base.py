@@ -34,8 +34,22 @@ from sklearn.exceptions import NotFittedError
 
 from ...core.kinematics import PlanarPCS
 from ...core.trajectory import kinematics_of
+from ...core.validation import Check, InvalidParameterError, validate_parameters
 
 __all__ = ["LagrangianLibrary"]
+
+
+def _lengths_ok(value: Any) -> bool:
+    lengths = np.atleast_1d(np.asarray(value, dtype=float))
+    return lengths.ndim == 1 and lengths.size > 0 and bool(np.all(np.isfinite(lengths)) and np.all(lengths > 0))
+
+
+def _mask_ok(value: Any) -> bool:
+    raw = np.asarray(value)
+    shaped = (raw.ndim == 2 and raw.shape[0] >= 1 and raw.shape[1] == 3) or (
+        raw.ndim == 1 and raw.size >= 3 and raw.size % 3 == 0
+    )
+    return shaped and (raw.dtype == bool or bool(np.all(np.isin(raw, (0, 1)))))
 
 
 class LagrangianLibrary(BaseFeatureLibrary, ABC):
@@ -77,14 +91,22 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
             )
         return PlanarPCS(tuple(np.atleast_1d(np.asarray(lengths, dtype=float))), active_strains=self.active_strains)
 
-    def _check_segmentation_params(self) -> None:
-        """Validate ``segment_lengths`` (None or positive finite lengths) and ``active_strains``."""
-        if getattr(self, "segment_lengths", None) is not None:
-            _ = self.kinematics  # PlanarPCS validates lengths and the strain mask
+    #: the segmentation every library takes; subclasses add their own parameters
+    #: (``{**LagrangianLibrary._parameter_constraints, ...}``), read by validate_parameters
+    _parameter_constraints: dict = {
+        "segment_lengths": [None, Check(_lengths_ok, "a non-empty 1-D sequence of finite lengths > 0 [m]")],
+        "active_strains": [None, Check(_mask_ok, "booleans (or 0/1) of shape (m, 3) or (3m,)")],
+    }
 
-    def _check_params(self) -> None:
-        """Validate the constructor arguments (subclasses add their own)."""
-        self._check_segmentation_params()
+    def _check_segmentation(self) -> None:
+        """What the table cannot say: one row of ``active_strains`` per segment of ``segment_lengths``."""
+        lengths, mask = self.segment_lengths, self.active_strains
+        if lengths is None or mask is None:
+            return
+        m = np.atleast_1d(np.asarray(lengths, dtype=float)).size
+        if np.shape(mask) not in ((m, 3), (3 * m,)):
+            want = f"of shape ({m}, 3) or ({3 * m},) for the {m} segment(s) of segment_lengths"
+            raise InvalidParameterError.of(self, "active_strains", want, mask)
 
     @property
     def n_strains(self) -> int:
@@ -129,6 +151,8 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         -------
         self
         """
+        validate_parameters(self)
+        self._check_segmentation()
         width = self._set_segmentation(x)
         if kinematics_of(x) is None:
             arrays = x if isinstance(x, (list, tuple)) else [x]
@@ -138,15 +162,10 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
                     f"x must have 2n = {width} columns [q, qd] of the {width // 2} active strains; "
                     f"got widths {sorted(map(str, got))}"
                 )
-        self._check_structure()
+        _ = self.n_coefficients_  # builds (and checks) the column layout
         self.n_features_in_ = width
         self.n_output_features_ = self.n_lagrangian_terms
         return self
-
-    def _check_structure(self) -> None:
-        """Validate the parameters and build the structure."""
-        self._check_params()
-        _ = self.n_coefficients_  # builds the column layout
 
     # ------------------------------------------------------------------ column layout
     @property

@@ -13,6 +13,7 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
 from ...core.kinematics import PlanarPCS
+from ...core.validation import Options, validate_parameters
 from ._monomial_dynamics import DynamicsTables
 from ._monomial_terms import readable, reduce_product
 from .base import LagrangianLibrary
@@ -110,14 +111,16 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         self.progress = progress
 
     # ------------------------------------------------------------------ setup
-    def _check_params(self) -> None:
-        """Validate the constructor arguments (no segmentation needed)."""
-        self._check_segmentation_params()
-        if self.basis not in _BASES:
-            raise ValueError(f"basis must be one of {_BASES}; got {self.basis!r}")
+    #: read by validate_parameters in fit and before the basis is set up, and by model files
+    _parameter_constraints: dict = {
+        **LagrangianLibrary._parameter_constraints,
+        "cache_dir": "no_validation",
+        "basis": [Options(_BASES)],
+        "progress": "no_validation",
+    }
 
-    def _validate(self) -> None:
-        self._check_params()
+    def _take_segmentation(self) -> None:
+        """The segmentation's arrays the setup works on (lengths, mask); a model needs one strain."""
         kin = self.kinematics
         lengths = np.asarray(kin.segment_lengths, dtype=float)
         if kin.n_active == 0:
@@ -129,7 +132,8 @@ class PCSLagrangianLibrary(LagrangianLibrary):
     def _ensure_setup(self) -> None:
         if getattr(self, "_setup_key", None) == self._current_key():
             return
-        self._validate()
+        validate_parameters(self)
+        self._take_segmentation()
         m = self._lengths.size
         cb = _compiled(m, self.cache_dir, bool(self.progress))
         self._cb = cb

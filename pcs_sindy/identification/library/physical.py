@@ -59,6 +59,7 @@ generalised momentum per unit parameter ``P`` (``J_p^T p_dot`` for ``rhoA_i``,
 from __future__ import annotations
 
 from collections.abc import Sequence
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -68,6 +69,8 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 from tqdm.auto import tqdm
 
+from ...core.kinematics import STRAIN_NAMES
+from ...core.validation import Check, Interval, Options
 from ...models import pcs_numeric as _num
 from ._physical_layout import Spec, rest_kinds
 from .base import LagrangianLibrary
@@ -75,6 +78,20 @@ from .base import LagrangianLibrary
 __all__ = ["PhysicalPCSLibrary"]
 
 _CHUNK = 512  # samples per vectorised block (bounds the memory of the node arrays)
+
+
+def _radius_ok(value: Any) -> bool:
+    radius = np.asarray(value, dtype=float)
+    return radius.ndim <= 1 and radius.size > 0 and bool(np.all(np.isfinite(radius)) and np.all(radius > 0))
+
+
+def _rest_kinds_ok(value: Any) -> bool:
+    return rest_kinds(value) is not None  # raises on anything else; () is no rest strain
+
+
+def _gravity_ok(value: Any) -> bool:
+    g = np.asarray(value, dtype=float)
+    return g.shape == (2,) and bool(np.all(np.isfinite(g)))
 
 
 # --------------------------------------------------------------------------
@@ -166,25 +183,17 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         self.mass = mass
 
     # -- structure -------------------------------------------------------------
-    def _check_params(self) -> None:
-        """Validate the constructor arguments (no segmentation needed)."""
-        self._check_segmentation_params()
-        radius = np.asarray(self.radius, dtype=float)
-        if radius.ndim > 1 or radius.size == 0 or not np.all(np.isfinite(radius)) or np.any(radius <= 0):
-            raise ValueError(f"radius must be a finite value > 0 or one per segment; got {self.radius!r}")
-        g = np.asarray(self.gravity, dtype=float)
-        if g.shape != (2,) or not np.all(np.isfinite(g)):
-            raise ValueError(f"gravity must be a finite vector of shape (2,); got {self.gravity!r}")
-        if not isinstance(self.identify_gravity, (bool, np.bool_)):
-            raise ValueError(f"identify_gravity must be True or False; got {self.identify_gravity!r}")
-        rest_kinds(self.rest_strain)
-        if self.rotary_inertia not in ("free", "tied", "none"):
-            raise ValueError(f"rotary_inertia must be 'free', 'tied' or 'none'; got {self.rotary_inertia!r}")
-        nq = self.n_quadrature
-        if isinstance(nq, bool) or not isinstance(nq, (int, np.integer)) or nq < 1:
-            raise ValueError(f"n_quadrature must be a positive integer; got {nq!r}")
-        if self.mass is not None and (isinstance(self.mass, bool) or not np.isfinite(self.mass) or not self.mass > 0):
-            raise ValueError(f"mass must be None or a finite mass > 0 [kg]; got {self.mass!r}")
+    #: read by validate_parameters in fit and when the column layout is built, and by model files
+    _parameter_constraints: dict = {
+        **LagrangianLibrary._parameter_constraints,
+        "radius": [Check(_radius_ok, "a finite number > 0 or one per segment [m]")],
+        "gravity": [Check(_gravity_ok, "two finite numbers (g_x, g_y) [m/s^2]")],
+        "identify_gravity": ["boolean"],
+        "n_quadrature": [Interval(Integral, 1, None, closed="left")],
+        "rotary_inertia": [Options(("free", "tied", "none"))],
+        "rest_strain": ["boolean", Check(_rest_kinds_ok, f"a tuple of strain kinds from {STRAIN_NAMES}")],
+        "mass": [None, Interval(Real, 0, None, closed="neither")],
+    }
 
     @property
     def rest_strain_kinds(self) -> tuple[str, ...]:
