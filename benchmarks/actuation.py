@@ -42,7 +42,7 @@ recordings (fusion at the h the CV chose above, 0.1): mean and standard
 deviation over the draws of each offset's error, and the mean and largest
 e_p^EE.  The offsets are identified by variable projection with each strain's
 equation weighted by the inverse RMS of its own residual (generalised least
-squares, iterated; ``pcs_sindy/variable_projection.py``).  Before that
+squares, iterated; ``pcs_sindy/identification/variable_projection.py``).  Before that
 weighting (commit 1942aa2, one unweighted residual over all equations) the
 same draws gave per-tendon offsets off by -1 to -3 % with standard deviations
 of 6-9 % over the draws (largest error 17 %) and e_p^EE 3.9 mm on average

@@ -34,6 +34,7 @@ ORDER = [
     "model_selection",
     "actuation",
     "control",
+    "control_actuated",
     "cli_startup",
 ]
 # benchmarks outside make bench (run on their own)
