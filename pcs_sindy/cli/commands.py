@@ -22,6 +22,7 @@ stages.  Each function imports what it uses.
 from __future__ import annotations
 
 import json
+import os
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
@@ -204,6 +205,18 @@ def _over_files(func: Callable, items: Sequence[tuple], n_jobs: int, desc: str, 
     )
 
 
+def file_target(out: str | Path, name: str) -> Path:
+    """The file an ``--out`` names: ``out`` itself, or ``out/name`` when ``out`` is a folder.
+
+    A folder is an existing directory or a path ending in a separator (``--out models/``), which
+    is created; anything else is the file (its suffix as given).
+    """
+    text = str(out)
+    if text.endswith(("/", os.sep)) or Path(out).is_dir():
+        return Path(out) / name
+    return Path(out)
+
+
 def _unique_stems(names: Sequence[str | Path], what: str) -> None:
     stems = [Path(v).stem for v in names]
     if len(set(stems)) != len(stems):
@@ -308,7 +321,7 @@ def calibrate(
         extra, extra_names = read_views([plane])
         images, names = images + extra[:1], names + extra_names[:1]
     camera, report = calibrate_camera(images, pattern, square, plane=-1, names=names)
-    path = Path(out)
+    path = file_target(out, "camera.json")
     path.parent.mkdir(parents=True, exist_ok=True)
     extra_keys: dict[str, Any] = {"calibration": {k: v for k, v in report.items() if k != "pixels_per_metre"}}
     if fps is not None:
@@ -327,10 +340,15 @@ def calibrate(
     return camera, report
 
 
-def _extract_one(extractor: Any, video: str, progress: bool) -> tuple[Any, dict[str, Any]]:
-    """Extract one video (module level so joblib can run it in a worker)."""
+def _extract_one(extractor: Any, video: str, progress: bool) -> tuple[Any, dict[str, Any], list[str]]:
+    """Extract one video (module level so joblib can run it in a worker); its warnings returned as text."""
+    import warnings
+
     extractor = extractor.set_params(progress=progress)
-    return extractor.fit_transform([video])[0], extractor.diagnostics_[0]
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        traj = extractor.fit_transform([video])[0]
+    return traj, extractor.diagnostics_[0], [str(w.message) for w in caught]
 
 
 def extract(
@@ -341,7 +359,22 @@ def extract(
     n_markers: int | None = None,
     robot_length: float | None = None,
     fps: float | None = None,
+    reference_frame: Any = None,
+    threshold: Any = None,
+    polarity: str | None = None,
+    blur: int | None = None,
+    roi: tuple[int, int, int, int] | None = None,
+    min_area: float | None = None,
+    marker_area: float | None = None,
+    area_tolerance: tuple[float, float] | None = None,
+    aspect_tolerance: float | None = None,
+    base_position: tuple[float, float] | None = None,
+    pixels_per_metre: float | None = None,
+    rest_direction: float | None = None,
     on_missing: str | None = None,
+    refine: bool | None = None,
+    fill_missing: bool | None = None,
+    plot: bool = False,
     n_jobs: int = 1,
     quiet: bool = False,
 ) -> list[Path]:
@@ -350,14 +383,22 @@ def extract(
     Parameters
     ----------
     videos : sequence of path
-        Videos or folders of image frames.
+        Videos or folders of image frames (a folder is one recording; single image files are refused:
+        give their folder).
     out : path
         Output folder (created); one pose file per video, same stem.
     camera : path, optional
-        Camera JSON for every video; default: each video's ``<video>.camera.json``, else calibration.
-    n_markers, robot_length, fps, on_missing : optional
+        Camera JSON for every video, honoured in full (``fps`` and ``n_frames`` included; ``image_size``
+        may be left out); default: each video's ``<video>.camera.json`` (a folder's ``camera.json``),
+        else calibration.
+    n_markers, robot_length, fps, reference_frame, threshold, polarity, blur, roi, min_area : optional
+    marker_area, area_tolerance, aspect_tolerance, base_position, pixels_per_metre : optional
+    rest_direction, on_missing, refine, fill_missing : optional
         Parameters of :func:`make_pcs_pipeline`'s ``poses`` step
-        (:class:`~pcs_sindy.vision.extractor.MarkerPoseExtractor`); None: its default.
+        (:class:`~pcs_sindy.vision.extractor.MarkerPoseExtractor`, which checks them; ``rest_direction``
+        in radians as there); None: its default.
+    plot : bool
+        Also draw ``<stem>.inspect.png`` per video in ``out`` (:func:`~pcs_sindy.cli.sheet.inspect_video`).
     n_jobs : int
         Videos extracted in parallel (joblib; -1: all cores).
     quiet : bool
@@ -370,24 +411,47 @@ def extract(
     """
     from sklearn.base import clone
 
-    from ..core.camera import Camera
     from ..io import data_files as files
+    from ..vision.frame_source import group_image_files
 
-    if camera is not None:
-        if not Path(camera).is_file():
-            raise CLIError(f"camera file {str(camera)!r} does not exist")
-        camera = Camera.from_json(camera)
+    if camera is not None and not Path(camera).is_file():
+        raise CLIError(f"camera file {str(camera)!r} does not exist")
     for name in videos:
         if not Path(name).exists():
             raise CLIError(f"video {str(name)!r} does not exist")
+    try:
+        group_image_files(videos)
+    except ValueError as err:
+        raise CLIError(str(err)) from None
     _unique_stems(videos, "videos")
-    folder = files.output_dir(out)
-    extractor = pipeline_step(
-        "poses", camera=camera, n_markers=n_markers, robot_length=robot_length, fps=fps, on_missing=on_missing
+    options = dict(
+        n_markers=n_markers,
+        robot_length=robot_length,
+        fps=fps,
+        reference_frame=reference_frame,
+        threshold=threshold,
+        polarity=polarity,
+        blur=blur,
+        roi=roi,
+        min_area=min_area,
+        marker_area=marker_area,
+        area_tolerance=area_tolerance,
+        aspect_tolerance=aspect_tolerance,
+        base_position=base_position,
+        pixels_per_metre=pixels_per_metre,
+        rest_direction=rest_direction,
+        on_missing=on_missing,
+        refine=refine,
+        fill_missing=fill_missing,
     )
+    extractor = pipeline_step("poses", camera=None if camera is None else str(camera), **options)
+    extractor.fit()  # every option and the camera JSON checked before any work
+    folder = files.output_dir(out)
     results = _over_files(_extract_one, [(clone(extractor), str(v)) for v in videos], n_jobs, "extract", quiet)
     paths = []
-    for name, (tr, diag) in zip(videos, results):
+    for name, (tr, diag, caught) in zip(videos, results):
+        for message in caught:  # raised in a worker: shown here, once
+            _warn(message)
         rest = tr.metadata.get("rest_length")
         paths.append(files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses, rest_length=rest))
         repaired = len(diag["frames_repaired"])
@@ -396,7 +460,18 @@ def extract(
             f"extracted {Path(name).name}: {tr.n_frames} frames, {tr.n_markers} markers"
             f"{f', {repaired} frames interpolated' if repaired else ''} ({diag['calibration']}) -> {paths[-1]}",
         )
+    if plot:
+        from .sheet import inspect_video
+
+        for name, (tr, diag, _) in zip(videos, results):
+            inspect_video(name, folder, camera=camera, quiet=quiet, extracted=(tr, diag), **options)
     return paths
+
+
+def _warn(message: str) -> None:
+    import warnings
+
+    warnings.warn(message, UserWarning, stacklevel=3)
 
 
 def fuse(
@@ -604,7 +679,8 @@ def fit(
     start = time.perf_counter()
     model.fit(data, taus)
     seconds = time.perf_counter() - start
-    path = files.write_model_file(model, files.output_dir(Path(out).parent) / Path(out).name)
+    target = file_target(out, "model.json")
+    path = files.write_model_file(model, files.output_dir(target.parent) / target.name)
     if not quiet:
         names = model.kinematics_.strain_names(active_only=False)
         print(

@@ -15,7 +15,7 @@ import functools
 from pathlib import Path
 from typing import Any
 
-__all__ = ["read_default"]
+__all__ = ["read_default", "read_options"]
 
 #: the folder of the ``pcs_sindy`` package, whose source files are read
 PACKAGE_DIR = Path(__file__).resolve().parents[1]
@@ -120,3 +120,57 @@ def read_default(where: str) -> Any:
             f"{where}: the source holds {ast.unparse(node)!r}, not a literal; write a literal there or stop "
             "showing this default in the help"
         ) from None
+
+
+def read_options(where: str) -> tuple[Any, ...]:
+    """The fixed values (``Options``) that an estimator's ``_parameter_constraints`` accept for a parameter.
+
+    Read from the source like :func:`read_default`: the command line passes words such as
+    ``"auto"`` through to the estimator (which validates them) and lists these in its help, so a
+    value added to the table reaches the command line without an edit there.
+
+    Parameters
+    ----------
+    where : str
+        ``"module:Class.parameter"``, e.g. ``"vision.extractor:MarkerPoseExtractor.threshold"``.
+
+    Returns
+    -------
+    tuple
+        The values of every ``Options(...)`` of the parameter's entry, in order (empty when it has none).
+
+    Raises
+    ------
+    LookupError
+        If the class, its table or the parameter's entry is not there, or an ``Options`` argument is
+        neither a literal nor a module constant holding one.
+    """
+    module, sep, dotted = where.partition(":")
+    owner, _, name = dotted.rpartition(".")
+    if not sep or not owner or not name:
+        raise ValueError(f"where={where!r}: expected 'module:Class.parameter'")
+    tree = _module_tree(module)
+    cls = _binding(tree.body, owner)
+    if not isinstance(cls, ast.ClassDef):
+        raise LookupError(f"{where}: module {module} has no class {owner!r}")
+    table = _binding(cls.body, "_parameter_constraints")
+    if not isinstance(table, ast.Dict):
+        raise LookupError(f"{where}: class {owner} has no _parameter_constraints dict in its source")
+    entries = [v for k, v in zip(table.keys, table.values) if isinstance(k, ast.Constant) and k.value == name]
+    if not entries:
+        raise LookupError(f"{where}: {owner}._parameter_constraints has no entry {name!r}")
+    entry = entries[-1]
+    values: list[Any] = []
+    for item in entry.elts if isinstance(entry, (ast.List, ast.Tuple)) else []:
+        if isinstance(item, ast.Call) and isinstance(item.func, ast.Name) and item.func.id == "Options":
+            arg = item.args[0]
+            if isinstance(arg, ast.Name):  # a module constant
+                bound = _binding(tree.body, arg.id)
+                if not isinstance(bound, ast.expr):
+                    raise LookupError(f"{where}: Options({arg.id}) but {arg.id} is not a module constant")
+                arg = bound
+            try:
+                values.extend(ast.literal_eval(arg))
+            except (ValueError, TypeError):
+                raise LookupError(f"{where}: Options({ast.unparse(arg)}) is not a literal") from None
+    return tuple(values)

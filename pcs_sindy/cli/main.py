@@ -27,6 +27,7 @@ from __future__ import annotations
 import argparse
 import inspect
 import math
+import os
 import sys
 import warnings
 from collections.abc import Callable, Sequence
@@ -47,8 +48,9 @@ from .commands import (
     scenarios,
     simulate,
 )
-from .defaults import read_default
+from .defaults import read_default, read_options
 from .demo import demo
+from .sheet import inspect_video
 
 __all__ = [
     "main",
@@ -64,6 +66,7 @@ __all__ = [
     "fit",
     "rollout",
     "demo",
+    "inspect_video",
     "build_regressor",
     "pipeline_step",
 ]
@@ -212,9 +215,103 @@ def _noise(text: str) -> tuple[float, float] | str | None:
     return sigma_p, math.radians(sigma_deg)
 
 
+def _value(text: str) -> Any:
+    """A value of an estimator parameter as typed: a number, a word, ``A,B,...`` (a tuple) or ``LOW:HIGH`` (a pair).
+
+    Only the form is parsed here; the estimator checks the value (one validation layer) and its
+    error names the parameter, the value and what it must be.
+    """
+    text = text.strip()
+    if ":" in text:
+        return tuple(_value(part) for part in text.split(":"))
+    if "," in text:
+        return tuple(_value(part) for part in text.split(","))
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _degrees(text: str) -> Any:
+    """An angle typed in degrees, as radians (a word passes through to the estimator)."""
+    value = _value(text)
+    if isinstance(value, (int, float)):
+        return math.radians(value)
+    return value
+
+
+#: MarkerPoseExtractor parameters with a flag on 'extract' and 'inspect': (parameter, metavar, help, parse)
+EXTRACTOR_OPTIONS: list[tuple[str, str, str, Callable[[str], Any]]] = [
+    ("reference_frame", "K", "frame used for the typical marker, the marker count and the calibration", _value),
+    (
+        "threshold",
+        "T",
+        "binarisation: a word, a grey level 0-255, or a colour range LOW:HIGH of grey levels or B,G,R triples "
+        "(e.g. 0,0,120:90,90,255)",
+        _value,
+    ),
+    ("polarity", "P", "markers darker or brighter than the background", _value),
+    ("blur", "K", "odd Gaussian kernel before thresholding, 0 for none", _value),
+    ("roi", "X,Y,W,H", "region of interest in pixels; components outside are ignored", _value),
+    ("min_area", "PX", "components smaller than this many pixels are noise", _value),
+    ("marker_area", "PX", "typical marker area in pixels (default: the median in the reference frame)", _value),
+    ("area_tolerance", "LOW,HIGH", "marker areas outside marker_area * [LOW, HIGH] are not markers", _value),
+    ("aspect_tolerance", "F", "long/short ratio tolerance of a marker, a factor >= 1", _value),
+    (
+        "base_position",
+        "U,V",
+        "pixel position of the base marker (default: the camera origin, or found in the footage)",
+        _value,
+    ),
+    ("pixels_per_metre", "S", "scale when no camera is used", _value),
+    (
+        "rest_direction",
+        "DEG",
+        "image angle of the robot's rest direction in DEGREES, atan2(dv, du) (default: base to next marker)",
+        _degrees,
+    ),
+    ("on_missing", "WHAT", "frames whose markers (or data) cannot be read: fail, or interpolate them in time", _value),
+]
+
+
+def add_extractor_options(p: argparse.ArgumentParser) -> None:
+    """The MarkerPoseExtractor flags of :data:`EXTRACTOR_OPTIONS`, plus ``--refine``/``--fill-missing``.
+
+    Words the estimator's ``_parameter_constraints`` accept and its defaults are read from its source
+    when the help is printed; values are checked by the estimator.
+    """
+
+    def text(name: str, what: str) -> Callable[[], str]:
+        def write() -> str:
+            words = [w for w in read_options(f"{POSES}.{name}") if name != "on_missing" or w != "predict"]
+            listed = f"; words: {', '.join(map(str, words))}" if words else ""
+            default = _of(POSES, name)
+            if name == "rest_direction" and isinstance(default, (int, float)):
+                default = math.degrees(default)
+            return f"{what}{listed} (default {default})" if default is not None else f"{what}{listed}"
+
+        return write
+
+    for name, metavar, what, parse in EXTRACTOR_OPTIONS:
+        p.add_argument("--" + name.replace("_", "-"), type=parse, metavar=metavar, help=_later(text(name, what)))
+    for name, what in (
+        ("refine", "sub-pixel centres and axes from intensity-weighted moments (--no-refine: minAreaRect)"),
+        ("fill_missing", "an isolated missing marker between two found neighbours is filled on the arc"),
+    ):
+        p.add_argument(
+            "--" + name.replace("_", "-"),
+            action=argparse.BooleanOptionalAction,
+            help=_later(lambda name=name, what=what: f"{what} (default {_on_off(_of(POSES, name))})"),
+        )
+
+
 def command_kwargs(func: Callable, args: argparse.Namespace) -> dict[str, Any]:
     """The parsed options of ``args`` that are parameters of the command ``func``."""
     params = inspect.signature(func).parameters
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):  # takes every option
+        return {k: v for k, v in vars(args).items() if k not in ("command", "func", "debug")}
     return {k: v for k, v in vars(args).items() if k in params}
 
 
@@ -314,7 +411,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--square", type=_positive_float, required=True, help="side of a square in metres")
     p.add_argument("--plane", help="image of the board lying in the robot's plane (default: the last view)")
     p.add_argument(
-        "--out", required=True, help="camera JSON to write (name it <video>.camera.json to have 'extract' find it)"
+        "--out",
+        required=True,
+        help="camera JSON to write (name it <video>.camera.json to have 'extract' find it; a folder gets camera.json)",
     )
     p.add_argument("--fps", type=_positive_float, help="frame rate to store in the JSON (optional)")
     p.add_argument(
@@ -325,27 +424,48 @@ def build_parser() -> argparse.ArgumentParser:
     )
 
     p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", extract)
-    p.add_argument("videos", nargs="+", help="videos (or folders of image frames)")
+    p.add_argument("videos", nargs="+", help="videos or folders of image frames (a folder is one recording)")
     p.add_argument("--out", required=True, help="output directory (one pose file per video, same stem)")
     p.add_argument(
         "--camera",
-        help="camera JSON for every video (default: <video>.camera.json next to each video, as 'render' writes)",
+        help="camera JSON for every video, honoured in full (fps, n_frames; image_size may be left out) "
+        "(default: <video>.camera.json next to each video, or camera.json in a frame folder, as 'render' writes)",
     )
     p.add_argument(
         "--robot-length",
         type=_positive_float,
         help="the robot's measured rest length [m]: stored in the pose files for 'fuse', and without a camera "
-        "JSON the scale is calibrated from it and the straight first frame",
+        "JSON the scale is calibrated from it and the straight reference frame",
     )
     p.add_argument("--n-markers", type=_positive_int, help="markers besides the base (default: as found)")
-    p.add_argument("--fps", type=_positive_float, help="frame rate (default: the video's or the camera JSON's)")
     p.add_argument(
-        "--on-missing",
-        choices=["raise", "interpolate"],
-        help=_later(
-            lambda: f"frames whose markers cannot be found: fail or interpolate (default {_of(POSES, 'on_missing')})"
-        ),
+        "--fps", type=_positive_float, help="frame rate (default: the camera JSON's, else the video container's)"
     )
+    add_extractor_options(p)
+    p.add_argument(
+        "--plot",
+        action="store_true",
+        help="also draw <stem>.inspect.png per video: a contact sheet of frames with the markers found",
+    )
+
+    p = add(
+        "inspect",
+        "draw a contact sheet (PNG) of a few frames with the markers found, the chain order, the base and "
+        "the components rejected: to check what 'extract' sees",
+        inspect_video,
+    )
+    p.add_argument("video", help="a video, a folder of image frames or one image")
+    p.add_argument("--out", help="PNG to write (default <video stem>.inspect.png beside the video)")
+    p.add_argument(
+        "--frames",
+        type=_positive_int,
+        default=_default(inspect_video, "frames"),
+        help="frames on the sheet, spread over the recording (default %(default)s)",
+    )
+    p.add_argument("--camera", help="camera JSON (default: the video's own, as for 'extract')")
+    p.add_argument("--robot-length", type=_positive_float, help="as for 'extract'")
+    p.add_argument("--n-markers", type=_positive_int, help="as for 'extract'")
+    add_extractor_options(p)
 
     p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)
     p.add_argument("poses", nargs="+", help="pose files (.npz with t, poses)")
@@ -391,7 +511,9 @@ def build_parser() -> argparse.ArgumentParser:
         "pressure/linear; a scenario.json written by 'simulate' qualifies); offsets or gains not given "
         "are identified",
     )
-    p.add_argument("--out", required=True, help="model file (model.json + model.npz)")
+    p.add_argument(
+        "--out", required=True, help="model file (model.json + model.npz); a folder (dir/) gets dir/model.json"
+    )
     p.add_argument(
         "--library",
         "--basis",
@@ -538,9 +660,87 @@ def _method_help() -> str:
     )
 
 
+#: the file last opened for writing while a command runs (see :func:`_watch_writes`): an OSError that
+#: names no file (a full disk: "[Errno 28] No space left on device") is reported with this name
+_WRITING: dict[str, str | None] = {"path": None, "active": None}
+
+
+def _watch_writes() -> None:
+    """Remember the file each ``open`` for writing names (a ``sys.audit`` hook, added once per process).
+
+    An error while writing (disk full, ``ulimit -f``) is raised by ``write`` or ``close`` without a file
+    name; the command's one-line message then names the file being written.  Hooks cannot be removed:
+    the hook records only while :func:`main` runs a command.
+    """
+    if _WRITING["active"] is not None:
+        return
+
+    def hook(event: str, args: tuple) -> None:
+        if event == "open" and _WRITING["active"]:
+            path, mode, flags = (args + (None, None, None))[:3]
+            writing = (isinstance(mode, str) and any(c in mode for c in "wax+")) or (
+                isinstance(flags, int) and flags & 3 != 0  # os.O_WRONLY | os.O_RDWR
+            )
+            if writing and isinstance(path, (str, bytes)):
+                _WRITING["path"] = os.fsdecode(path)
+
+    sys.addaudithook(hook)
+    _WRITING["active"] = False
+
+
+def _quiet_opencv() -> None:
+    """Silence OpenCV's own log and FFmpeg's (``[mjpeg @ 0x...] overread``) unless the user set them.
+
+    Set before OpenCV is imported (the commands import it): OpenCV reads ``OPENCV_LOG_LEVEL`` and its
+    FFmpeg back-end ``OPENCV_FFMPEG_LOGLEVEL`` (FFmpeg's ``AV_LOG_QUIET`` = -8) from the environment.
+    Problems the footage has are reported by the extractor itself, naming the recording and frame.
+    """
+    os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")
+    os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
+    if "cv2" in sys.modules:  # imported already (in-process use, tests): set OpenCV's level directly
+        sys.modules["cv2"].setLogLevel(0)
+
+
+def _one_line(err: BaseException) -> str:
+    """The error as one line; an OSError names its file (the one being written when it names none)."""
+    message = " ".join(str(err).split()) or type(err).__name__
+    if isinstance(err, OSError):
+        names = [os.fsdecode(f) for f in (err.filename, err.filename2) if f is not None]
+        if not names and _WRITING["path"] is not None and err.errno is not None:
+            names = [_WRITING["path"]]
+            message = f"cannot write {names[0]!r}: {message}"
+        elif names and not any(n in message for n in names):
+            message = f"{names[0]!r}: {message}"
+    return message
+
+
 def main(argv: Sequence[str] | None = None) -> int:
-    """Entry point of the ``pcs-sindy`` console script; returns the exit code."""
-    args = build_parser().parse_args(argv)
+    """Entry point of the ``pcs-sindy`` console script; returns the exit code.
+
+    0 on success, 2 on an error in the user's input or files (one line on stderr naming the file),
+    130 when interrupted (Ctrl-C: one line, no traceback).
+    """
+    try:
+        args = build_parser().parse_args(argv)
+    except KeyboardInterrupt:
+        print("pcs-sindy: interrupted", file=sys.stderr)
+        return 130
+    _quiet_opencv()
+    _watch_writes()
+    _WRITING.update(path=None, active=True)
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        if args.debug:
+            raise
+        print(f"pcs-sindy {args.command}: interrupted", file=sys.stderr)
+        return 130
+    finally:
+        _WRITING.update(path=None, active=False)
+
+
+def _run(args: argparse.Namespace) -> int:
+    """Run the parsed command: its errors become one line and exit code 2 (``--debug``: the traceback)."""
     # Only now that a command runs: the errors it may raise come from numpy and the stages.
     import numpy as np
 
@@ -557,8 +757,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:
         if args.debug:
             raise
-        message = " ".join(str(err).split()) or type(err).__name__  # one line
-        print(f"pcs-sindy {args.command}: error: {message}", file=sys.stderr)
+        print(f"pcs-sindy {args.command}: error: {_one_line(err)}", file=sys.stderr)
         return 2
     return 0
 

@@ -43,7 +43,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "as_strain_trajectories",
             "kinematics_of",
         ],
-        "camera": ["Camera", "read_camera_json"],
+        "camera": ["Camera", "camera_extras", "read_camera_json"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
         "validation": [

@@ -32,6 +32,7 @@ extractor then finds the base marker and the rest direction in the footage.
 from __future__ import annotations
 
 import json
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
@@ -42,7 +43,7 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["Camera", "camera_json_path", "read_camera_json"]
+__all__ = ["Camera", "FPS_RANGE", "camera_extras", "camera_json_path", "read_camera_json"]
 
 _JSON_KIND = "pcs_sindy.core.camera"
 # OpenCV's default of 5 iterations leaves a few hundredths of a pixel in the
@@ -440,15 +441,22 @@ class Camera:
         return data
 
     @classmethod
-    def from_dict(cls, data: Mapping[str, Any]) -> Camera:
+    def from_dict(cls, data: Mapping[str, Any], image_size: tuple[int, int] | None = None) -> Camera:
+        """The camera a dict describes (:meth:`to_dict`; extras such as ``fps`` are ignored).
+
+        ``image_size`` (width, height) completes a description without one (a hand-written camera
+        JSON may leave out what the footage tells); a description that has one keeps its own.
+        """
         missing = [k for k in ("pixels_per_metre", "origin", "image_size") if k not in data]
+        if image_size is not None and "image_size" in missing:
+            missing.remove("image_size")
         if missing:
             raise ValueError(f"camera description lacks {missing}; got keys {sorted(data)}")
         origin = data["origin"]
         return cls(
             data["pixels_per_metre"],
             None if origin is None else tuple(origin),
-            tuple(data["image_size"]),
+            tuple(data["image_size"] if "image_size" in data else image_size),  # type: ignore[arg-type]
             data.get("angle", 0.0),
             data.get("camera_matrix"),
             data.get("dist_coeffs"),
@@ -471,24 +479,72 @@ class Camera:
         return path
 
     @classmethod
-    def from_json(cls, path: str | os.PathLike) -> Camera:
-        """Read a camera written by :meth:`to_json`."""
+    def from_json(cls, path: str | os.PathLike, image_size: tuple[int, int] | None = None) -> Camera:
+        """Read a camera written by :meth:`to_json` (``image_size`` as in :meth:`from_dict`)."""
         data = read_camera_json(path)
         try:
-            return cls.from_dict(data)
+            return cls.from_dict(data, image_size)
         except ValueError as err:
             raise ValueError(f"camera JSON path={str(path)!r}: {err}") from None
 
 
+#: frame rates a camera JSON may state (frames per second): an hour per frame to a nanosecond per frame
+FPS_RANGE = (1.0 / 3600.0, 1e9)
+
+
+def camera_extras(data: Mapping[str, Any], source: str = "camera description") -> dict[str, Any]:
+    """The recording facts a camera description holds besides the camera, checked: ``fps``, ``n_frames``.
+
+    Parameters
+    ----------
+    data : mapping
+        A camera dict or the content of a camera JSON.
+    source : str
+        What ``data`` is, for messages (e.g. ``"camera JSON 'clip.avi.camera.json'"``).
+
+    Returns
+    -------
+    dict
+        ``fps`` (float) and ``n_frames`` (int) when present.
+
+    Raises
+    ------
+    ValueError
+        A field that is not a number in its range: the message names ``source``, the field and the value.
+    """
+    out: dict[str, Any] = {}
+    fps = data.get("fps")
+    if fps is not None:
+        lo, hi = FPS_RANGE
+        ok = isinstance(fps, (int, float, np.integer, np.floating)) and not isinstance(fps, bool)
+        if not ok or not (math.isfinite(float(fps)) and lo <= float(fps) <= hi):
+            raise ValueError(
+                f"{source}: field 'fps' must be the frame rate in frames per second, a number from {lo:.3g} to "
+                f"{hi:.3g}; got {fps!r}"
+            )
+        out["fps"] = float(fps)
+    n_frames = data.get("n_frames")
+    if n_frames is not None:
+        if isinstance(n_frames, bool) or not isinstance(n_frames, (int, np.integer)) or n_frames < 1:
+            raise ValueError(f"{source}: field 'n_frames' must be a positive integer (frames); got {n_frames!r}")
+        out["n_frames"] = int(n_frames)
+    return out
+
+
 def read_camera_json(path: str | os.PathLike) -> dict[str, Any]:
-    """The raw dictionary of a camera JSON file (camera keys plus extras such as ``fps``)."""
+    """The raw dictionary of a camera JSON file (camera keys plus extras such as ``fps``).
+
+    The extras are checked (:func:`camera_extras`): a frame rate of 0, a negative or a non-finite one
+    is an error naming the file, the field and the value.
+    """
     path = Path(path)
     try:
         data = json.loads(path.read_text())
     except OSError as err:
         raise OSError(f"cannot read camera JSON path={str(path)!r}: {err}") from err
-    except json.JSONDecodeError as err:
+    except (json.JSONDecodeError, UnicodeDecodeError) as err:
         raise ValueError(f"camera JSON path={str(path)!r} is not valid JSON: {err}") from err
     if not isinstance(data, dict):
         raise ValueError(f"camera JSON path={str(path)!r} must hold an object; got {type(data).__name__}")
+    camera_extras(data, f"camera JSON path={str(path)!r}")
     return data

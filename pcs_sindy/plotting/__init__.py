@@ -20,7 +20,8 @@ is importable from here:
   (:func:`plot_strain_distance_profile`, seed Fig. 6; :func:`plot_error_vs_segments`, Fig. 8);
 * :mod:`pcs_sindy.plotting.rollout` - rollouts against time
   (:func:`plot_rollout`, Fig. 9a / 11a; :func:`plot_end_effector`, Fig. 9b);
-* :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10);
+* :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10; the
+  extraction's :func:`plot_contact_sheet`);
 * :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`).
 
 Takes in arrays and fitted estimators' attributes, gives :class:`matplotlib.figure.Figure` objects.
@@ -35,6 +36,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "animation": ["animate_rollout"],
         "rollout": ["plot_end_effector", "plot_rollout"],
         "fusion": ["plot_error_vs_segments", "plot_strain_distance_profile"],
-        "stills": ["plot_stills"],
+        "stills": ["plot_contact_sheet", "plot_stills"],
     },
 )

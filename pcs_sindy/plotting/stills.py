@@ -1,4 +1,8 @@
-"""Stills of the robot: images with true markers, detections and the model's backbone overlaid (seed Fig. 3 / 10)."""
+"""Stills of the robot: images with true markers, detections and the model's backbone overlaid (seed Fig. 3 / 10).
+
+:func:`plot_contact_sheet` draws what an extraction found on a few frames (the chain of markers in
+order, the base, the components rejected) for ``pcs-sindy inspect``.
+"""
 
 from __future__ import annotations
 
@@ -12,7 +16,7 @@ from numpy.typing import NDArray
 
 from ._checks import finite_array, new_axes
 
-__all__ = ["plot_stills"]
+__all__ = ["plot_contact_sheet", "plot_stills"]
 
 
 def _per_still(value: Any, k: int, name: str, min_points: int = 1) -> list[NDArray[np.float64]]:
@@ -210,4 +214,108 @@ def plot_stills(
             axes[0].legend(loc="lower left", fontsize="x-small")
     if title is not None:
         fig.suptitle(title)
+    return fig
+
+
+def plot_contact_sheet(
+    frames: Sequence[Any],
+    *,
+    chains: Sequence[Any | None],
+    rejected: Sequence[Any] | None = None,
+    titles: Sequence[str] | None = None,
+    notes: Sequence[str] | None = None,
+    bgr: bool = True,
+    ncols: int = 3,
+    title: str | None = None,
+) -> Figure:
+    """A grid of frames with the marker chain an extraction found drawn on each, in pixels.
+
+    Per frame: the chain as a line through the markers in order (green dots, numbered from the base,
+    0), the base (a cyan square), and the marker-shaped components that were not taken as markers
+    (red crosses: clutter, merged or partly hidden markers).
+
+    Parameters
+    ----------
+    frames : sequence of K images
+        Grey (H, W) or colour (H, W, 3) uint8 images.
+    chains : sequence of K arrays (N + 1, 2|3) or None
+        Marker positions ``(u, v)`` in pixels, base first; None where no chain was found.
+    rejected : sequence of K arrays (P, 2+), optional
+        Positions ``(u, v)`` of rejected components in pixels (P may be 0).
+    titles : sequence of K str, optional
+        Panel titles (e.g. the frame index and time).
+    notes : sequence of K str, optional
+        A line under each panel (e.g. why the frame could not be extracted).
+    bgr : bool
+        Colour frames are in OpenCV's BGR order.
+    ncols : int
+        Panels per row.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    Figure
+    """
+    k = len(frames)
+    if k < 1:
+        raise ValueError("frames must hold at least one image")
+    for name, value in (("chains", chains), ("rejected", rejected), ("titles", titles), ("notes", notes)):
+        if value is not None and len(value) != k:
+            raise ValueError(f"{name} must hold one entry per frame ({k}); got {len(value)}")
+    if isinstance(ncols, bool) or not isinstance(ncols, (int, np.integer)) or ncols < 1:
+        raise ValueError(f"ncols must be a positive integer; got {ncols!r}")
+    images = []
+    for i, img in enumerate(frames):
+        img = np.asarray(img)
+        if img.dtype != np.uint8 or not (img.ndim == 2 or (img.ndim == 3 and img.shape[2] == 3)):
+            raise ValueError(f"frames[{i}] must be a uint8 image (H, W) or (H, W, 3); got {img.dtype} {img.shape}")
+        images.append(img)
+    cols = min(int(ncols), k)
+    rows = -(-k // cols)
+    aspect = images[0].shape[0] / images[0].shape[1]
+    fig, axes = new_axes(None, rows * cols, "axes", (3.6 * cols, 3.6 * aspect * rows + 0.8), nrows=rows, ncols=cols)
+    for i, ax in enumerate(axes):
+        ax.set_xticks([])
+        ax.set_yticks([])
+        if i >= k:
+            ax.set_axis_off()
+            continue
+        img = images[i]
+        if img.ndim == 3:
+            ax.imshow(img[..., ::-1] if bgr else img)
+        else:
+            ax.imshow(img, cmap="gray", vmin=0, vmax=255)
+        if rejected is not None and rejected[i] is not None and len(rejected[i]):
+            rej = finite_array(rejected[i], f"rejected[{i}]")
+            if rej.ndim != 2 or rej.shape[1] < 2:
+                raise ValueError(f"rejected[{i}] must have shape (P, 2 or more); got {rej.shape}")
+            ax.plot(rej[:, 0], rej[:, 1], "x", color="tab:red", markersize=6, mew=1.5, label="rejected component")
+        chain = chains[i]
+        if chain is not None:
+            xy = finite_array(chain, f"chains[{i}]")
+            if xy.ndim != 2 or xy.shape[1] < 2 or xy.shape[0] < 1:
+                raise ValueError(f"chains[{i}] must have shape (N + 1, 2 or 3); got {xy.shape}")
+            ax.plot(xy[:, 0], xy[:, 1], "-", color="yellow", linewidth=1.0, alpha=0.8)
+            ax.plot(xy[1:, 0], xy[1:, 1], "o", color="lime", markersize=3.5, label="marker (chain order)")
+            ax.plot(xy[0, 0], xy[0, 1], "s", color="cyan", markersize=8, mfc="none", mew=2, label="base")
+            step = max(1, (len(xy) - 1) // 4)
+            for j in sorted({*range(0, len(xy), step), len(xy) - 1}):
+                ax.annotate(
+                    str(j), xy[j, :2], xytext=(4, 4), textcoords="offset points", color="yellow", fontsize="x-small"
+                )
+        ax.set_xlim(-0.5, img.shape[1] - 0.5)
+        ax.set_ylim(img.shape[0] - 0.5, -0.5)
+        if titles is not None:
+            ax.set_title(titles[i], fontsize="small")
+        if notes is not None and notes[i]:
+            ax.set_xlabel(notes[i], fontsize="x-small", color="tab:red", wrap=True)
+    handles: dict[str, Any] = {}
+    for ax in axes:
+        for h, label in zip(*ax.get_legend_handles_labels()):
+            handles.setdefault(label, h)
+    if handles:
+        fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=3, fontsize="small")
+    if title is not None:
+        fig.suptitle(title, fontsize="medium")
     return fig

@@ -27,6 +27,7 @@ Knows nothing of dynamics.
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import replace
 from pathlib import Path
 from typing import Any
@@ -36,7 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
-from ..core.camera import Camera, camera_json_path, read_camera_json
+from ..core.camera import Camera, camera_extras, camera_json_path, read_camera_json
 from ..core.trajectory import PoseTrajectory
 from .chain import link_chains, track, wrap_half_pi
 from .frame_source import FrameSource
@@ -178,20 +179,56 @@ def _rest_direction(pts: NDArray[np.float64]) -> float:
     return float(np.arctan2(dvec[1], dvec[0]))
 
 
-def _resolve_camera(recording: Any, p: dict[str, Any]) -> tuple[Camera | None, str | None, float | None]:
-    camera, json_fps = p["camera"], None
+def _resolve_camera(
+    recording: Any, p: dict[str, Any], size: tuple[int, int]
+) -> tuple[Camera | None, str | None, dict[str, Any]]:
+    """The camera, what gave it, and the recording facts its JSON holds (``fps``, ``n_frames``).
+
+    ``camera="auto"`` reads ``<video>.camera.json`` when it exists; a camera dict (a JSON given by
+    path arrives read) is honoured in full; ``size``, the footage's, completes one without ``image_size``.
+    """
+    camera, source = p["camera"], p.get("camera_source", "given camera")
     if isinstance(camera, str):  # "auto"
-        if isinstance(recording, (str, os.PathLike)):
-            jpath = camera_json_path(recording)
-            if jpath.exists():
-                data = read_camera_json(jpath)
-                try:
-                    camera = Camera.from_dict(data)
-                except ValueError as err:
-                    raise ValueError(f"camera JSON {str(jpath)!r}: {err}") from None
-                return camera, f"camera JSON {str(jpath)!r}", data.get("fps")
-        return None, None, None
-    return camera, (None if camera is None else "given camera"), json_fps
+        jpath = camera_json_path(recording) if isinstance(recording, (str, os.PathLike)) else None
+        if jpath is None or not jpath.exists():
+            return None, None, {}
+        camera, source = read_camera_json(jpath), f"camera JSON {str(jpath)!r}"
+    if isinstance(camera, dict):
+        extras = camera_extras(camera, source)
+        try:
+            return Camera.from_dict(camera, image_size=size), source, extras
+        except ValueError as err:
+            raise ValueError(f"{source}: {err}") from None
+    return camera, (None if camera is None else source), {}
+
+
+def _frame_period(
+    p: dict[str, Any], src: FrameSource, facts: dict[str, Any], calibration: str | None, name: str
+) -> tuple[float, str]:
+    """The frame period and what gave it: ``dt``, ``fps``, the camera JSON's ``fps``, the container's.
+
+    A camera JSON's frame rate is the capture rate the user wrote down; a container's is often a
+    playback rate (high-speed cameras save 1000 fps footage as 30 fps video): the JSON wins, with a
+    warning when the two differ by more than 1 %.
+    """
+    if p["dt"] is not None:
+        return float(p["dt"]), "dt"
+    if p["fps"] is not None:
+        return 1.0 / float(p["fps"]), "fps"
+    if "fps" in facts:
+        if src.fps is not None and abs(src.fps - facts["fps"]) > 0.01 * facts["fps"]:
+            warnings.warn(
+                f"recording {name!r}: the {calibration} says {facts['fps']:g} fps, the video container "
+                f"{src.fps:g} fps; using {facts['fps']:g} fps (give fps to choose)",
+                UserWarning,
+                stacklevel=3,
+            )
+        return 1.0 / facts["fps"], f"{calibration}"
+    if src.fps is not None:
+        return 1.0 / src.fps, "video container"
+    raise ValueError(
+        f"recording {name!r}: the frame rate is unknown; give fps or dt (--fps), or an 'fps' field in its camera JSON"
+    )
 
 
 def _first_direction(camera: Camera | None, p: dict[str, Any], members: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -278,22 +315,13 @@ def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
 def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[PoseTrajectory, dict[str, Any]]:
     """Pose trajectory and diagnostics of one recording (module level so joblib can pickle it)."""
     src = FrameSource(recording, name)
-    camera, calibration, json_fps = _resolve_camera(recording, p)
-    if p["dt"] is not None:
-        dt = float(p["dt"])
-    elif p["fps"] is not None:
-        dt = 1.0 / float(p["fps"])
-    elif src.fps is not None:
-        dt = 1.0 / src.fps
-    elif json_fps is not None:
-        dt = 1.0 / float(json_fps)
-    else:
-        raise ValueError(f"recording {name!r}: the frame rate is unknown; give fps or dt")
     ref = p["reference_frame"]
     if ref >= src.n_frames:
         raise ValueError(f"reference_frame={ref} but recording {name!r} has only {src.n_frames} frames")
     ref_img = src.frame(ref)
     size = (int(ref_img.shape[1]), int(ref_img.shape[0]))
+    camera, calibration, facts = _resolve_camera(recording, p, size)
+    dt, rate_source = _frame_period(p, src, facts, calibration, name)
     if camera is not None and tuple(camera.image_size) != size:
         raise ValueError(
             f"recording {name!r}, frame {ref}: frames are {size[0]}x{size[1]} pixels but the camera ({calibration}) "
@@ -352,15 +380,20 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     problems: dict[int, str] = {}
     found = []
     expected = (-(-size[0] // red), -(-size[1] // red))
+    damaged = "raise" if p["on_missing"] == "raise" else "none"
     for k, frame in enumerate(
         tqdm(
-            src.frames(grey=grey, reduce=red),
+            src.frames(grey=grey, reduce=red, damaged=damaged),
             total=src.n_frames,
             desc=f"extract {Path(name).name}",
             unit="frame",
             disable=not p["progress"],
         )
     ):
+        if frame is None:  # undecodable (on_missing allows it): missing, at its own time
+            problems[k], _ = "the frame's data cannot be decoded", found.append(0)
+            outcomes.append(None)
+            continue
         if (frame.shape[1], frame.shape[0]) != expected:
             raise ValueError(
                 f"recording {name!r}, frame {k}: size {frame.shape[1] * red}x{frame.shape[0] * red} differs from frame "
@@ -376,6 +409,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
             problems[k] = msg
         outcomes.append(out)
     T = len(outcomes)
+    src.check_count(facts.get("n_frames"), calibration or "", allow=p["on_missing"] != "raise")
     if T == 0:
         raise ValueError(f"recording {name!r}: no frames")
     valid = np.array([o is not None for o in outcomes])
@@ -426,6 +460,8 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "marker_aspect": det.typical["aspect"],
         "marker_spacing_px": spacing * red,
         "base_marker": base_source,
+        "frames_listed": {"container": src.n_listed, "camera JSON": facts.get("n_frames")},
+        "frame_rate": {"fps": 1.0 / dt, "source": rate_source},
         "calibration": calibration,
         "camera": camera.to_dict(),
     }
@@ -483,8 +519,10 @@ class MarkerStream:
             raise ValueError(
                 f"reference must be a uint8 image (H, W) or (H, W, 3); got {ref_img.dtype} {ref_img.shape}"
             )
-        camera = None if isinstance(p["camera"], str) else p["camera"]
         self.size = (int(ref_img.shape[1]), int(ref_img.shape[0]))
+        camera = None if isinstance(p["camera"], str) else p["camera"]
+        if isinstance(camera, dict):  # a camera JSON or dict, checked by the extractor
+            camera = Camera.from_dict(camera, image_size=self.size)
         if camera is not None and tuple(camera.image_size) != self.size:
             raise ValueError(
                 f"stream, reference frame: frames are {self.size[0]}x{self.size[1]} pixels but the camera expects "

@@ -26,7 +26,7 @@ import numpy as np
 from joblib import Parallel, delayed
 from sklearn.base import BaseEstimator, TransformerMixin
 
-from ..core.camera import Camera
+from ..core.camera import Camera, camera_extras, read_camera_json
 from ..core.saving import PersistenceMixin
 from ..core.trajectory import PoseTrajectory
 from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
@@ -302,14 +302,28 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
             raise InvalidParameterError.of(self, "dt", want, self.dt)
 
     def _extraction_params(self) -> dict[str, Any]:
-        """The (checked) parameters as the extraction takes them: a camera dict or path read, the roi in ints."""
-        cam = self.camera
+        """The (checked) parameters as the extraction takes them: a camera JSON read, the roi in ints.
+
+        A camera dict or JSON is checked now (the frame rate and frame count it may hold included) and
+        handed on as its dict, with ``camera_source`` naming it: the extraction takes its ``fps`` and
+        ``n_frames`` and completes a missing ``image_size`` from the footage.
+        """
+        cam, source = self.camera, "given camera"
+        if isinstance(cam, (str, os.PathLike)) and not (isinstance(cam, str) and cam == "auto"):
+            source = f"camera JSON {str(cam)!r}"
+            cam = read_camera_json(cam)
         if isinstance(cam, dict):
-            cam = Camera.from_dict(cam)
-        elif isinstance(cam, (str, os.PathLike)) and not (isinstance(cam, str) and cam == "auto"):
-            cam = Camera.from_json(cam)
+            camera_extras(cam, source)
+            try:
+                Camera.from_dict(cam, image_size=(1, 1))  # the camera itself, checked (the size may come later)
+            except (ValueError, TypeError) as err:
+                raise ValueError(f"{source}: {err}") from None
         params = self.get_params()
-        params.update(camera=cam, roi=None if self.roi is None else tuple(int(v) for v in np.asarray(self.roi)))
+        params.update(
+            camera=cam,
+            camera_source=source,
+            roi=None if self.roi is None else tuple(int(v) for v in np.asarray(self.roi)),
+        )
         return params
 
     # -- sklearn API -----------------------------------------------------------

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import os
 import re
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -25,7 +26,7 @@ import numpy as np
 import scipy.sparse
 from numpy.typing import NDArray
 
-__all__ = ["FrameSource", "check_recordings", "describe", "read_frames", "IMAGE_SUFFIXES"]
+__all__ = ["FrameSource", "check_recordings", "describe", "read_frames", "group_image_files", "IMAGE_SUFFIXES"]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
 _REDUCED = {1: cv2.IMREAD_GRAYSCALE, 2: cv2.IMREAD_REDUCED_GRAYSCALE_2, 4: cv2.IMREAD_REDUCED_GRAYSCALE_4}
@@ -77,6 +78,9 @@ class FrameSource:
         self._files: list[Path] | None = None
         self._video: Path | None = None
         self._mjpeg = False
+        #: frames the container lists (videos; None for folders and arrays) and frames decoded by frames()
+        self.n_listed: int | None = None
+        self.n_decoded: int | None = None
         self.jpeg = False  # every frame is JPEG data (Motion-JPEG, .jpg files): reduced decoding works
         if isinstance(recording, (str, os.PathLike)):
             path = Path(recording)
@@ -101,7 +105,9 @@ class FrameSource:
                     raise OSError(f"recording {name!r}: OpenCV opened it but could not decode frame 0")
                 fps = float(cap.get(cv2.CAP_PROP_FPS))
                 self.fps = fps if np.isfinite(fps) and fps > 0 else None
-                self.n_frames = max(int(cap.get(cv2.CAP_PROP_FRAME_COUNT)), 1)
+                listed = float(cap.get(cv2.CAP_PROP_FRAME_COUNT))
+                self.n_listed = int(listed) if np.isfinite(listed) and listed >= 1 else None
+                self.n_frames = self.n_listed or 1
                 fourcc = int(cap.get(cv2.CAP_PROP_FOURCC)).to_bytes(4, "little").decode("latin-1")
                 self._mjpeg = self.jpeg = fourcc.upper() in ("MJPG", "JPEG")
             finally:
@@ -162,23 +168,45 @@ class FrameSource:
             raise ValueError(f"recording {self.name!r}: reduce={reduce!r} needs grey JPEG data and 1, 2 or 4")
 
     # -- all frames ------------------------------------------------------------
-    def frames(self, grey: bool = False, reduce: int = 1) -> Iterator[NDArray[np.uint8]]:
-        """Every frame in order, grey (2-D) or as stored; ``reduce`` as in :meth:`frame`."""
+    def frames(self, grey: bool = False, reduce: int = 1, *, damaged: str = "raise") -> Iterator[Any]:
+        """Every frame in order, grey (2-D) or as stored; ``reduce`` as in :meth:`frame`.
+
+        ``damaged``: a frame that cannot be decoded (a video frame whose data is corrupt, an unreadable
+        image file) raises ``OSError`` naming it (``"raise"``) or is yielded as None (``"none"``) so
+        that the frames after it keep their index, hence their time.  After the last frame,
+        :attr:`n_decoded` is the number of frames yielded (None included).
+        """
         self._check_reduce(reduce, grey)
+        if damaged not in ("raise", "none"):
+            raise ValueError(f"damaged must be 'raise' or 'none'; got {damaged!r}")
+        self.n_decoded = 0
         if self._array is not None:
             for k, f in enumerate(self._array):
+                self.n_decoded += 1
                 yield _grey(f, self.name, k) if grey else _colour(f)
         elif self._files is not None:
             for k in range(self.n_frames):
-                img = self._read_file(k, grey, reduce)
+                try:
+                    img = self._read_file(k, grey, reduce)
+                except OSError:
+                    if damaged == "raise":
+                        raise
+                    self.n_decoded += 1
+                    yield None
+                    continue
+                self.n_decoded += 1
                 yield _grey(img, self.name, k) if grey else _colour(img)
         else:
-            yield from self._video_frames(grey, reduce)
+            for img in self._video_frames(grey, reduce, damaged):
+                self.n_decoded += 1
+                yield img
 
-    def _video_frames(self, grey: bool, reduce: int = 1) -> Iterator[NDArray[np.uint8]]:
+    def _video_frames(self, grey: bool, reduce: int = 1, damaged: str = "raise") -> Iterator[Any]:
         cap = cv2.VideoCapture(str(self._video))
-        # Motion-JPEG: decode each frame's JPEG packet directly to grey
-        packets = grey and self._mjpeg and cap.set(cv2.CAP_PROP_FORMAT, -1)
+        # Motion-JPEG: decode each frame's JPEG packet ourselves (straight to grey when asked): a corrupt
+        # packet is then one known frame, where the demuxer's own decoder would skip it silently
+        packets = self._mjpeg and cap.set(cv2.CAP_PROP_FORMAT, -1)
+        flag = _REDUCED[reduce] if grey else cv2.IMREAD_UNCHANGED
         try:
             k = 0
             while True:
@@ -186,15 +214,95 @@ class FrameSource:
                 if not ok or f is None:
                     break
                 if packets:
-                    img = cv2.imdecode(f.reshape(-1), _REDUCED[reduce])
+                    img = cv2.imdecode(f.reshape(-1), flag) if f.size else None
                     if img is None:
-                        raise OSError(f"recording {self.name!r}, frame {k}: cannot decode its JPEG data")
-                    yield img
+                        if damaged == "raise":
+                            raise OSError(f"recording {self.name!r}, frame {k}: cannot decode its JPEG data")
+                        yield None
+                    else:
+                        yield _grey(img, self.name, k) if grey else _colour(img)
                 else:
                     yield _grey(f, self.name, k) if grey else _colour(f)
                 k += 1
         finally:
             cap.release()
+
+    def check_count(self, expected: int | None = None, source: str = "", *, allow: bool = False) -> str | None:
+        """Compare the frames :meth:`frames` decoded with those the container and ``expected`` list.
+
+        Parameters
+        ----------
+        expected : int, optional
+            Frames the recording should have (a camera JSON's ``n_frames``).
+        source : str
+            What says ``expected`` (for the message), e.g. ``"camera JSON 'clip.avi.camera.json'"``.
+        allow : bool
+            A shortfall warns (the decoded frames keep their time stamps, from the first frame)
+            instead of raising.
+
+        Returns
+        -------
+        str or None
+            The warning given, or None when the counts agree.
+
+        Raises
+        ------
+        ValueError
+            Fewer (or more) frames decoded than listed, unless ``allow``: the message names every count.
+        """
+        if self.n_decoded is None:
+            raise RuntimeError("check_count() comes after frames() has run to the end")
+        claims = []
+        if self.n_listed is not None:
+            claims.append(("the container", self.n_listed))
+        if expected is not None:
+            claims.append((source or "expected", int(expected)))
+        wrong = [(who, n) for who, n in claims if n != self.n_decoded]
+        if not wrong:
+            return None
+        said = " and ".join(f"{who} says {n}" for who, n in wrong)
+        message = f"recording {self.name!r}: decoded {self.n_decoded} frames but {said}"
+        if not allow:
+            hint = (
+                "the file is truncated or damaged (re-copy it), or the camera JSON belongs to another recording; "
+                "on_missing='interpolate' (--on-missing interpolate) keeps the frames decoded"
+            )
+            raise ValueError(f"{message}: {hint}")
+        message += "; the frames decoded are kept with their time stamps from the first frame"
+        warnings.warn(message, UserWarning, stacklevel=2)
+        return message
+
+
+def group_image_files(paths: Any) -> list[Any]:
+    """Recordings from command-line paths: single image files refused (they are frames, not recordings).
+
+    A shell glob such as ``frames/*.jpg`` gives one path per frame; each would be a one-frame
+    recording.  A recording made of image files is their folder.
+
+    Parameters
+    ----------
+    paths : sequence of path
+        Videos, folders of images, or image files.
+
+    Returns
+    -------
+    list
+        ``paths`` unchanged when none is an image file.
+
+    Raises
+    ------
+    ValueError
+        When any is an image file: the message names the folder(s) to give instead.
+    """
+    images = [Path(p) for p in paths if Path(p).suffix.lower() in IMAGE_SUFFIXES and not Path(p).is_dir()]
+    if not images:
+        return list(paths)
+    folders = sorted({str(p.parent) for p in images})
+    shown = ", ".join(repr(f) for f in folders[:3]) + (" ..." if len(folders) > 3 else "")
+    raise ValueError(
+        f"{len(images)} image file(s) given (e.g. {str(images[0])!r}): a recording of image frames is "
+        f"their folder, one recording per folder; give the folder instead: {shown}"
+    )
 
 
 def check_recordings(X: Any, name: str = "X") -> list[Any]:
