@@ -691,14 +691,19 @@ def _watch_writes() -> None:
 def _quiet_opencv() -> None:
     """Silence OpenCV's own log and FFmpeg's (``[mjpeg @ 0x...] overread``) unless the user set them.
 
-    Set before OpenCV is imported (the commands import it): OpenCV reads ``OPENCV_LOG_LEVEL`` and its
-    FFmpeg back-end ``OPENCV_FFMPEG_LOGLEVEL`` (FFmpeg's ``AV_LOG_QUIET`` = -8) from the environment.
-    Problems the footage has are reported by the extractor itself, naming the recording and frame.
+    OpenCV reads ``OPENCV_LOG_LEVEL`` when it is imported and its FFmpeg back-end reads
+    ``OPENCV_FFMPEG_LOGLEVEL`` (FFmpeg's ``AV_LOG_QUIET`` = -8) when the first video is opened, so both
+    are set before any command runs (measured: with the second set, a truncated Motion-JPEG video no
+    longer prints ``[mjpeg @ ...] huffman table decode error``; ``OPENCV_LOG_LEVEL`` alone does not
+    silence FFmpeg).  Problems the footage has are reported by the extractor itself, naming the
+    recording and frame.
     """
     os.environ.setdefault("OPENCV_LOG_LEVEL", "OFF")
     os.environ.setdefault("OPENCV_FFMPEG_LOGLEVEL", "-8")
-    if "cv2" in sys.modules:  # imported already (in-process use, tests): set OpenCV's level directly
-        sys.modules["cv2"].setLogLevel(0)
+    cv2 = sys.modules.get("cv2")  # imported already (in-process use): OpenCV's own level set directly
+    logging = getattr(getattr(cv2, "utils", None), "logging", None)
+    if logging is not None and os.environ["OPENCV_LOG_LEVEL"] == "OFF":
+        logging.setLogLevel(logging.LOG_LEVEL_SILENT)
 
 
 def _one_line(err: BaseException) -> str:

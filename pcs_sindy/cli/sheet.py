@@ -115,15 +115,15 @@ def inspect_video(
     import numpy as np
 
     from ..core.camera import Camera
+    from ..pipeline.pcs_pipeline import make_pcs_pipeline
     from ..plotting.stills import plot_contact_sheet
     from ..vision.frame_source import IMAGE_SUFFIXES, FrameSource
-    from .commands import CLIError, pipeline_step
 
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or not 1 <= frames <= 48:
-        raise CLIError(f"frames must be an integer from 1 to 48 (panels on the sheet); got {frames!r}")
+        raise ValueError(f"frames must be an integer from 1 to 48 (panels on the sheet); got {frames!r}")
     path = Path(video)
     if not path.exists():
-        raise CLIError(f"video {str(video)!r} does not exist")
+        raise FileNotFoundError(f"video {str(video)!r} does not exist")
     recording: Any = str(path)
     if path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES:
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
@@ -137,11 +137,16 @@ def inspect_video(
         target = Path(out) / f"{path.name if path.is_dir() else path.stem}.inspect.png"
     else:
         target = Path(out)
-    given = {k: v for k, v in options.items() if v is not None}
+    chosen_params = {
+        **options,
+        "camera": None if camera is None else str(camera),
+        "n_markers": n_markers,
+        "robot_length": robot_length,
+    }
+    given = {k: v for k, v in chosen_params.items() if v is not None}
     given.setdefault("on_missing", "interpolate")
-    extractor = pipeline_step(
-        "poses", camera=camera, n_markers=n_markers, robot_length=robot_length, progress=not quiet, **given
-    )
+    extractor = make_pcs_pipeline(start="videos").named_steps["poses"]  # as 'extract' builds it
+    extractor.set_params(progress=not quiet, **given)
     if isinstance(recording, np.ndarray) and extractor.fps is None and extractor.dt is None:
         extractor.set_params(fps=1.0)  # one image: no time
     extractor.fit()
