@@ -465,6 +465,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--camera", help="camera JSON (default: the video's own, as for 'extract')")
     p.add_argument("--robot-length", type=_positive_float, help="as for 'extract'")
     p.add_argument("--n-markers", type=_positive_int, help="as for 'extract'")
+    p.add_argument("--fps", type=_positive_float, help="as for 'extract'")
     add_extractor_options(p)
 
     p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)

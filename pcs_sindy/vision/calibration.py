@@ -31,6 +31,8 @@ __all__ = ["calibrate_camera", "find_board", "read_views"]
 
 _SUBPIX = (cv2.TERM_CRITERIA_EPS | cv2.TERM_CRITERIA_COUNT, 100, 1e-4)
 _MIN_LENS_VIEWS = 3
+#: the fewest pixels a checkerboard square may span in a view (a bound on the pattern's size)
+_MIN_SQUARE_PX = 4
 
 
 def _grey(image: NDArray[np.uint8]) -> NDArray[np.uint8]:
@@ -118,6 +120,15 @@ def calibrate_camera(
     if not np.isscalar(square) or not np.isfinite(square) or square <= 0:
         raise ValueError(f"square must be the side of a square in metres (> 0); got {square!r}")
     size = (int(images[0].shape[1]), int(images[0].shape[0]))
+    # a square spans at least _MIN_SQUARE_PX pixels: a pattern that cannot fit the image is refused before
+    # OpenCV allocates for it (100000x100000 corners would take about 149 GiB)
+    most = max(size) // _MIN_SQUARE_PX - 1
+    if max(cols, rows) > most or (cols + 1) * (rows + 1) * _MIN_SQUARE_PX**2 > size[0] * size[1]:
+        raise ValueError(
+            f"pattern {cols}x{rows} inner corners cannot fit in {size[0]}x{size[1]} views (a square needs at least "
+            f"{_MIN_SQUARE_PX} px, so at most {most} corners along a side); pattern counts inner corners, "
+            "e.g. 9x6 for a board of 10x7 squares"
+        )
     for img, nm in zip(images, names):
         if (img.shape[1], img.shape[0]) != size:
             raise ValueError(
