@@ -191,18 +191,17 @@ def _over_files(func: Callable, items: Sequence[tuple], n_jobs: int, desc: str, 
     from joblib import Parallel, delayed
     from tqdm.auto import tqdm
 
+    from ..core.progress import ticking
+
     if n_jobs == 1 or len(items) == 1:
         return [func(*item, not quiet) for item in items]
     jobs = (delayed(func)(*item, False) for item in items)  # workers' bars would interleave
-    return list(
-        tqdm(
-            Parallel(n_jobs=n_jobs, return_as="generator")(jobs),
-            total=len(items),
-            desc=desc,
-            unit="file",
-            disable=quiet,
-        )
-    )
+    with tqdm(total=len(items), desc=desc, unit="file", disable=quiet) as bar, ticking(bar):
+        out = []
+        for result in Parallel(n_jobs=n_jobs, return_as="generator")(jobs):
+            out.append(result)
+            bar.update()
+    return out
 
 
 def file_target(out: str | Path, name: str) -> Path:

@@ -44,6 +44,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "kinematics_of",
         ],
         "camera": ["Camera", "camera_extras", "read_camera_json"],
+        "progress": ["ticking"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
         "validation": [

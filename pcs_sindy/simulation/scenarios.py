@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from ..core.progress import ticking
 from .pac import PACRobot
 
 __all__ = ["Recording", "ScenarioData", "Scenario", "add_pose_noise"]  # get_scenario, list_scenarios: .catalog
@@ -410,12 +411,16 @@ class Scenario:
         if self.is_kinematic:
             out = [self._pac_recording(rng)]
         else:
-            with tqdm(total=2 if validation else 1, desc=f"simulating {self.name}", disable=not progress) as bar:
-                out = self._training_recordings(rng)
-                bar.update()
-                if validation:
-                    out.append(self._validation_recording(rng))
+            steps = 2 if validation else 1
+            with tqdm(total=steps, desc=f"simulating {self.name}", unit="step", disable=not progress) as bar:
+                with ticking(bar):  # one batched integration per step: the elapsed time keeps moving
+                    bar.set_postfix_str(f"{self.n_train} training recording(s)")
+                    out = self._training_recordings(rng)
                     bar.update()
+                    if validation:
+                        bar.set_postfix_str("validation recording")
+                        out.append(self._validation_recording(rng))
+                        bar.update()
         if cache:
             arrays: dict[str, NDArray] = {"count": np.array(len(out))}
             for k, rec in enumerate(out):
