@@ -751,3 +751,16 @@ def test_fit_and_rollout_from_actuator_inputs(tmp_path):
     metrics = json.loads((tmp_path / "roll" / "metrics.json").read_text())
     assert metrics["e_p_ee"] < 1e-3
     assert main(["fit", *strains, "--inputs", *train, "--out", model, "--quiet"]) == 2  # no layout
+
+
+def test_fit_out_ending_in_a_separator_is_a_folder(work, tmp_path):
+    """``fit --out models/`` writes models/model.json (it wrote models.json)."""
+    strains = work / "strains"
+    if not (strains / "train_00.npz").exists():
+        data = [str(work / "data" / f"train_0{k}.npz") for k in range(2)]
+        assert main(["fuse", *data, "--out", str(strains), "--total-length", "0.1", "--quiet"]) == 0
+    rec = str(work / "data" / "train_00.npz")
+    out = f"{tmp_path / 'models'}{'/'}"
+    assert main(["fit", str(strains / "train_00.npz"), "--tau", rec, "--out", out, "--quiet"]) == 0
+    assert (tmp_path / "models" / "model.json").is_file() and (tmp_path / "models" / "model.npz").is_file()
+    assert not (tmp_path / "models.json").exists()

@@ -243,6 +243,30 @@ def test_a_damaged_frame_is_interpolated_in_place(footage, tmp_path, capsys):
 # --------------------------------------------------------------------------
 # frame folders and single images
 # --------------------------------------------------------------------------
+def test_a_frame_missing_from_a_numbered_folder_keeps_the_others_in_time(footage, tmp_path, capsys):
+    folder = tmp_path / "frames"
+    folder.mkdir()
+    for f in sorted(footage["folder"].iterdir()):
+        if f.name != "frame_0013.png":  # frame 12 lost when copying
+            (folder / f.name).write_bytes(f.read_bytes())
+    line = _fail(capsys, ["extract", str(folder), "--out", str(tmp_path / "p"), "--quiet", "--fps", str(FPS)])
+    assert "frame 12" in line and "frame_0012.png" in line
+    ex = MarkerPoseExtractor(camera=CAM, fps=FPS, on_missing="interpolate", progress=False)
+    (traj,) = ex.fit_transform([str(folder)])
+    np.testing.assert_allclose(traj.t, np.arange(T) / FPS)
+    assert ex.diagnostics_[0]["frames_repaired"] == [12]
+    good = np.r_[0:12, 13:T]
+    assert np.abs(traj.poses[good, :, :2] - footage["truth"][good, :, :2]).max() < 0.5 / CAM.pixels_per_metre
+    # every 5th frame kept on purpose is a sequence with step 5, not 80 % of it missing
+    sparse = tmp_path / "sparse"
+    sparse.mkdir()
+    for f in sorted(footage["folder"].iterdir())[::5]:
+        (sparse / f.name).write_bytes(f.read_bytes())
+    (traj,) = MarkerPoseExtractor(camera=CAM, fps=FPS / 5, progress=False).fit_transform([str(sparse)])
+    assert traj.n_frames == T // 5
+    assert np.abs(traj.poses[..., :2] - footage["truth"][::5, :, :2]).max() < 0.5 / CAM.pixels_per_metre
+
+
 def test_single_image_files_are_refused_with_their_folder_named(footage, tmp_path, capsys):
     files = [str(p) for p in sorted(footage["folder"].iterdir())[:3]]
     line = _fail(capsys, ["extract", *files, "--out", str(tmp_path / "p")])

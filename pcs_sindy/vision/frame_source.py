@@ -81,6 +81,8 @@ class FrameSource:
         #: frames the container lists (videos; None for folders and arrays) and frames decoded by frames()
         self.n_listed: int | None = None
         self.n_decoded: int | None = None
+        #: frames missing from a numbered frame folder (a number skipped in the sequence), by index
+        self.gaps: list[int] = []
         self.jpeg = False  # every frame is JPEG data (Motion-JPEG, .jpg files): reduced decoding works
         if isinstance(recording, (str, os.PathLike)):
             path = Path(recording)
@@ -92,8 +94,10 @@ class FrameSource:
                     raise ValueError(
                         f"recording {name!r}: the folder holds no image files ({', '.join(IMAGE_SUFFIXES)})"
                     )
-                self._files = files
-                self.n_frames = len(files)
+                slots = _numbered_slots(files)
+                self._files = files if slots is None else slots  # type: ignore[assignment]
+                self.n_frames = len(self._files)
+                self.gaps = [k for k, f in enumerate(self._files) if f is None]
                 self.jpeg = all(f.suffix.lower() in (".jpg", ".jpeg") for f in files)
                 return
             cap = cv2.VideoCapture(str(path))
@@ -127,6 +131,11 @@ class FrameSource:
     # -- single frames -------------------------------------------------------
     def _read_file(self, k: int, grey: bool, reduce: int = 1) -> NDArray[np.uint8]:
         assert self._files is not None
+        if self._files[k] is None:
+            before = next((f.name for f in reversed(self._files[:k]) if f is not None), None)
+            raise OSError(
+                f"recording {self.name!r}, frame {k}: no image file (the numbered sequence skips it, after {before!r})"
+            )
         img = cv2.imread(str(self._files[k]), _REDUCED[reduce] if grey else cv2.IMREAD_UNCHANGED)
         if img is None:
             raise OSError(f"recording {self.name!r}, frame {k}: cannot read image {str(self._files[k])!r}")
@@ -271,6 +280,33 @@ class FrameSource:
         message += "; the frames decoded are kept with their time stamps from the first frame"
         warnings.warn(message, UserWarning, stacklevel=2)
         return message
+
+
+def _numbered_slots(files: list[Path]) -> list[Path | None] | None:
+    """Files of a numbered sequence in their frame slots, None where a number is skipped.
+
+    Applies when every name is one pattern with one varying number (``frame_0001.png`` ...): the
+    numbers step by their greatest common difference (``0, 10, 20`` steps by 10), and a skipped
+    number is a missing frame, so the frames after it keep their time.  Returns None for names that
+    are not such a sequence, or when nothing is skipped.
+    """
+    if len(files) < 3:
+        return None
+    parts = [re.fullmatch(r"(.*?)(\d+)(\D*)", f.name) for f in files]
+    if any(m is None for m in parts) or len({(m.group(1), m.group(3)) for m in parts}) != 1:  # type: ignore[union-attr]
+        return None
+    numbers = [int(m.group(2)) for m in parts]  # type: ignore[union-attr]
+    diffs = np.diff(numbers)
+    if np.any(diffs <= 0):
+        return None  # repeated numbers: not one sequence
+    step = int(np.gcd.reduce(diffs))
+    span = (numbers[-1] - numbers[0]) // step + 1
+    if span == len(files) or span > 2 * len(files):  # nothing skipped, or too sparse to be frames lost
+        return None
+    slots: list[Path | None] = [None] * span
+    for number, f in zip(numbers, files):
+        slots[(number - numbers[0]) // step] = f
+    return slots
 
 
 def group_image_files(paths: Any) -> list[Any]:
