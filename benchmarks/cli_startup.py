@@ -1,7 +1,8 @@
 """Start-up time of the ``pcs-sindy`` command line against ``python -c "import numpy"``.
 
 Wall time of a fresh process, median over ``--runs`` runs, of ``import numpy`` (the reference),
-``import pcs_sindy``, ``pcs-sindy --help``, ``pcs-sindy fit --help``, ``pcs-sindy --version``
+``import pcs_sindy``, ``pcs-sindy --help``, ``pcs-sindy fit --help``, ``pcs-sindy extract --help`` (the
+extractor's flags, with the words of its parameter table read from the source), ``pcs-sindy --version``
 and an argument error (an unknown option: exit code 2).  The target is at most 3x the numpy
 import.  The cases run interleaved (one of each per round, after one warm-up round that is not
 counted), so that a change of the machine's load falls on every case alike.
@@ -36,6 +37,7 @@ def cases() -> list[tuple[str, list[str], int]]:
         ('python -c "import pcs_sindy"', [py, "-c", "import pcs_sindy"], 0),
         ("pcs-sindy --help", [*cli, "--help"], 0),
         ("pcs-sindy fit --help", [*cli, "fit", "--help"], 0),
+        ("pcs-sindy extract --help", [*cli, "extract", "--help"], 0),
         ("pcs-sindy --version", [*cli, "--version"], 0),
         (
             "pcs-sindy fit s.npz --tau t.npz --out m --no-such-option (argument error)",

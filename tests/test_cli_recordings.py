@@ -177,7 +177,8 @@ def test_camera_json_fps_is_honoured_and_image_size_may_be_left_out(footage, tmp
     cam["fps"] = 500.0  # a capture rate the frame folder cannot tell
     path = tmp_path / "cam.json"
     path.write_text(json.dumps(cam))
-    assert main(["extract", str(footage["folder"]), "--out", str(tmp_path / "p"), "--camera", str(path), "--quiet"]) == 0
+    argv = ["extract", str(footage["folder"]), "--out", str(tmp_path / "p"), "--camera", str(path), "--quiet"]
+    assert main(argv) == 0
     t, poses = _poses_file(tmp_path / "p" / "frames.npz")
     np.testing.assert_allclose(t, np.arange(T) / 500.0)
     assert np.abs(poses[..., :2] - footage["truth"][..., :2]).max() < 0.5 / CAM.pixels_per_metre
@@ -296,7 +297,7 @@ def test_inspect_draws_the_chain_where_the_markers_are(footage, tmp_path, monkey
     assert sorted(p.name for p in tmp_path.iterdir()) == ["sheet.png"]  # no temporary left
     picks = [int(re.match(r"frame (\d+)", t).group(1)) for t in drawn["titles"]]
     assert picks == [0, 13, 26, 39]
-    for k, chain in zip(picks, drawn["chains"]):
+    for k, chain in zip(picks, drawn["chains"], strict=True):
         true_px = CAM.to_pixels(footage["truth"][k])[:, :2]
         assert np.abs(chain - true_px).max() < 0.5  # markers in order, base first
         assert len(drawn["rejected"][picks.index(k)]) == 0  # clean footage: nothing rejected

@@ -391,7 +391,8 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         )
     ):
         if frame is None:  # undecodable (on_missing allows it): missing, at its own time
-            problems[k], _ = "the frame's data cannot be decoded", found.append(0)
+            problems[k] = "the frame's data cannot be decoded (damaged, or no file in a numbered folder)"
+            found.append(0)
             outcomes.append(None)
             continue
         if (frame.shape[1], frame.shape[0]) != expected:
