@@ -335,7 +335,7 @@ def test_every_package_exports_through_the_one_lazy_loader():
             # an eager re-export loads the submodule with the package: only the root's two wiring imports may
             assert module == PACKAGE, f"{module} imports submodules eagerly; export them with lazy_loader.attach"
         table = GRAPH.tables[module]
-        for name, target in [] if table is None else [(n, f"{module}.{s}") for n, s in table[1].items()]:
+        for name, target in ([] if table is None else [(n, f"{module}.{s}") for n, s in table[1].items()]):
             assert target in GRAPH.known, f"{module} exports {name} from {target}, which does not exist"
 
 
