@@ -384,3 +384,25 @@ def test_calibrate_refuses_a_pattern_that_cannot_fit(tmp_path, capsys):
     argv = ["calibrate", str(tmp_path / "board.png"), "--pattern", "100000x100000", "--square", "0.01"]
     line = _fail(capsys, [*argv, "--out", str(tmp_path / "cam.json")])
     assert "cannot fit" in line
+
+
+def test_contact_sheet_draws_what_it_is_given_and_checks_its_lengths():
+    import matplotlib.pyplot as plt
+
+    from pcs_sindy.plotting import plot_contact_sheet
+
+    frames = [np.full((30, 40), 255, np.uint8), np.zeros((30, 40, 3), np.uint8)]
+    chain = np.array([[5.0, 5.0], [10.0, 12.0], [15.0, 20.0]])
+    fig = plot_contact_sheet(frames, chains=[chain, None], rejected=[np.zeros((0, 2)), np.array([[3.0, 4.0]])])
+    first, second = fig.axes[:2]
+    base = [ln for ln in first.get_lines() if ln.get_label() == "base"][0]
+    assert np.allclose(base.get_xydata(), chain[:1])  # the base is the first marker
+    markers = [ln for ln in first.get_lines() if ln.get_label() == "marker (chain order)"][0]
+    assert np.allclose(markers.get_xydata(), chain[1:])
+    assert [ln.get_label() for ln in second.get_lines()] == ["rejected component"]
+    assert np.allclose(second.get_lines()[0].get_xydata(), [[3.0, 4.0]])
+    plt.close(fig)
+    with pytest.raises(ValueError, match=r"chains must hold one entry per frame \(2\); got 1"):
+        plot_contact_sheet(frames, chains=[chain])
+    with pytest.raises(ValueError, match=r"frames\[0\] must be a uint8 image"):
+        plot_contact_sheet([np.zeros((3, 3))], chains=[None])

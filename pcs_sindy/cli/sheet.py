@@ -201,13 +201,21 @@ def inspect_video(
         notes.append(note)
     if error is not None:
         notes = [f"not extracted: {error}"[:200]] + notes[1:]
-        head = f"{path.name}: extraction failed (the error is under the first frame); every component found is drawn"
+        head = f"{path.name}: extraction failed (the error is under the first frame)"
     else:
         head = (
             f"{path.name}: {diag['n_frames']} frames, base + {diag['n_markers']} markers "
             f"(base: {diag['base_marker']}), binarisation {chosen}; {len(diag['frames_repaired'])} frames interpolated"
         )
-    fig = plot_contact_sheet(images, chains=chains, rejected=rejected, titles=titles, notes=notes, title=head)
+    fig = plot_contact_sheet(
+        images,
+        chains=chains,
+        rejected=rejected,
+        titles=titles,
+        notes=notes,
+        title=head,
+        rejected_label="rejected component" if error is None else "component found",
+    )
     written = save_png(fig, target)
     if not quiet:
         print(f"inspected {path.name} -> {written}" + (f" (extraction failed: {error})" if error else ""))

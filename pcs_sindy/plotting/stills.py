@@ -6,6 +6,7 @@ order, the base, the components rejected) for ``pcs-sindy inspect``.
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -227,6 +228,7 @@ def plot_contact_sheet(
     bgr: bool = True,
     ncols: int = 3,
     title: str | None = None,
+    rejected_label: str = "rejected component",
 ) -> Figure:
     """A grid of frames with the marker chain an extraction found drawn on each, in pixels.
 
@@ -251,7 +253,9 @@ def plot_contact_sheet(
     ncols : int
         Panels per row.
     title : str, optional
-        Figure title.
+        Figure title (wrapped to the figure's width).
+    rejected_label : str
+        Legend label of ``rejected``.
 
     Returns
     -------
@@ -274,7 +278,8 @@ def plot_contact_sheet(
     cols = min(int(ncols), k)
     rows = -(-k // cols)
     aspect = images[0].shape[0] / images[0].shape[1]
-    fig, axes = new_axes(None, rows * cols, "axes", (3.6 * cols, 3.6 * aspect * rows + 0.8), nrows=rows, ncols=cols)
+    width = max(3.6 * cols, 6.0)  # room for the title and the legend under a single panel
+    fig, axes = new_axes(None, rows * cols, "axes", (width, 3.6 * aspect * rows + 1.0), nrows=rows, ncols=cols)
     for i, ax in enumerate(axes):
         ax.set_xticks([])
         ax.set_yticks([])
@@ -290,7 +295,7 @@ def plot_contact_sheet(
             rej = finite_array(rejected[i], f"rejected[{i}]")
             if rej.ndim != 2 or rej.shape[1] < 2:
                 raise ValueError(f"rejected[{i}] must have shape (P, 2 or more); got {rej.shape}")
-            ax.plot(rej[:, 0], rej[:, 1], "x", color="tab:red", markersize=6, mew=1.5, label="rejected component")
+            ax.plot(rej[:, 0], rej[:, 1], "x", color="tab:red", markersize=6, mew=1.5, label=rejected_label)
         chain = chains[i]
         if chain is not None:
             xy = finite_array(chain, f"chains[{i}]")
@@ -317,5 +322,5 @@ def plot_contact_sheet(
     if handles:
         fig.legend(list(handles.values()), list(handles), loc="outside lower center", ncol=3, fontsize="small")
     if title is not None:
-        fig.suptitle(title, fontsize="medium")
+        fig.suptitle(textwrap.fill(title, int(width * 12)), fontsize="medium")
     return fig
