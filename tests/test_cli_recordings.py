@@ -406,3 +406,15 @@ def test_contact_sheet_draws_what_it_is_given_and_checks_its_lengths():
         plot_contact_sheet(frames, chains=[chain])
     with pytest.raises(ValueError, match=r"frames\[0\] must be a uint8 image"):
         plot_contact_sheet([np.zeros((3, 3))], chains=[None])
+
+
+def test_a_camera_json_with_only_a_scale_and_a_rate_is_enough(footage, tmp_path):
+    """Origin, angle and image size are told by the footage (the base stays put, frame 0 is straight)."""
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps({"pixels_per_metre": CAM.pixels_per_metre, "fps": FPS}))
+    argv = ["extract", str(footage["folder"]), "--out", str(tmp_path / "p"), "--camera", str(path), "--quiet"]
+    assert main(argv) == 0
+    t, poses = _poses_file(tmp_path / "p" / "frames.npz")
+    np.testing.assert_allclose(t, np.arange(T) / FPS)
+    assert np.abs(poses[..., :2] - footage["truth"][..., :2]).max() < 0.5 / CAM.pixels_per_metre
+    assert np.abs(poses[..., 2] - footage["truth"][..., 2]).max() < np.radians(1.0)

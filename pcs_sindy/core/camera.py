@@ -444,20 +444,23 @@ class Camera:
     def from_dict(cls, data: Mapping[str, Any], image_size: tuple[int, int] | None = None) -> Camera:
         """The camera a dict describes (:meth:`to_dict`; extras such as ``fps`` are ignored).
 
-        ``image_size`` (width, height) completes a description without one (a hand-written camera
-        JSON may leave out what the footage tells); a description that has one keeps its own.
+        A hand-written camera JSON may leave out what the footage tells: ``image_size`` (width,
+        height) is then the ``image_size`` given here (a description that has one keeps its own), and
+        without ``origin`` the base frame (origin and, unless given, ``angle``) is found in the footage
+        by the extractor, as for a camera from ``pcs-sindy calibrate``.  With an ``origin``, a missing
+        ``angle`` is 0.
         """
-        missing = [k for k in ("pixels_per_metre", "origin", "image_size") if k not in data]
+        missing = [k for k in ("pixels_per_metre", "image_size") if k not in data]
         if image_size is not None and "image_size" in missing:
             missing.remove("image_size")
         if missing:
             raise ValueError(f"camera description lacks {missing}; got keys {sorted(data)}")
-        origin = data["origin"]
+        origin = data.get("origin")
         return cls(
             data["pixels_per_metre"],
             None if origin is None else tuple(origin),
             tuple(data["image_size"] if "image_size" in data else image_size),  # type: ignore[arg-type]
-            data.get("angle", 0.0),
+            data.get("angle", 0.0 if "origin" in data else None),
             data.get("camera_matrix"),
             data.get("dist_coeffs"),
             data.get("rectification"),
