@@ -25,6 +25,7 @@ the help shows are read from the stages' source when the help is printed
 from __future__ import annotations
 
 import argparse
+import errno
 import inspect
 import math
 import os
@@ -666,6 +667,10 @@ def _method_help() -> str:
 _WRITING: dict[str, str | None] = {"path": None, "active": None}
 
 
+#: errors only a write raises: a full disk, a file size limit, a quota
+_WRITE_ERRORS = {errno.ENOSPC, errno.EFBIG, errno.EDQUOT}
+
+
 def _watch_writes() -> None:
     """Remember the file each ``open`` for writing names (a ``sys.audit`` hook, added once per process).
 
@@ -682,8 +687,8 @@ def _watch_writes() -> None:
             writing = (isinstance(mode, str) and any(c in mode for c in "wax+")) or (
                 isinstance(flags, int) and flags & 3 != 0  # os.O_WRONLY | os.O_RDWR
             )
-            if writing and isinstance(path, (str, bytes)):
-                _WRITING["path"] = os.fsdecode(path)
+            if writing and isinstance(path, (str, bytes, os.PathLike)):
+                _WRITING["path"] = os.fsdecode(os.fspath(path))
 
     sys.addaudithook(hook)
     _WRITING["active"] = False
@@ -712,7 +717,7 @@ def _one_line(err: BaseException) -> str:
     message = " ".join(str(err).split()) or type(err).__name__
     if isinstance(err, OSError):
         names = [os.fsdecode(f) for f in (err.filename, err.filename2) if f is not None]
-        if not names and _WRITING["path"] is not None and err.errno is not None:
+        if not names and _WRITING["path"] is not None and err.errno in _WRITE_ERRORS:
             names = [_WRITING["path"]]
             message = f"cannot write {names[0]!r}: {message}"
         elif names and not any(n in message for n in names):
