@@ -199,9 +199,12 @@ def test_camera_json_errors(tmp_path: Path) -> None:
     bad.write_text("{not json")
     with pytest.raises(ValueError, match="bad.json"):
         Camera.from_json(bad)
-    (tmp_path / "partial.json").write_text(json.dumps({"pixels_per_metre": 3.0}))
-    with pytest.raises(ValueError, match="origin"):
+    (tmp_path / "partial.json").write_text(json.dumps({"origin": [1.0, 2.0]}))
+    with pytest.raises(ValueError, match=r"partial.json.*lacks \['pixels_per_metre', 'image_size'\]"):
         Camera.from_json(tmp_path / "partial.json")
+    # what the footage tells may be left out: the image size (given by the caller) and the base frame
+    (tmp_path / "scale.json").write_text(json.dumps({"pixels_per_metre": 3.0}))
+    assert Camera.from_json(tmp_path / "scale.json", image_size=(64, 48)) == Camera(3.0, None, (64, 48), None)
 
 
 @pytest.mark.parametrize("suffix", [".avi", ".mp4", ""])
