@@ -167,6 +167,7 @@ REGISTRY: dict[str, ClassSpec] = {
     "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
     "PressureActuation": ClassSpec("pcs_sindy.models.actuation", "PressureActuation"),
     "LinearActuation": ClassSpec("pcs_sindy.models.actuation", "LinearActuation"),
+    "LearnedActuation": ClassSpec("pcs_sindy.models.actuation", "LearnedActuation"),
     "MarkerPoseExtractor": ClassSpec("pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True),
     "Camera": ClassSpec("pcs_sindy.core.camera", "Camera", kind="dataclass"),
     "PlanarPCS": ClassSpec("pcs_sindy.core.kinematics", "PlanarPCS", kind="dataclass"),

@@ -18,6 +18,8 @@ arc length along the robot, so they hold for any fused segmentation.
   on either side of the backbone; constant columns with unknown gains.
 * :class:`LinearActuation` — any constant ``A`` with a sparsity pattern over
   the strains of a known segmentation; one unknown gain per entry.
+* :class:`LearnedActuation` — a mechanism of unknown layout: ``A(q)`` affine
+  in the strains (terms ``u`` and ``u`` times strains), every term a gain.
 
 Scale.  When every actuator gain is identified (chambers, linear layouts), the
 equations are homogeneous: scaling every density, stiffness, damping and gain
@@ -35,7 +37,7 @@ A user-supplied actuation subclasses :class:`Actuation` and implements
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from numbers import Real
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -51,6 +53,7 @@ __all__ = [
     "TendonActuation",
     "PressureActuation",
     "LinearActuation",
+    "LearnedActuation",
     "actuation_from_layout",
     "ACT_IDENTITY",
     "ACT_TENDON",
@@ -895,6 +898,144 @@ class LinearActuation(_ConstantActuation):
         ]
 
 
+_LEARNED_TERMS = ("u", "u*q")
+_LEARNED_STRAINS = ("bending", "all")
+
+
+def _learned_terms(value: Any) -> bool:
+    if isinstance(value, str):
+        return False
+    try:
+        terms = list(value)
+    except TypeError:
+        return False
+    return bool(terms) and "u" in terms and all(isinstance(t, str) and t in _LEARNED_TERMS for t in terms)
+
+
+class LearnedActuation(Actuation):
+    """An input map of unknown layout, linear in its parameters: ``A(q) = B0 + sum_b B1_b q_b``.
+
+    For a mechanism whose layout is not known (an unknown tendon routing, a
+    servo's linkage), every input ``u_k`` may act on every chosen strain's
+    equation through a small basis:
+
+        tau_a = sum_k (g_{a,k} + sum_b g_{a,k,b} q_b) u_k
+
+    (term ``"u"``: the constant part; term ``"u*q"``: the part proportional to
+    the modelled bending strains ``q_b``, which set the moment arms and
+    directions of tendons and linkages).  Every term is proportional to an input, so with the
+    inputs off the map vanishes and the identified model stays passive (its
+    own stiffness and damping, both non-negative, are all that acts).  The
+    gains are identified with the Lagrangian, so the equations are
+    homogeneous: give the robot's mass (``PhysicalPCSLibrary(mass=...)``).
+
+    Parameters
+    ----------
+    terms : sequence of {"u", "u*q"}, default ("u", "u*q")
+        The basis; ``"u"`` is required.
+    strains : {"bending", "all"}, default "bending"
+        The equations the inputs act on: the modelled bending strains' (a
+        tendon or a servo mostly bends a slender robot; fewer gains) or every
+        modelled strain's (when the inputs also stretch or shear it).
+
+    Attributes
+    ----------
+    gains_ : ndarray
+        The identified gains, named by ``gain_names_`` (``a_<strain>_u<k>`` and
+        ``a_<strain>_u<k>_<strain b>``).
+
+    Notes
+    -----
+    Inputs are in the user's units (servo angles, pressures, ...), of either
+    sign.  For a displacement drive with slack (a tendon that stops pulling)
+    the affine map is the first-order picture; if the layout is known,
+    :class:`TendonActuation` with ``drive="displacement"`` models the slack.
+    """
+
+    kind = "learned"
+    gain_lower_bound = -np.inf
+    _parameter_constraints: dict = {
+        "terms": [Check(_learned_terms, f"a non-empty sequence of terms from {_LEARNED_TERMS} including 'u'")],
+        "strains": [Options(_LEARNED_STRAINS)],
+        "n_inputs": [Interval(Integral, 1, None, closed="left")],
+    }
+    depends_on_q = True
+
+    def __init__(self, n_inputs: int = 1, terms: Any = ("u", "u*q"), strains: str = "bending") -> None:
+        self.n_inputs = n_inputs
+        self.terms = terms
+        self.strains = strains
+
+    def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
+        p = int(self.n_inputs)
+        names = kinematics.strain_names(active_only=True)
+        n = len(names)
+        mask = kinematics.active_mask
+        kinds = np.tile([0, 1, 2], kinematics.n_segments)[mask]
+        rows = np.flatnonzero(kinds == 0) if self.strains == "bending" else np.arange(n)
+        if not np.any(kinds == 0):
+            raise ValueError(
+                "LearnedActuation needs a modelled bending strain (its rows with strains='bending', its "
+                f"'u*q' terms); the segmentation models {names}"
+            )
+        bends = np.flatnonzero(kinds == 0)
+        index, gain_names = [], []
+        for a in rows:
+            for k in range(p):
+                index.append((a, k, -1))
+                gain_names.append(f"a_{names[a]}_u{k + 1}")
+                if "u*q" in list(self.terms):
+                    for b in bends:
+                        index.append((a, k, b))
+                        gain_names.append(f"a_{names[a]}_u{k + 1}_{names[b]}")
+        return {
+            "n_inputs": p,
+            "gain_names": gain_names,
+            "gains": np.zeros(len(gain_names)),
+            "offset_names": [],
+            "offsets": np.zeros(0),
+            "index": np.asarray(index, dtype=int).reshape(-1, 3),
+            "n": n,
+        }
+
+    def parts(self, q, u, offsets=None):
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        idx = self._arrays["index"]
+        B, n = q.shape[0], self._arrays["n"]
+        vals = u[:, idx[:, 1]]
+        mult = idx[:, 2] >= 0
+        vals[:, mult] *= q[:, idx[mult, 2]]
+        linear = np.zeros((B, n, idx.shape[0]))
+        linear[:, idx[:, 0], np.arange(idx.shape[0])] = vals
+        return np.zeros((B, n)), linear
+
+    def compiled(self, gains=None, offsets=None) -> tuple:
+        g = self._gains(gains)
+        idx = self._arrays["index"]
+        n, p = self._arrays["n"], self.n_inputs_
+        amat = np.zeros((n, p * (1 + n)))
+        for (a, k, b), gj in zip(idx, g, strict=True):
+            if b < 0:
+                amat[a, k] += gj
+            else:
+                amat[a, p + k * n + b] += gj
+        return ACT_AFFINE, np.zeros(0), np.zeros((0, self.kinematics_.n_segments)), amat
+
+    def describe(self, precision: int = 3) -> list[str]:
+        body = ", ".join(f"{nm} = {v:.{precision}g}" for nm, v in zip(self.gain_names_, self.gains_, strict=True))
+        return [
+            "A(q) u = sum_k (a_k + sum_b a_k,b q_b) u_k (learned input map, vanishes with the inputs off)",
+            f"gains: {body}",
+        ]
+
+    def layout(self) -> dict[str, Any]:
+        return {"type": self.kind, "n_inputs": int(self.n_inputs), "terms": list(self.terms), "strains": self.strains}
+
+    def design_layout(self) -> dict[str, Any]:
+        return self.layout()
+
+
 def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
     """An actuation term from a JSON-able layout (``{"type": "tendon", "end": [...], "side": [...]}`` ...).
 
@@ -911,6 +1052,7 @@ def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
         "tendon": TendonActuation,
         "pressure": PressureActuation,
         "linear": LinearActuation,
+        "learned": LearnedActuation,
     }
     if kind not in classes:
         raise ValueError(f"layout type must be one of {sorted(classes)}; got {kind!r}")
