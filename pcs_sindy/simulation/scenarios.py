@@ -431,4 +431,3 @@ class Scenario:
             except OSError:
                 pass  # caching is an optimisation; an unwritable cache is not an error
         return out
-
