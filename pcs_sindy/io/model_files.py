@@ -740,3 +740,4 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
                 )
             arrays[key] = arr
     return arrays
+

@@ -431,3 +431,4 @@ class Scenario:
             except OSError:
                 pass  # caching is an optimisation; an unwritable cache is not an error
         return out
+
