@@ -146,6 +146,10 @@ def fit_offsets(
             break
         w = w_new
     r, jac = sol.fun, sol.jac  # of the weights the last solve used
+    # relative to the value, or to a typical magnitude for parameters that may be 0 (a tendon's slack)
+    floor_of = getattr(actuation, "offset_floor", None)
+    floor = np.asarray(floor_of(), dtype=float) if callable(floor_of) else np.zeros(d.size)
+    floor = np.where(floor > 0, floor, 1e-300)
     dof = max(r.size - jac.shape[1] - n_lib, 1)
     cov = float(r @ r) / dof * np.linalg.pinv(jac.T @ jac)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -155,7 +159,7 @@ def fit_offsets(
         "offset_names": list(actuation.offset_names_),
         "offsets": d.copy(),
         "offset_standard_errors": se,
-        "offset_relative_standard_errors": se / np.abs(d),
+        "offset_relative_standard_errors": se / np.maximum(np.abs(d), floor),
         "offset_correlation": corr,
         "offset_fit_success": bool(sol.success),
         "equation_weights": w.copy(),

@@ -557,6 +557,17 @@ class TendonActuation(Actuation):
                 hi.append(np.full(size, float(self.max_slack)))
         return (np.concatenate(lo), np.concatenate(hi)) if lo else (np.zeros(0), np.zeros(0))
 
+    def offset_floor(self) -> NDArray[np.float64]:
+        """Magnitudes that the relative standard errors of the nonlinear parameters never divide below.
+
+        A slack may be identified at 0: its error is reported relative to 1 mm.
+        """
+        out = []
+        p = self.n_inputs_
+        for par, full in self._free():
+            out.append(np.full(par.stop - par.start, 1e-3 if full.start == 2 * p else 0.0))
+        return np.concatenate(out) if out else np.zeros(0)
+
     def initial_offsets(self):
         out = []
         for par, full in self._free():
