@@ -322,9 +322,10 @@ class ForwardModel(ABC):
         Solves ``G(q) + K q - f0 = A(q) u`` (the bias forces at rest equal the
         inputs' forces) with :func:`scipy.optimize.root` from ``q0``; when that
         fails, by continuation: the inputs ramped from 0 to ``u`` in
-        ``n_continuation`` steps, each solve starting from the last.  The
-        inverse problem (inputs that hold a shape) is
-        :func:`pcs_sindy.control.statics` 's.
+        ``n_continuation`` steps, each solve starting from the last.  It
+        finds an equilibrium, not necessarily a stable one: start near the
+        expected shape.  The inverse problem (inputs that hold a shape) is
+        the control module's statics (:mod:`pcs_sindy.control.statics`).
 
         Parameters
         ----------
