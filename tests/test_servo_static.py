@@ -86,6 +86,9 @@ def test_displacement_map_equals_the_simulators_servo_tendons():
     # servo angles may be negative; the map is -dl/dq for unit tensions
     np.testing.assert_allclose(act.matrix(q[:2]), robot.actuation_matrix(q[:2]), atol=1e-15)
     assert act.input_bounds() is None
+    # controllers read A(q) u: a displacement drive has none, and says so instead of treating angles as tensions
+    with pytest.raises(ValueError, match="nonlinearly in its inputs"):
+        fwd.input_matrix(q[0])
     with pytest.raises(ValueError, match="drive='tension'"):
         TendonActuation(SERVO["end"], SIDES, stiffness=SERVO["stiffness"]).fit(PlanarPCS(LENGTHS))
 

@@ -147,6 +147,11 @@ class Actuation(BaseEstimator, ABC):
         """True when the inputs are the generalised forces themselves (``A = I``)."""
         return self.kind == "identity"
 
+    @property
+    def linear_in_inputs(self) -> bool:
+        """True when the forces are ``A(q) u`` (linear in the inputs); False for servo-wound tendons."""
+        return True
+
     def fit(self, kinematics: PlanarPCS) -> Actuation:
         """Take the segmentation the inputs act on.
 
@@ -448,6 +453,11 @@ class TendonActuation(Actuation):
     def is_displacement(self) -> bool:
         """True for servo-wound elastic tendons (inputs are servo angles)."""
         return self.drive == "displacement"
+
+    @property
+    def linear_in_inputs(self) -> bool:
+        """False for a displacement drive: the tensions are ``k max(0, stretch)``, not linear in the angles."""
+        return not self.is_displacement
 
     def input_bounds(self):
         """Tensions pull: ``[0, inf)``; servo angles are unbounded (None)."""

@@ -117,6 +117,12 @@ class ForwardModel(ABC):
         strains' columns (constant).
         """
         q = self._reduce(q, "q")
+        if self.actuation is not None and not getattr(self.actuation, "linear_in_inputs", True):
+            raise ValueError(
+                f"{type(self.actuation).__name__}(drive={getattr(self.actuation, 'drive', '?')!r}) acts nonlinearly "
+                "in its inputs (servo-wound tendons go slack): there is no input matrix A(q) with forces A(q) u. "
+                "Use input_forces(q, u), equilibrium(u), or actuation.matrix(q) (the map of unit tendon tensions)"
+            )
         if self.actuation is not None:
             flat = q.reshape(-1, self.n)
             return self.actuation.matrix(flat).reshape(q.shape[:-1] + (self.n, self.n_inputs))
