@@ -145,6 +145,13 @@ on (strains or fitted to poses) and against the simulator's strains; the validat
 |---|---|---|---|---|---|---|---|---|
 {chr(10).join(rows)}
 
+The tendons' own elasticity dominates the bending stiffness when taut (k d^2 c = {500 * 0.015**2 * 0.07:.2g}
+N m^2 against the body's {rob.stiffness[0]:.2g}) and switches off when slack: a learned input map linear in its
+parameters cannot represent that (its fit collapses and the rollout diverges; "inf").  With the layout known
+up to offsets, radii and slacks the displacement drive recovers it; from noisy poses the tendon and body
+stiffness trade off against each other (the scale from the mass alone), while offsets, radii and slacks
+stay within a few percent / tenths of a millimetre and the rollout within ~1 mm.
+
 Wall time {time.perf_counter() - start:.0f} s.
 """
     print(body)

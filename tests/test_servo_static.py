@@ -167,6 +167,31 @@ def test_learned_actuation_recovers_a_constant_map_and_is_passive_with_inputs_of
         LearnedActuation(2, terms=("u*q",)).fit(PlanarPCS(lengths))
 
 
+def test_learned_pull_terms_numpy_and_compiled_maps_agree_and_vanish_with_the_inputs_off():
+    # independent pieces: the numpy basis (parts) and the compiled kernel of the rollouts, for random gains;
+    # a pull term acts only for a positive input
+    kin = PlanarPCS(LENGTHS)
+    act = LearnedActuation(2, terms=("u", "u*q", "pull", "pull*q"), strains="all").fit(kin)
+    rng = np.random.default_rng(5)
+    act.set_identified(rng.normal(size=act.n_gains), np.zeros(0))
+    assert act.n_gains == 6 * 2 * (1 + 2) * 2 and not act.linear_in_inputs
+    lib = PhysicalPCSLibrary().fit([StrainTrajectory(np.zeros((3, 6)), np.arange(3.0), segment_lengths=LENGTHS)])
+    coef = lib.coefficients_from_parameters(
+        BODY["density"], 0.02, BODY["youngs_modulus"], BODY["shear_modulus"], BODY["damping"]
+    )
+    fwd = lib.forward_model(coef, actuation=act)
+    q = rng.normal(size=(6, 6)) * [10, 0.05, 0.05, 10, 0.05, 0.05]
+    u = rng.normal(size=(6, 2)) * 5
+    for k in range(6):
+        np.testing.assert_allclose(fwd.input_forces(q[k], u[k]), act.forces(q[k], u[k])[0], rtol=1e-12, atol=1e-14)
+    np.testing.assert_array_equal(act.forces(q, np.zeros((6, 2))), 0.0)
+    # pull terms alone: a negative input does nothing, a positive one acts linearly
+    pull = LearnedActuation(2, terms=("pull",)).fit(kin)
+    g = rng.normal(size=pull.n_gains)
+    np.testing.assert_array_equal(pull.forces(q, -np.abs(u), g), 0.0)
+    np.testing.assert_allclose(pull.forces(q, 2 * np.abs(u), g), 2 * pull.forces(q, np.abs(u), g), rtol=1e-14)
+
+
 def test_static_recording_averages_each_hold_after_settling():
     t = np.arange(10.0)
     u = np.array([[0.0]] * 4 + [[2.0]] * 6)

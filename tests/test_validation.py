@@ -349,6 +349,7 @@ BAD = [
     (TendonActuation, "stiffness", [-1.0]),
     (LearnedActuation, "n_inputs", 0),
     (LearnedActuation, "terms", ("u*q",)),
+    (LearnedActuation, "terms", ("pull", "u*q")),
     (LearnedActuation, "strains", "shear"),
     (TendonActuation, "max_offset", True),
     (TendonActuation, "shared", "yes"),

@@ -23,7 +23,8 @@ strains), 1 (tendons at signed offsets ``aoff`` covering ``acover[k, i]`` of
 segment i: ``A = -dl/dq``), 2 (a constant matrix ``amat`` (n, p)), 3 (servo-wound
 elastic tendons: tendons whose tension is ``k max(0, r u pi/180 + l(q) - l(0) - s)``,
 ``amat`` rows ``[k, r, s]`` (3, p)) or 4 (a map affine in the strains,
-``amat = [B0 | B1]`` (n, p (1 + n)): ``A(q)[:, k] = B0[:, k] + B1[:, k*n:(k+1)*n] q``).
+``amat = [B0 | B1 | C0 | C1]`` (n, 2 p (1 + n)): ``tau = sum_k (B0[:, k] + B1[:, k*n:(k+1)*n] q) u_k``
+plus the same with ``C`` in ``max(0, u_k)``).
 """
 
 from __future__ import annotations
@@ -233,16 +234,21 @@ def input_forces(q, u, P, tau):
             tau[a] = s
         return
     if kind == 4:
-        # affine in the strains: tau_a = sum_k (B0[a, k] + sum_b B1[a, k, b] q_b) u_k, amat = [B0 | B1] (n, p (1 + n))
+        # affine in the strains, in the inputs and in their positive parts:
+        # tau_a = sum_k (B0[a, k] + sum_b B1[a, k, b] q_b) u_k + (C0 + C1 q) max(0, u_k), amat = [B0 | B1 | C0 | C1]
         amat = P[13]
         p = u.size
+        block = p * (1 + n)
         for a in range(n):
             s = 0.0
-            for k in range(p):
-                coef = amat[a, k]
-                for b in range(n):
-                    coef += amat[a, p + k * n + b] * q[b]
-                s += coef * u[k]
+            for part in range(2):
+                off = part * block
+                for k in range(p):
+                    coef = amat[a, off + k]
+                    for b in range(n):
+                        coef += amat[a, off + p + k * n + b] * q[b]
+                    uk = u[k] if part == 0 else max(u[k], 0.0)
+                    s += coef * uk
             tau[a] = s
         return
     # tendons: l_k = sum_i c_ki sqrt(sh_i^2 + (1 + ax_i + d_k be_i)^2), a tension does -dl/dq
