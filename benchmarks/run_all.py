@@ -35,6 +35,8 @@ ORDER = [
     "actuation",
     "control",
     "control_actuated",
+    "servo_tendon",
+    "static_holds",
     "cli_startup",
 ]
 # benchmarks outside make bench (run on their own)

@@ -65,7 +65,7 @@ __getattr__, __dir__, _names = _lazy.attach(
             "PCSLagrangianLibrary",
             "PhysicalPCSLibrary",
         ],
-        "models": ["TendonActuation", "PressureActuation", "LinearActuation"],
+        "models": ["TendonActuation", "PressureActuation", "LinearActuation", "LearnedActuation"],
         "pipeline": ["make_pcs_pipeline", "PCSPipeline"],
         "io": ["save", "load"],
     },

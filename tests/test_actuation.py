@@ -317,3 +317,71 @@ def test_one_segment_pneumatic_scenario():
     assert plain.actuation is None
     rec = plain.generate(seed=0, n_train=1, train_duration=0.02, validation=False, cache=False).train[0]
     assert rec.u is rec.tau
+
+
+# --------------------------------------------------------------------------
+# servo-wound elastic tendons (drive="displacement")
+# --------------------------------------------------------------------------
+SERVO = dict(end=[0.07, 0.17], offset=[0.015, -0.015], stiffness=[400.0, 250.0], pulley_radius=[0.01, 0.012])
+
+
+def servo_energy(q, lengths, phi, slack):
+    """Elastic energy ½ Σ k max(0, r φ π/180 + ℓ(q) − ℓ(0) − s)² with ℓ integrated numerically."""
+    total = 0.0
+    for k, (end, d) in enumerate(zip(SERVO["end"], SERVO["offset"], strict=True)):
+        ell = polyline_length(q, lengths, end, d, per_segment=400)
+        ell0 = polyline_length(np.zeros_like(q), lengths, end, d, per_segment=400)
+        e = SERVO["pulley_radius"][k] * np.deg2rad(phi[k]) + ell - ell0 - slack[k]
+        total += 0.5 * SERVO["stiffness"][k] * max(e, 0.0) ** 2
+    return total
+
+
+@pytest.mark.parametrize("slack", [(0.0, 0.0), (0.004, -0.002)])
+def test_servo_tendon_forces_are_minus_the_gradient_of_the_tendon_energy(slack):
+    # independent truth: the elastic energy of the tendons from numerically integrated offset curves
+    robot = PCSRobot(**TWO, actuation=Tendons(**SERVO, drive="displacement", slack=list(slack)))
+    rng = np.random.default_rng(7)
+    for phi in (np.array([30.0, 5.0]), np.array([-10.0, 60.0])):
+        q = random_q(rng, 2) / 4
+        tau = robot.actuation_forces(q, phi)
+        eps = 1e-5
+        grad = np.array(
+            [
+                (
+                    servo_energy(q + eps * e, robot.segment_lengths, phi, slack)
+                    - servo_energy(q - eps * e, robot.segment_lengths, phi, slack)
+                )
+                / (2 * eps)
+                for e in np.eye(6)
+            ]
+        )
+        np.testing.assert_allclose(tau, -grad, rtol=1e-5, atol=1e-7 * np.abs(grad).max() + 1e-12)
+
+
+def test_servo_tendon_is_slack_below_its_take_up_and_accepts_any_angle():
+    robot = PCSRobot(**TWO, actuation=Tendons(**SERVO, drive="displacement", slack=[0.003, 0.003]))
+    q = np.zeros(6)
+    # straight robot: taut once r φ π/180 > s, i.e. φ > 0.003 / 0.01 rad = 17.19 deg for tendon 1
+    f = robot.tendon_tensions(np.zeros((3, 6)), np.array([[17.0, 0.0], [18.0, 0.0], [-40.0, 0.0]]))
+    assert f[0, 0] == 0.0 and f[2, 0] == 0.0
+    assert f[1, 0] == pytest.approx(400.0 * (0.01 * np.deg2rad(18.0) - 0.003), rel=1e-12)
+    np.testing.assert_array_equal(robot.actuation_forces(q, [-40.0, -40.0]), 0.0)
+    with pytest.raises(ValueError, match="stiffness is required"):
+        PCSRobot(**TWO, actuation=Tendons(end=[0.1], offset=[0.01], drive="displacement", pulley_radius=0.01))
+    with pytest.raises(ValueError, match="drive must be"):
+        PCSRobot(**TWO, actuation=Tendons(end=[0.1], offset=[0.01], drive="servo"))
+    assert Tendons(**SERVO, drive="displacement").layout()["drive"] == "displacement"
+
+
+def test_servo_tendon_robot_rests_where_elastic_gravity_and_tendon_forces_balance():
+    # a hold: simulate to rest, then check G + K q = A(q) f(q, φ) with the tensions of the rest shape
+    robot = PCSRobot(**TWO, actuation=Tendons(**SERVO, drive="displacement", slack=[0.001, -0.0005]))
+    t = np.linspace(0.0, 5.0, 501)
+    phi = np.tile([40.0, 10.0], (t.size, 1))
+    traj = robot.simulate(np.zeros(6), np.zeros(6), t, phi)
+    q = traj.q[-1]
+    assert np.abs(traj.qd[-1]).max() < 1e-4
+    f = robot.tendon_tensions(q, phi[-1])
+    assert f[0] > 0.5  # tendon 1 is taut and bends the robot
+    static = robot.gravity_forces(q) + robot.elastic_forces(q)
+    np.testing.assert_allclose(static, robot.actuation_matrix(q) @ f, atol=1e-3 * np.abs(static).max())

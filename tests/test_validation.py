@@ -40,7 +40,13 @@ from pcs_sindy.identification import (
     StiffnessThresholdOptimizer,
 )
 from pcs_sindy.io import REGISTRY, load, save
-from pcs_sindy.models import IdentityActuation, LinearActuation, PressureActuation, TendonActuation
+from pcs_sindy.models import (
+    IdentityActuation,
+    LearnedActuation,
+    LinearActuation,
+    PressureActuation,
+    TendonActuation,
+)
 from pcs_sindy.vision import MarkerPoseExtractor
 
 KIN = PlanarPCS((0.1,))  # one segment of 10 cm: what the actuation layouts below are fitted to
@@ -57,6 +63,7 @@ ESTIMATORS = {
     TendonActuation: {"end": [0.1], "side": [1]},
     PressureActuation: {"start": [0.0], "end": [0.1], "side": [1]},
     LinearActuation: {"pattern": [[1], [0], [0]]},
+    LearnedActuation: {"n_inputs": 2},
 }
 
 
@@ -68,7 +75,7 @@ def _fit(est):
         return est.fit(None, None)
     if isinstance(est, MarkerPoseExtractor):
         return est.fit()
-    if isinstance(est, (TendonActuation, PressureActuation, LinearActuation, IdentityActuation)):
+    if isinstance(est, (TendonActuation, PressureActuation, LinearActuation, IdentityActuation, LearnedActuation)):
         return est.fit(KIN)
     return est.fit(None)
 
@@ -337,6 +344,13 @@ BAD = [
     (TendonActuation, "side", [2]),
     (TendonActuation, "offset", [0.0]),
     (TendonActuation, "max_offset", 0),
+    (TendonActuation, "drive", "servo"),
+    (TendonActuation, "pulley_radius", [0.0]),
+    (TendonActuation, "stiffness", [-1.0]),
+    (LearnedActuation, "n_inputs", 0),
+    (LearnedActuation, "terms", ("u*q",)),
+    (LearnedActuation, "terms", ("pull", "u*q")),
+    (LearnedActuation, "strains", "shear"),
     (TendonActuation, "max_offset", True),
     (TendonActuation, "shared", "yes"),
     (TendonActuation, "weighting", "ols"),

@@ -1,4 +1,4 @@
-"""Formulations of the Euler–Lagrange regression: strong (samples) and weak (window integrals).
+"""Formulations of the Euler–Lagrange regression: strong (samples), weak (window integrals), static (holds).
 
 Both turn recordings ``(t, q, qd[, qdd], tau)`` of the modelled strains into a
 linear regression ``y = x @ coef`` over the columns of a
@@ -10,7 +10,13 @@ linear regression ``y = x @ coef`` over the columns of a
   With the library's split ``Psi = dP/dt + R`` and a test function ``phi``
   vanishing at the window ends, ``int phi Psi dt = -int phi' P dt + int phi R dt``:
   only ``q`` and ``qd`` enter, averaged over the window, and held (zero-order
-  hold) forces are integrated exactly.
+  hold) forces are integrated exactly;
+* static: one row per hold (a run of samples with one input) and strain, the
+  equilibrium ``G(q) + K q - f0 = A(q) u`` at the hold's mean strains
+  (:func:`static_recording`): the strong form at ``qd = qdd = 0``, for rigs
+  that only hold shapes.  Inertia and damping do not enter (they stay
+  undetermined); the scale comes from inputs in physical units (tensions, a
+  known tendon stiffness) or from the robot's mass.
 
 Plain functions on arrays; :func:`regression` assembles the rows of several
 recordings and the ``design`` callback the optimizer uses to rebuild them for a
@@ -43,10 +49,12 @@ __all__ = [
     "library_rows",
     "input_rows",
     "regression",
+    "static_recording",
+    "static_pins",
 ]
 
 #: names of the formulations
-FORMULATIONS = ("strong", "weak")
+FORMULATIONS = ("strong", "weak", "static")
 _RULES = ("trapezoid", "simpson")
 _CHUNK = 512  # samples per block when evaluating the library (bounds memory)
 
@@ -405,12 +413,63 @@ class PreparedRecording:
 Design = Callable[[Any, NDArray[np.bool_]], NDArray[np.float64]]
 
 
+def static_recording(
+    t: ArrayLike, q: ArrayLike, u: ArrayLike, *, settle: float = 0.5, name: str = "X"
+) -> PreparedRecording:
+    """One row per hold: the mean strains of each run of samples with one input, at rest.
+
+    Parameters
+    ----------
+    t : array_like, shape (T,)
+    q : array_like, shape (T, n)
+        Modelled strains.
+    u : array_like, shape (T, p)
+        Inputs; a hold is a run of consecutive samples with identical inputs
+        (one sample per hold is fine: equilibria listed one per row).
+    settle : float, default 0.5
+        Fraction of each hold (its start) left out of the mean: the robot
+        settling after the input changed.  At least the hold's last sample is used.
+    name : str
+        The recording's name in error messages.
+
+    Returns
+    -------
+    PreparedRecording
+        ``t`` the holds' last times, ``q`` their mean strains, ``qd = qdd = 0``,
+        ``u`` their inputs.
+    """
+    t = np.asarray(t, dtype=float)
+    q = np.asarray(q, dtype=float)
+    u = np.asarray(u, dtype=float)
+    if q.ndim != 2 or u.ndim != 2 or q.shape[0] != u.shape[0] or t.shape != (q.shape[0],):
+        raise ValueError(
+            f"{name}: t (T,), q (T, n) and u (T, p) must have one row per sample; got {t.shape}, {q.shape}, {u.shape}"
+        )
+    if not 0.0 <= settle < 1.0:
+        raise ValueError(f"settle must be in [0, 1); got {settle!r}")
+    if not np.all(np.isfinite(q)):
+        k = int(np.argwhere(~np.isfinite(q))[0][0])
+        raise ValueError(f"{name}: the strains of sample {k} are NaN or inf; drop missing samples before a static fit")
+    change = np.r_[True, np.any(np.diff(u, axis=0) != 0, axis=1)]
+    starts = np.flatnonzero(change)
+    stops = np.r_[starts[1:], q.shape[0]]
+    means, times, inputs = [], [], []
+    for a, b in zip(starts, stops, strict=True):
+        first = min(a + int(np.floor(settle * (b - a))), b - 1)
+        means.append(q[first:b].mean(axis=0))
+        times.append(t[b - 1])
+        inputs.append(u[a])
+    qm = np.asarray(means)
+    zeros = np.zeros_like(qm)
+    return PreparedRecording(np.asarray(times), qm, zeros, zeros.copy(), np.asarray(inputs))
+
+
 def _check(recordings: Sequence[PreparedRecording], formulation: str) -> list[PreparedRecording]:
     if formulation not in FORMULATIONS:
         raise ValueError(f"formulation must be one of {FORMULATIONS}; got {formulation!r}")
     recs = list(recordings)
     for k, r in enumerate(recs):
-        if formulation == "strong" and r.qdd is None:
+        if formulation in ("strong", "static") and r.qdd is None:
             raise ValueError(f"recording {k} has no qdd: the strong form needs accelerations")
         if formulation == "weak" and r.windows is None:
             raise ValueError(f"recording {k} has no windows: the weak form needs them")
@@ -430,7 +489,7 @@ def library_rows(
     kept = np.ones(recs[0].q.shape[1], dtype=bool) if kept is None else kept
     parts = []
     for r in recs:
-        if formulation == "strong":
+        if formulation in ("strong", "static"):
             sel = slice(None) if r.rows is None else r.rows
             parts.append(
                 np.asarray(
@@ -467,7 +526,7 @@ def input_rows(
     recs = _check(recordings, formulation)
     known_parts, linear_parts = [], []
     for r in recs:
-        if formulation == "strong":
+        if formulation in ("strong", "static"):
             sel = slice(None) if r.rows is None else r.rows
             known, linear = actuation.parts(r.q[sel], r.u[sel], offsets)
         else:
@@ -502,7 +561,7 @@ def regression(
     library : LagrangianLibrary
         Fitted on the recordings' segmentation.
     recordings : sequence of PreparedRecording
-    formulation : {"strong", "weak"}
+    formulation : {"strong", "weak", "static"}
     actuation : Actuation
         Fitted input map (:class:`~pcs_sindy.models.actuation.IdentityActuation` when
         the inputs are the generalised forces).
@@ -526,10 +585,37 @@ def regression(
     """
     recs = _check(recordings, formulation)
     y, linear = input_rows(actuation, recs, formulation, offsets=offsets, test_function=test_function, hold=hold)
+    n_pins = 0
+    if formulation == "static":  # the inertia and damping columns vanish at rest: pin them to 0
+        rows = library_rows(library, recs, formulation)
+        n_pins = int(np.sum(~(np.linalg.norm(rows.reshape(-1, rows.shape[-1]), axis=0) > 0)))
+        y = np.concatenate([y, np.zeros((n_pins, y.shape[1]))])
 
     def design(lib: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
         rows = library_rows(lib, recs, formulation, kept, test_function=test_function)
-        return np.concatenate([rows, -linear[:, kept, :]], axis=2)
+        x = np.concatenate([rows, -linear[:, kept, :]], axis=2)
+        if n_pins:
+            x = np.concatenate([x, static_pins(x, n_pins)])
+        return x
 
     x = design(library, np.ones(recs[0].q.shape[1], dtype=bool))
     return x, y, design
+
+
+def static_pins(x: NDArray[np.float64], n_pins: int) -> NDArray[np.float64]:
+    """Rows (n_pins, n, n_cols) that pin the all-zero columns of static rows ``x`` to 0.
+
+    At rest the inertia and damping columns vanish; a tiny row per such column
+    (1e-9 of the largest column norm, in the first equation) keeps the
+    regression full rank and those coefficients at 0, reported as
+    undetermined by the identifiability analysis.  A restricted library may
+    have fewer such columns: the rows beyond them stay zero.
+    """
+    flat = x.reshape(-1, x.shape[-1])
+    norms = np.linalg.norm(flat, axis=0)
+    zero = np.flatnonzero(~(norms > 0))
+    pins = np.zeros((n_pins,) + x.shape[1:])
+    weight = 1e-9 * (norms.max() if norms.size and norms.max() > 0 else 1.0)
+    for k, j in enumerate(zero[:n_pins]):
+        pins[k, 0, j] = weight
+    return pins

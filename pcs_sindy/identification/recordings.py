@@ -136,7 +136,7 @@ def prepare(
         Known rates and accelerations.
     kin : PlanarPCS, optional
         The model's segmentation (checked against the data's).
-    formulation : {"strong", "weak"}
+    formulation : {"strong", "weak", "static"}
     actuation : Actuation, optional
     differentiation_method, window_length, polyorder, weak_window, weak_stride, exclude_force_jumps
         As in :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor`.
@@ -163,9 +163,14 @@ def prepare(
     qdds = None if qdd is None else check_list(qdd, len(X), "qdd")
     if (qds is None) != (qdds is None) and formulation == "strong":
         raise ValueError("give both qd and qdd (known derivatives) or neither")
-    width, stride = weak_windows(min(rec.n_frames for rec in X), weak_window, weak_stride)
+    width, stride = (
+        (0, 0) if formulation == "static" else weak_windows(min(rec.n_frames for rec in X), weak_window, weak_stride)
+    )
     recs = []
     for k, (rec, tau) in enumerate(zip(X, taus)):
+        if formulation == "static":  # equilibria: no derivatives, one row per hold
+            recs.append(_form.static_recording(rec.t, rec.q[:, mask], tau, name=f"X[{k}]"))
+            continue
         rate, acc = derivatives(
             rec,
             k,

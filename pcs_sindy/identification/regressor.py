@@ -74,11 +74,18 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         rest force per strain), any number of segments, bounded fits (passive
         model, positive-definite ``M``).  ``"monomial"``: the seed's symbolic
         :class:`~pcs_sindy.identification.library.pcs_lagrangian.PCSLagrangianLibrary`.
-    formulation : {"weak", "strong"}, default "weak"
+    formulation : {"weak", "strong", "static"}, default "weak"
         ``"weak"``: regress window integrals ``int phi tau dt = int phi Psi dt @ coef``
         with the bump test function over windows of ``weak_window`` intervals
         (no ``qdd``; held forces integrated exactly).  ``"strong"``: regress
-        ``tau = Psi(q, qd, qdd) @ coef`` sample by sample.
+        ``tau = Psi(q, qd, qdd) @ coef`` sample by sample.  ``"static"``: fit
+        equilibria alone, ``G(q) + K q - f0 = A(q) u``, one row per hold (a
+        run of samples with one input, the mean of its second half), no
+        derivatives: for rigs that only hold shapes.  Inertia and damping are
+        not determined (zero columns; the model's :meth:`equilibrium` is what
+        it predicts).  The scale comes from inputs in physical units
+        (tensions, a given tendon stiffness) or from the robot's mass
+        (``PhysicalPCSLibrary(mass=...)``) when every input gain is identified.
     optimizer : pysindy optimizer, optional
         Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
         material bounds; removes over-stiff strains).  Any other pysindy
@@ -406,7 +413,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         q_kept = np.concatenate([r.q[:, kept] for r in recs])
         self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
         self.mass_matrix_not_pd_fraction_ = 0.0
-        if self.check_mass_matrix:
+        if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
         self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
@@ -707,6 +714,36 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             progress=self.progress if progress is None else progress,
             stats=stats,
         )
+
+    def equilibrium(self, u: ArrayLike, q0: ArrayLike | None = None, **kwargs: Any) -> NDArray[np.float64]:
+        """The strains the identified model rests at under constant inputs (forward statics).
+
+        Parameters
+        ----------
+        u : array_like, shape (p,) or (B, p)
+            Constant inputs (actuator inputs, or generalised forces (3m,) without
+            actuation); several rows give one equilibrium each, each solve
+            starting from the previous one (order a load sweep by load).
+        q0 : array_like, shape (3m,) or (n,), optional
+            Starting guess (default: the straight robot).
+        **kwargs
+            ``tol``, ``n_continuation``, ``progress`` of
+            :meth:`pcs_sindy.models.ForwardModel.equilibrium`.
+
+        Returns
+        -------
+        ndarray, shape (3m,) or (B, 3m)
+            All strains of the segmentation at rest (unmodelled ones 0): what
+            :func:`pcs_sindy.core.forward_kinematics` turns into the shape.
+
+        Raises
+        ------
+        SimulationError
+            When no equilibrium is found.
+        """
+        check_is_fitted(self, "coef_")
+        q = self.forward_model().equilibrium(u, q0, **kwargs)
+        return self.kinematics_.to_full(q)
 
     def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
         """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.

@@ -90,6 +90,8 @@ def fit_offsets(
     """
     rows = _form.library_rows(library, recordings, formulation)
     n_rows, n, n_lib = rows.shape
+    scale_of = getattr(library, "scale_constraint", None)
+    scale = scale_of() if (callable(scale_of) and actuation.n_gains) else None
 
     def inputs(d: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         return _form.input_rows(actuation, recordings, formulation, offsets=d, hold=hold)
@@ -107,7 +109,15 @@ def fit_offsets(
             if linear.shape[-1]:  # gains with offsets: one joint linear solve
                 xa = np.concatenate([rows, -linear], axis=2) * w[None, :, None]
                 xa = xa.reshape(-1, xa.shape[-1])
-                return xa @ np.linalg.lstsq(xa, yw, rcond=None)[0] - yw
+                if scale is None:
+                    return xa @ np.linalg.lstsq(xa, yw, rcond=None)[0] - yw
+                # homogeneous equations (every input gain identified): the scale row (the robot's mass),
+                # weighted to hold, keeps the inner solve off the trivial zero
+                a = np.r_[scale[0], np.zeros(linear.shape[-1])]
+                col = np.linalg.norm(xa, axis=0)
+                wa = 1e6 / max(np.linalg.norm(a / np.where(col > 0, col, 1.0)), 1e-300)
+                sol = np.linalg.lstsq(np.vstack([xa, wa * a]), np.r_[yw, wa * scale[1]], rcond=None)[0]
+                return xa @ sol - yw
             return basis @ (basis.T @ yw) - yw
 
         return residual
@@ -136,6 +146,10 @@ def fit_offsets(
             break
         w = w_new
     r, jac = sol.fun, sol.jac  # of the weights the last solve used
+    # relative to the value, or to a typical magnitude for parameters that may be 0 (a tendon's slack)
+    floor_of = getattr(actuation, "offset_floor", None)
+    floor = np.asarray(floor_of(), dtype=float) if callable(floor_of) else np.zeros(d.size)
+    floor = np.where(floor > 0, floor, 1e-300)
     dof = max(r.size - jac.shape[1] - n_lib, 1)
     cov = float(r @ r) / dof * np.linalg.pinv(jac.T @ jac)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0))
@@ -145,7 +159,7 @@ def fit_offsets(
         "offset_names": list(actuation.offset_names_),
         "offsets": d.copy(),
         "offset_standard_errors": se,
-        "offset_relative_standard_errors": se / np.abs(d),
+        "offset_relative_standard_errors": se / np.maximum(np.abs(d), floor),
         "offset_correlation": corr,
         "offset_fit_success": bool(sol.success),
         "equation_weights": w.copy(),

@@ -20,7 +20,11 @@ stiff, damp, f0, akind, aoff, acover, amat)`` and the work arrays as
 four entries of ``P`` map the inputs ``u`` to generalised forces
 (:func:`input_forces`): ``akind`` 0 (``u`` are the forces on the modelled
 strains), 1 (tendons at signed offsets ``aoff`` covering ``acover[k, i]`` of
-segment i: ``A = -dl/dq``) or 2 (a constant matrix ``amat`` (n, p)).
+segment i: ``A = -dl/dq``), 2 (a constant matrix ``amat`` (n, p)), 3 (servo-wound
+elastic tendons: tendons whose tension is ``k max(0, r u pi/180 + l(q) - l(0) - s)``,
+``amat`` rows ``[k, r, s]`` (3, p)) or 4 (a map affine in the strains,
+``amat = [B0 | B1 | C0 | C1]`` (n, 2 p (1 + n)): ``tau = sum_k (B0[:, k] + B1[:, k*n:(k+1)*n] q) u_k``
+plus the same with ``C`` in ``max(0, u_k)``).
 """
 
 from __future__ import annotations
@@ -229,6 +233,24 @@ def input_forces(q, u, P, tau):
                 s += amat[a, k] * u[k]
             tau[a] = s
         return
+    if kind == 4:
+        # affine in the strains, in the inputs and in their positive parts:
+        # tau_a = sum_k (B0[a, k] + sum_b B1[a, k, b] q_b) u_k + (C0 + C1 q) max(0, u_k), amat = [B0 | B1 | C0 | C1]
+        amat = P[13]
+        p = u.size
+        block = p * (1 + n)
+        for a in range(n):
+            s = 0.0
+            for part in range(2):
+                off = part * block
+                for k in range(p):
+                    coef = amat[a, off + k]
+                    for b in range(n):
+                        coef += amat[a, off + p + k * n + b] * q[b]
+                    uk = u[k] if part == 0 else max(u[k], 0.0)
+                    s += coef * uk
+            tau[a] = s
+        return
     # tendons: l_k = sum_i c_ki sqrt(sh_i^2 + (1 + ax_i + d_k be_i)^2), a tension does -dl/dq
     aoff, acover = P[11], P[12]
     m = L.size
@@ -238,6 +260,21 @@ def input_forces(q, u, P, tau):
     full = np.zeros(3 * m)
     for k in range(u.size):
         d = aoff[k]
+        force = u[k]
+        if kind == 3:
+            # servo-wound elastic tendon: f = k max(0, r u pi/180 + l(q) - l(0) - s), amat rows [k, r, s]
+            drive = P[13]
+            ell = 0.0
+            rest = 0.0
+            for i in range(m):
+                c = acover[k, i]
+                if c == 0.0:
+                    continue
+                w = 1.0 + qf[3 * i + 2] + d * qf[3 * i]
+                ell += c * math.sqrt(qf[3 * i + 1] ** 2 + w * w)
+                rest += c
+            e = drive[1, k] * u[k] * (math.pi / 180.0) + ell - rest - drive[2, k]
+            force = drive[0, k] * e if e > 0.0 else 0.0
         for i in range(m):
             c = acover[k, i]
             if c == 0.0:
@@ -245,7 +282,7 @@ def input_forces(q, u, P, tau):
             kap = qf[3 * i]
             sh = qf[3 * i + 1]
             w = 1.0 + qf[3 * i + 2] + d * kap
-            scale = c * u[k] / math.sqrt(sh * sh + w * w)
+            scale = c * force / math.sqrt(sh * sh + w * w)
             full[3 * i] -= scale * d * w
             full[3 * i + 1] -= scale * sh
             full[3 * i + 2] -= scale * w

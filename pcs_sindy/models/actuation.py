@@ -18,6 +18,8 @@ arc length along the robot, so they hold for any fused segmentation.
   on either side of the backbone; constant columns with unknown gains.
 * :class:`LinearActuation` — any constant ``A`` with a sparsity pattern over
   the strains of a known segmentation; one unknown gain per entry.
+* :class:`LearnedActuation` — a mechanism of unknown layout: ``A(q)`` affine
+  in the strains (terms ``u`` and ``u`` times strains), every term a gain.
 
 Scale.  When every actuator gain is identified (chambers, linear layouts), the
 equations are homogeneous: scaling every density, stiffness, damping and gain
@@ -35,7 +37,7 @@ A user-supplied actuation subclasses :class:`Actuation` and implements
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from numbers import Real
+from numbers import Integral, Real
 from typing import Any
 
 import numpy as np
@@ -51,14 +53,17 @@ __all__ = [
     "TendonActuation",
     "PressureActuation",
     "LinearActuation",
+    "LearnedActuation",
     "actuation_from_layout",
     "ACT_IDENTITY",
     "ACT_TENDON",
     "ACT_CONSTANT",
+    "ACT_SERVO",
+    "ACT_AFFINE",
 ]
 
 #: kinds of the compiled input map (see :meth:`Actuation.compiled`)
-ACT_IDENTITY, ACT_TENDON, ACT_CONSTANT = 0, 1, 2
+ACT_IDENTITY, ACT_TENDON, ACT_CONSTANT, ACT_SERVO, ACT_AFFINE = 0, 1, 2, 3, 4
 
 
 def _per_actuator(obj: Actuation, name: str, size: int | None = None) -> NDArray[np.float64]:
@@ -141,6 +146,11 @@ class Actuation(BaseEstimator, ABC):
     def is_identity(self) -> bool:
         """True when the inputs are the generalised forces themselves (``A = I``)."""
         return self.kind == "identity"
+
+    @property
+    def linear_in_inputs(self) -> bool:
+        """True when the forces are ``A(q) u`` (linear in the inputs); False for servo-wound tendons."""
+        return True
 
     def fit(self, kinematics: PlanarPCS) -> Actuation:
         """Take the segmentation the inputs act on.
@@ -337,6 +347,8 @@ class IdentityActuation(Actuation):
 
 #: how the offsets' outer problem weights the strains' equations (pcs_sindy.identification.variable_projection)
 _WEIGHTINGS = ("residual", "none")
+#: what the inputs of tendons are: tensions [N] or servo angles [deg] (displacement drive)
+_DRIVES = ("tension", "displacement")
 
 
 class TendonActuation(Actuation):
@@ -378,20 +390,46 @@ class TendonActuation(Actuation):
         neither rule is right in general: choose by rollout score, e.g.
         ``GridSearchCV`` over ``actuation__weighting`` (docs/method.md,
         "Actuation").
+    drive : {"tension", "displacement"}, default "tension"
+        What the inputs are.  ``"tension"``: tendon tensions [N].
+        ``"displacement"``: servo angles [deg] winding elastic tendons on
+        pulleys: the tendon is stretched by
+        ``e_k = r_k u_k pi/180 + l_k(q) - l_k(0) - s_k`` (the servo takes up
+        ``r u``, the body's shortening gives back ``l(0) - l(q)``) and pulls
+        with ``f_k = k_k max(0, e_k)`` (slack: no force).
+    stiffness : array_like, shape (p,), optional
+        Tendon stiffness ``k`` [N/m] when known (displacement drive only);
+        default: identified with the Lagrangian (linear gains ``k_<k>``; the
+        regression then needs the robot's mass for its scale).
+    pulley_radius : array_like, shape (p,), optional
+        Pulley radius ``r`` [m] when known (displacement drive only); default:
+        identified (variable projection, within ``(0, max_radius]``).
+    slack : array_like, shape (p,), optional
+        Slack ``s`` [m] of the straight robot at ``u = 0`` when known (negative:
+        pretension ``-k s``; displacement drive only); default: identified
+        (variable projection, within ``[-max_slack, max_slack]``).
+    max_radius : float, default 0.05
+        Upper bound [m] of identified pulley radii.
+    max_slack : float, default 0.05
+        Bound [m] of identified slacks.
 
     Attributes
     ----------
-    offsets_ : ndarray, shape (p,)
-        Signed offsets used (given, or identified by the regressor).
+    offsets_ : ndarray, shape (p,) or (3p,)
+        Signed offsets used (given, or identified by the regressor); for a
+        displacement drive followed by the pulley radii and the slacks.
+    gains_ : ndarray
+        Displacement drive: the identified tendon stiffnesses (or the given ones).
 
     Notes
     -----
-    Inputs are tensions [N], ``>= 0``; a negative tension raises.
+    Tension inputs are tensions [N], ``>= 0``; a negative tension raises.
+    Servo angles may take either sign.  :meth:`tensions` gives the tendon
+    forces of either drive.
     """
 
     kind = "tendon"
     _design_keys = ("end", "side")
-    depends_on_q = True
     _parameter_constraints: dict = {
         "end": [_END],
         "side": [_SIDE],
@@ -399,10 +437,32 @@ class TendonActuation(Actuation):
         "max_offset": [Interval(Real, 0, None, closed="neither")],
         "shared": ["boolean"],
         "weighting": [Options(_WEIGHTINGS)],
+        "drive": [Options(_DRIVES)],
+        "stiffness": [None, Check(_positive_vector, "a non-empty 1-D array of tendon stiffnesses > 0 [N/m]")],
+        "pulley_radius": [None, Check(_positive_vector, "a non-empty 1-D array of pulley radii > 0 [m]")],
+        "slack": [None, Check(_finite_vector, "a non-empty 1-D array of finite slacks [m]")],
+        "max_radius": [Interval(Real, 0, None, closed="neither")],
+        "max_slack": [Interval(Real, 0, None, closed="neither")],
     }
 
+    @property
+    def depends_on_q(self) -> bool:  # type: ignore[override]
+        return True
+
+    @property
+    def is_displacement(self) -> bool:
+        """True for servo-wound elastic tendons (inputs are servo angles)."""
+        return self.drive == "displacement"
+
+    @property
+    def linear_in_inputs(self) -> bool:
+        """False for a displacement drive: the tensions are ``k max(0, stretch)``, not linear in the angles."""
+        return not self.is_displacement
+
     def input_bounds(self):
-        """Tensions pull: ``[0, inf)``."""
+        """Tensions pull: ``[0, inf)``; servo angles are unbounded (None)."""
+        if self.is_displacement:
+            return None
         return np.zeros(self.n_inputs_), np.full(self.n_inputs_, np.inf)
 
     def __init__(
@@ -413,6 +473,12 @@ class TendonActuation(Actuation):
         max_offset: float = 0.05,
         shared: bool = False,
         weighting: str = "residual",
+        drive: str = "tension",
+        stiffness: ArrayLike | None = None,
+        pulley_radius: ArrayLike | None = None,
+        slack: ArrayLike | None = None,
+        max_radius: float = 0.05,
+        max_slack: float = 0.05,
     ) -> None:
         self.end = end
         self.side = side
@@ -420,6 +486,12 @@ class TendonActuation(Actuation):
         self.max_offset = max_offset
         self.shared = shared
         self.weighting = weighting
+        self.drive = drive
+        self.stiffness = stiffness
+        self.pulley_radius = pulley_radius
+        self.slack = slack
+        self.max_radius = max_radius
+        self.max_slack = max_slack
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
         end = _per_actuator(self, "end")
@@ -428,37 +500,114 @@ class TendonActuation(Actuation):
         lengths = np.asarray(kinematics.segment_lengths, dtype=float)
         total = float(lengths.sum())
         _inside(end, "end", total, allow_zero=False)
-        out = {
-            "cover": _cover(np.zeros(p), np.minimum(end, total), lengths),
-            "side": side,
-            "n_inputs": p,
-            "gain_names": [],
-            "gains": np.zeros(0),
-        }
+        if not self.is_displacement:
+            for name in ("stiffness", "pulley_radius", "slack"):
+                if getattr(self, name) is not None:
+                    raise InvalidParameterError.of(
+                        self, name, "None with drive='tension' (a displacement-drive parameter)", getattr(self, name)
+                    )
+        cover = _cover(np.zeros(p), np.minimum(end, total), lengths)
+        out = {"cover": cover, "side": side, "n_inputs": p, "gain_names": [], "gains": np.zeros(0)}
+        # nonlinear parameters: offset magnitudes, then (displacement drive) pulley radii and slacks
+        free: list[NDArray[np.bool_]] = []
+        names: list[str] = []
         if self.offset is None:
-            names = ["d"] if self.shared else [f"d_{k + 1}" for k in range(p)]
-            out.update(offset_names=names, offsets=side * min(0.01, 0.5 * self.max_offset))
+            names += ["d"] if self.shared else [f"d_{k + 1}" for k in range(p)]
+            d = side * min(0.01, 0.5 * self.max_offset)
+            free.append(np.ones(1 if self.shared else p, dtype=bool))
         else:
-            mag = _per_actuator(self, "offset", p)
-            out.update(offset_names=[], offsets=side * mag)
+            d = side * _per_actuator(self, "offset", p)
+        full = [d]
+        if self.is_displacement:
+            for name, start, label in (
+                ("pulley_radius", min(0.01, 0.5 * self.max_radius), "r"),
+                ("slack", 0.0, "s"),
+            ):
+                if getattr(self, name) is None:
+                    names += [f"{label}_{k + 1}" for k in range(p)]
+                    full.append(np.full(p, start))
+                else:
+                    full.append(_per_actuator(self, name, p))
+            if self.stiffness is None:
+                out.update(gain_names=[f"k_{k + 1}" for k in range(p)], gains=np.zeros(p))
+            else:
+                out.update(gains=_per_actuator(self, "stiffness", p))
+            out["rest"] = cover.sum(axis=1)  # l_k(0): unit tangents when straight
+        out.update(offset_names=names, offsets=np.concatenate(full))
         return out
 
+    def _free(self) -> list[tuple[slice, slice]]:
+        """Pairs (slice of the parameter vector, slice of ``offsets_``) of the free nonlinear parameters."""
+        p = self.n_inputs_
+        pairs, k = [], 0
+        if self.offset is None:
+            n_d = 1 if self.shared else p
+            pairs.append((slice(k, k + n_d), slice(0, p)))
+            k += n_d
+        if self.is_displacement:
+            for j, name in ((1, "pulley_radius"), (2, "slack")):
+                if getattr(self, name) is None:
+                    pairs.append((slice(k, k + p), slice(j * p, (j + 1) * p)))
+                    k += p
+        return pairs
+
     def offset_bounds(self):
-        p = self.n_offsets
-        return np.full(p, 1e-4 * self.max_offset), np.full(p, float(self.max_offset))
+        lo, hi = [], []
+        p = self.n_inputs_
+        for par, full in self._free():
+            size = par.stop - par.start
+            if full.start == 0:
+                lo.append(np.full(size, 1e-4 * self.max_offset))
+                hi.append(np.full(size, float(self.max_offset)))
+            elif full.start == p:
+                lo.append(np.full(size, 1e-4 * self.max_radius))
+                hi.append(np.full(size, float(self.max_radius)))
+            else:
+                lo.append(np.full(size, -float(self.max_slack)))
+                hi.append(np.full(size, float(self.max_slack)))
+        return (np.concatenate(lo), np.concatenate(hi)) if lo else (np.zeros(0), np.zeros(0))
+
+    def offset_floor(self) -> NDArray[np.float64]:
+        """Magnitudes that the relative standard errors of the nonlinear parameters never divide below.
+
+        A slack may be identified at 0: its error is reported relative to 1 mm.
+        """
+        out = []
+        p = self.n_inputs_
+        for par, full in self._free():
+            out.append(np.full(par.stop - par.start, 1e-3 if full.start == 2 * p else 0.0))
+        return np.concatenate(out) if out else np.zeros(0)
 
     def initial_offsets(self):
-        return np.abs(self.offsets_[: self.n_offsets]).copy()
+        out = []
+        for par, full in self._free():
+            vals = self.offsets_[full]
+            if full.start == 0:
+                vals = np.abs(vals[: par.stop - par.start])
+            out.append(vals)
+        return np.concatenate(out) if out else np.zeros(0)
 
     def signed_offsets(self, offsets: ArrayLike | None = None) -> NDArray[np.float64]:
-        """Signed offsets: the sides times the magnitudes ``offsets`` (default: the fitted ``offsets_``)."""
+        """The map's nonlinear parameters for the free ones ``offsets`` (default: the fitted ``offsets_``).
+
+        The signed offsets (p,) (sides times the magnitudes); for a displacement drive
+        followed by the pulley radii and slacks (3p,).
+        """
         if offsets is None or self.n_offsets == 0:
             return self.offsets_
-        return self._arrays["side"] * np.asarray(offsets, dtype=float)  # one shared magnitude broadcasts
+        x = np.asarray(offsets, dtype=float)
+        out = self.offsets_.copy()
+        side = self._arrays["side"]
+        for par, full in self._free():
+            if full.start == 0:
+                out[full] = side * x[par]  # one shared magnitude broadcasts
+            else:
+                out[full] = x[par]
+        return out
 
     def check_inputs(self, u, name="u", t=None):
         arr = super().check_inputs(u, name, t)
-        if np.any(arr < 0):
+        if not self.is_displacement and np.any(arr < 0):
             idx = np.argwhere(arr < 0)[0]
             when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
             raise ValueError(
@@ -470,7 +619,7 @@ class TendonActuation(Actuation):
     def lengths(self, q: ArrayLike, offsets: ArrayLike | None = None) -> NDArray[np.float64]:
         """Tendon lengths (B, p) at modelled strains ``q`` (B, n)."""
         qf = self.kinematics_.to_full(np.atleast_2d(np.asarray(q, dtype=float)))
-        d = self.signed_offsets(offsets)
+        d = self.signed_offsets(offsets)[: self.n_inputs_]
         kap, sh, ax = qf[:, 0::3], qf[:, 1::3], qf[:, 2::3]
         w = 1.0 + ax[:, None, :] + d[None, :, None] * kap[:, None, :]
         return np.sum(self._arrays["cover"][None] * np.sqrt(sh[:, None, :] ** 2 + w**2), axis=-1)
@@ -479,7 +628,7 @@ class TendonActuation(Actuation):
         """``dl/dq`` (B, p, n) on the modelled strains."""
         kin = self.kinematics_
         qf = kin.to_full(np.atleast_2d(np.asarray(q, dtype=float)))
-        d = self.signed_offsets(offsets)
+        d = self.signed_offsets(offsets)[: self.n_inputs_]
         B, m = qf.shape[0], kin.n_segments
         kap, sh, ax = qf[:, 0::3], qf[:, 1::3], qf[:, 2::3]
         w = 1.0 + ax[:, None, :] + d[None, :, None] * kap[:, None, :]  # (B, p, m)
@@ -491,27 +640,102 @@ class TendonActuation(Actuation):
         jac[..., 2] = c * w / nu
         return jac.reshape(B, self.n_inputs_, 3 * m)[:, :, kin.active_mask]
 
+    def stretch(self, q: ArrayLike, u: ArrayLike, offsets: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Displacement drive: the tendons' stretch ``r u pi/180 + l(q) - l(0) - s`` [m] (B, p), negative when slack."""
+        if not self.is_displacement:
+            raise ValueError("stretch needs drive='displacement' (the inputs of this TendonActuation are tensions)")
+        full = self.signed_offsets(None if offsets is None else np.asarray(offsets, dtype=float))
+        p = self.n_inputs_
+        r, s = full[p : 2 * p], full[2 * p : 3 * p]
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        return r * np.deg2rad(u) + self.lengths(q, offsets) - self._arrays["rest"] - s
+
+    def tensions(
+        self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Tendon tensions [N] (B, p): the inputs, or ``k max(0, stretch)`` for a displacement drive."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if not self.is_displacement:
+            return u.copy()
+        k = self._stiffness(gains)
+        return k * np.maximum(self.stretch(q, u, offsets), 0.0)
+
+    def _stiffness(self, gains: ArrayLike | None = None) -> NDArray[np.float64]:
+        if self.stiffness is not None:
+            return _per_actuator(self, "stiffness", self.n_inputs_)
+        return self._gains(gains)
+
     def parts(self, q, u, offsets=None):
         jac = self.jacobian(q, offsets)
-        known = -np.einsum("bkn,bk->bn", jac, np.asarray(u, dtype=float))
+        u = np.asarray(u, dtype=float)
+        if not self.is_displacement:
+            known = -np.einsum("bkn,bk->bn", jac, u)
+            return known, np.zeros(known.shape + (0,))
+        taut = np.maximum(self.stretch(q, u, offsets), 0.0)  # (B, p)
+        per_unit = -jac * taut[:, :, None]  # (B, p, n): forces per unit stiffness
+        if self.stiffness is None:
+            return np.zeros((jac.shape[0], jac.shape[2])), np.transpose(per_unit, (0, 2, 1))
+        k = _per_actuator(self, "stiffness", self.n_inputs_)
+        known = np.einsum("bkn,k->bn", per_unit, k)
         return known, np.zeros(known.shape + (0,))
 
+    def forces(self, q, u, gains=None, offsets=None):
+        """Generalised forces ``-dl/dq^T f`` (B, n) of the tensions ``f`` (:meth:`tensions`)."""
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if not self.is_displacement:
+            return super().forces(q, u, gains, offsets)
+        jac = self.jacobian(q, None if offsets is None else np.asarray(offsets, float))
+        return -np.einsum("bkn,bk->bn", jac, self.tensions(q, u, gains, offsets))
+
+    def matrix(self, q: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None) -> NDArray:
+        """``A(q)`` (B, n, p): ``-dl/dq``, the forces of unit *tensions* (also for a displacement drive)."""
+        if not self.is_displacement:
+            return super().matrix(q, gains, offsets)
+        jac = self.jacobian(q, None if offsets is None else np.asarray(offsets, float))
+        return -np.transpose(jac, (0, 2, 1))
+
     def compiled(self, gains=None, offsets=None) -> tuple:
+        full = self.signed_offsets(offsets)
+        p = self.n_inputs_
+        if self.is_displacement:
+            drive = np.stack([self._stiffness(gains), full[p : 2 * p], full[2 * p : 3 * p]])
+            return ACT_SERVO, full[:p].copy(), self._arrays["cover"].copy(), drive
         return (
             ACT_TENDON,
-            self.signed_offsets(offsets).copy(),
+            full[:p].copy(),
             self._arrays["cover"].copy(),
             np.zeros((self.kinematics_.n_active, 0)),
         )
 
+    def design_layout(self) -> dict[str, Any]:
+        out = super().design_layout()
+        if self.is_displacement:
+            out["drive"] = "displacement"
+        return out
+
     def describe(self, precision: int = 3) -> list[str]:
         ends = ", ".join(f"{e:.{precision}g}" for e in np.atleast_1d(np.asarray(self.end, dtype=float)))
-        offs = ", ".join(f"{1e3 * d:.{precision}g}" for d in self.offsets_)
-        how = "identified" if self.n_offsets else "given"
-        return [
+        p = self.n_inputs_
+        offs = ", ".join(f"{1e3 * d:.{precision}g}" for d in self.offsets_[:p])
+        how = "identified" if self.offset is None else "given"
+        out = [
             "A(q) = -dl/dq, l_k = sum_i c_ki sqrt(sh_i^2 + (1 + ax_i + d_k be_i)^2) (tendons, tensions >= 0)",
             f"tendon ends [m]: {ends}; offsets d [mm] ({how}): {offs}",
         ]
+        if self.is_displacement:
+
+            def fmt(vals, scale=1.0):
+                return ", ".join(f"{scale * v:.{precision}g}" for v in vals)
+
+            k = self._stiffness()
+            out += [
+                "servo-wound elastic tendons: f_k = k_k max(0, r_k u_k pi/180 + l_k(q) - l_k(0) - s_k), u in deg",
+                f"stiffness k [N/m] ({'given' if self.stiffness is not None else 'identified'}): {fmt(k)}; "
+                f"pulley radius r [mm]: {fmt(self.offsets_[p : 2 * p], 1e3)}; "
+                f"slack s [mm]: {fmt(self.offsets_[2 * p :], 1e3)}",
+            ]
+        return out
 
 
 class _ConstantActuation(Actuation):
@@ -695,6 +919,168 @@ class LinearActuation(_ConstantActuation):
         ]
 
 
+_LEARNED_TERMS = ("u", "u*q", "pull", "pull*q")
+_LEARNED_STRAINS = ("bending", "all")
+
+
+def _learned_terms(value: Any) -> bool:
+    if isinstance(value, str):
+        return False
+    try:
+        terms = list(value)
+    except TypeError:
+        return False
+    return (
+        bool(terms)
+        and all(isinstance(t, str) and t in _LEARNED_TERMS for t in terms)
+        and ("u" in terms or "pull" in terms)
+        and ("u*q" not in terms or "u" in terms)
+        and ("pull*q" not in terms or "pull" in terms)
+    )
+
+
+class LearnedActuation(Actuation):
+    """An input map of unknown layout, linear in its parameters: ``A(q) = B0 + sum_b B1_b q_b``.
+
+    For a mechanism whose layout is not known (an unknown tendon routing, a
+    servo's linkage), every input ``u_k`` may act on every chosen strain's
+    equation through a small basis:
+
+        tau_a = sum_k (g_{a,k} + sum_b g_{a,k,b} q_b) u_k
+              + sum_k (h_{a,k} + sum_b h_{a,k,b} q_b) max(0, u_k)
+
+    (term ``"u"``: the constant part; term ``"u*q"``: the part proportional to
+    the modelled bending strains ``q_b``, which set the moment arms and
+    directions of tendons and linkages; ``"pull"`` and ``"pull*q"`` the same
+    for the positive part of the input: a one-sided mechanism such as a
+    servo winding a tendon, which pulls one way and goes slack the other).
+    Every term vanishes with its input, so with the inputs off the map
+    vanishes and the identified model stays passive (its own stiffness and
+    damping, both non-negative, are all that acts).  The gains are identified
+    with the Lagrangian, so the equations are homogeneous: give the robot's
+    mass (``PhysicalPCSLibrary(mass=...)``).
+
+    Parameters
+    ----------
+    terms : sequence of {"u", "u*q", "pull", "pull*q"}, default ("u", "u*q")
+        The basis: ``"u"`` or ``"pull"`` is required, and a ``"*q"`` term needs its constant term.
+    strains : {"bending", "all"}, default "bending"
+        The equations the inputs act on: the modelled bending strains' (a
+        tendon or a servo mostly bends a slender robot; fewer gains) or every
+        modelled strain's (when the inputs also stretch or shear it).
+
+    Attributes
+    ----------
+    gains_ : ndarray
+        The identified gains, named by ``gain_names_`` (``a_<strain>_u<k>`` and
+        ``a_<strain>_u<k>_<strain b>``).
+
+    Notes
+    -----
+    Inputs are in the user's units (servo angles, pressures, ...), of either
+    sign.  For a displacement drive with slack (a tendon that stops pulling)
+    the affine map is the first-order picture; if the layout is known,
+    :class:`TendonActuation` with ``drive="displacement"`` models the slack.
+    """
+
+    kind = "learned"
+    gain_lower_bound = -np.inf
+    _parameter_constraints: dict = {
+        "terms": [
+            Check(
+                _learned_terms,
+                f"a non-empty sequence of terms from {_LEARNED_TERMS} with 'u' or 'pull' (and each '*q' term's own)",
+            )
+        ],
+        "strains": [Options(_LEARNED_STRAINS)],
+        "n_inputs": [Interval(Integral, 1, None, closed="left")],
+    }
+    depends_on_q = True
+
+    def __init__(self, n_inputs: int = 1, terms: Any = ("u", "u*q"), strains: str = "bending") -> None:
+        self.n_inputs = n_inputs
+        self.terms = terms
+        self.strains = strains
+
+    def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:
+        p = int(self.n_inputs)
+        names = kinematics.strain_names(active_only=True)
+        n = len(names)
+        mask = kinematics.active_mask
+        kinds = np.tile([0, 1, 2], kinematics.n_segments)[mask]
+        rows = np.flatnonzero(kinds == 0) if self.strains == "bending" else np.arange(n)
+        if not np.any(kinds == 0):
+            raise ValueError(
+                "LearnedActuation needs a modelled bending strain (its rows with strains='bending', its "
+                f"'u*q' terms); the segmentation models {names}"
+            )
+        bends = np.flatnonzero(kinds == 0)
+        terms = list(self.terms)
+        index, gain_names = [], []
+        for a in rows:
+            for k in range(p):
+                for part, (const, slope, label) in enumerate((("u", "u*q", "u"), ("pull", "pull*q", "pull"))):
+                    if const not in terms:
+                        continue
+                    index.append((a, k, -1, part))
+                    gain_names.append(f"a_{names[a]}_{label}{k + 1}")
+                    if slope in terms:
+                        for b in bends:
+                            index.append((a, k, b, part))
+                            gain_names.append(f"a_{names[a]}_{label}{k + 1}_{names[b]}")
+        return {
+            "n_inputs": p,
+            "gain_names": gain_names,
+            "gains": np.zeros(len(gain_names)),
+            "offset_names": [],
+            "offsets": np.zeros(0),
+            "index": np.asarray(index, dtype=int).reshape(-1, 4),
+            "n": n,
+        }
+
+    def parts(self, q, u, offsets=None):
+        q = np.atleast_2d(np.asarray(q, dtype=float))
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        idx = self._arrays["index"]
+        B, n = q.shape[0], self._arrays["n"]
+        inputs = np.stack([u, np.maximum(u, 0.0)])  # (2, B, p): the inputs and their positive parts
+        vals = inputs[idx[:, 3], :, idx[:, 1]].T  # (B, J)
+        mult = idx[:, 2] >= 0
+        vals[:, mult] *= q[:, idx[mult, 2]]
+        linear = np.zeros((B, n, idx.shape[0]))
+        linear[:, idx[:, 0], np.arange(idx.shape[0])] = vals
+        return np.zeros((B, n)), linear
+
+    @property
+    def linear_in_inputs(self) -> bool:
+        """False with ``"pull"`` terms (the positive part of an input is not linear in it)."""
+        return "pull" not in list(self.terms)
+
+    def compiled(self, gains=None, offsets=None) -> tuple:
+        g = self._gains(gains)
+        idx = self._arrays["index"]
+        n, p = self._arrays["n"], self.n_inputs_
+        block = p * (1 + n)
+        amat = np.zeros((n, 2 * block))  # [B0 | B1] of the inputs, then of their positive parts
+        for (a, k, b, part), gj in zip(idx, g, strict=True):
+            col = k if b < 0 else p + k * n + b
+            amat[a, part * block + col] += gj
+        return ACT_AFFINE, np.zeros(0), np.zeros((0, self.kinematics_.n_segments)), amat
+
+    def describe(self, precision: int = 3) -> list[str]:
+        body = ", ".join(f"{nm} = {v:.{precision}g}" for nm, v in zip(self.gain_names_, self.gains_, strict=True))
+        return [
+            "tau = sum_k (a_k + sum_b a_k,b q_b) u_k [+ the same in max(0, u_k)] (learned, zero with the inputs off)",
+            f"gains: {body}",
+        ]
+
+    def layout(self) -> dict[str, Any]:
+        return {"type": self.kind, "n_inputs": int(self.n_inputs), "terms": list(self.terms), "strains": self.strains}
+
+    def design_layout(self) -> dict[str, Any]:
+        return self.layout()
+
+
 def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
     """An actuation term from a JSON-able layout (``{"type": "tendon", "end": [...], "side": [...]}`` ...).
 
@@ -711,6 +1097,7 @@ def actuation_from_layout(layout: dict[str, Any] | None) -> Actuation:
         "tendon": TendonActuation,
         "pressure": PressureActuation,
         "linear": LinearActuation,
+        "learned": LearnedActuation,
     }
     if kind not in classes:
         raise ValueError(f"layout type must be one of {sorted(classes)}; got {kind!r}")

@@ -117,6 +117,12 @@ class ForwardModel(ABC):
         strains' columns (constant).
         """
         q = self._reduce(q, "q")
+        if self.actuation is not None and not getattr(self.actuation, "linear_in_inputs", True):
+            raise ValueError(
+                f"{type(self.actuation).__name__}(drive={getattr(self.actuation, 'drive', '?')!r}) acts nonlinearly "
+                "in its inputs (servo-wound tendons go slack): there is no input matrix A(q) with forces A(q) u. "
+                "Use input_forces(q, u), equilibrium(u), or actuation.matrix(q) (the map of unit tendon tensions)"
+            )
         if self.actuation is not None:
             flat = q.reshape(-1, self.n)
             return self.actuation.matrix(flat).reshape(q.shape[:-1] + (self.n, self.n_inputs))
@@ -302,6 +308,104 @@ class ForwardModel(ABC):
 
     def _rollout_compiled(self, y0, t, u, method, **kwargs) -> NDArray[np.float64]:
         raise NotImplementedError(f"{type(self).__name__} declares no compiled scheme")
+
+    # ------------------------------------------------------------------ statics
+    def static_residual(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``bias(q, 0) - A(q) u`` on the modelled strains at one configuration (zero at an equilibrium)."""
+        return self.terms(q, np.zeros(self.n))[1] - self.input_forces(q, u)
+
+    def equilibrium(
+        self,
+        u: ArrayLike,
+        q0: ArrayLike | None = None,
+        *,
+        tol: float = 1e-10,
+        n_continuation: int = 8,
+        progress: bool = False,
+    ) -> NDArray[np.float64]:
+        """The strains the model rests at under constant inputs (forward statics).
+
+        Solves ``G(q) + K q - f0 = A(q) u`` (the bias forces at rest equal the
+        inputs' forces) with :func:`scipy.optimize.root` from ``q0``; when that
+        fails, by continuation: the inputs ramped from 0 to ``u`` in
+        ``n_continuation`` steps, each solve starting from the last.  It
+        finds an equilibrium, not necessarily a stable one: start near the
+        expected shape.  The inverse problem (inputs that hold a shape) is
+        the control module's statics (:mod:`pcs_sindy.control.statics`).
+
+        Parameters
+        ----------
+        u : array_like, shape (p,) or (B, p)
+            Constant inputs (actuator inputs, or generalised forces on all
+            3m or the n modelled strains for a model without actuation).
+            Several rows: one equilibrium each, each solve starting from the
+            previous row's equilibrium (order a load sweep by load).
+        q0 : array_like, shape (3m,) or (n,), optional
+            Starting guess (default: the straight robot).
+        tol : float, default 1e-10
+            Tolerance of the root finder; an equilibrium whose residual force
+            exceeds ``1e-6`` of the forces involved raises.
+        n_continuation : int, default 8
+            Steps of the continuation in the inputs (used when the direct solve fails).
+        progress : bool, default False
+            A tqdm progress bar over the rows of ``u``.
+
+        Returns
+        -------
+        ndarray, shape (n,) or (B, n)
+            Modelled strains at rest.
+
+        Raises
+        ------
+        SimulationError
+            When no equilibrium is found (e.g. inputs beyond what the model can hold).
+        """
+        from scipy.optimize import root
+        from tqdm.auto import tqdm
+
+        u_arr = np.asarray(u, dtype=float)
+        single = u_arr.ndim == 1
+        rows = np.atleast_2d(u_arr)
+        if rows.ndim != 2 or not np.all(np.isfinite(rows)):
+            raise ValueError(f"u must be a finite array of shape (p,) or (B, p); got shape {u_arr.shape}")
+        if self.actuation is not None:
+            rows = self.actuation.check_inputs(rows, "u")
+        else:
+            rows = self._reduce(rows, "u")
+        if isinstance(n_continuation, bool) or int(n_continuation) != n_continuation or n_continuation < 1:
+            raise ValueError(f"n_continuation must be a positive integer; got {n_continuation!r}")
+        q = np.zeros(self.n) if q0 is None else np.array(self._reduce(q0, "q0"), dtype=float).reshape(-1)
+        if q.size != self.n:
+            raise ValueError(f"q0 must hold {self.n} modelled strains (or all 3m); got {q.size}")
+
+        def solve(target: NDArray[np.float64], start: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+            sol = root(lambda x: self.static_residual(x, target), start, method="hybr", tol=tol)
+            x = np.asarray(sol.x, dtype=float)
+            res = self.static_residual(x, target)
+            scale = np.abs(self.input_forces(x, target)).max() + np.abs(self.terms(x, np.zeros(self.n))[1]).max()
+            ok = bool(np.all(np.isfinite(x))) and float(np.abs(res).max()) <= 1e-6 * max(scale, 1e-12)
+            return x, ok
+
+        out = np.empty((rows.shape[0], self.n))
+        prev = np.zeros(rows.shape[1])
+        for b in tqdm(range(rows.shape[0]), disable=not progress, desc="equilibria"):
+            x, ok = solve(rows[b], q)
+            if not ok:  # continuation from the previous inputs (or from rest) to these
+                x = q.copy()
+                for lam in np.linspace(0.0, 1.0, int(n_continuation) + 1)[1:]:
+                    x, ok = solve(prev + lam * (rows[b] - prev), x)
+                    if not ok:
+                        break
+            if not ok:
+                raise SimulationError(
+                    f"no equilibrium found for u[{b}] = {rows[b].tolist()} (static residual above 1e-6 of the "
+                    "forces after continuation); the inputs may exceed what the model can hold",
+                    0.0,
+                    np.r_[x, np.zeros(self.n)],
+                )
+            out[b] = x
+            q, prev = x, rows[b]
+        return out[0] if single else out
 
 
 def _check_step(step: float, t: NDArray[np.float64]) -> None:

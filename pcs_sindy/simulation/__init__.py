@@ -5,7 +5,8 @@ would record: strains and rates, marker poses (noisy on request), the forces or 
 inputs that drove the robot, and rendered videos of it.
 
 * :mod:`.dynamics` - :class:`PCSRobot`: the PCS dynamics, integrated by its own stiff solver;
-* :mod:`.actuation` - the robot's actuators: :class:`Tendons`, :class:`PressureChambers`;
+* :mod:`.actuation` - the robot's actuators: :class:`Tendons` (tensions or servo-wound),
+  :class:`PressureChambers`;
 * :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
 * :mod:`.scenarios`, :mod:`.catalog` - the seed's scenarios and how their data are generated;
 * :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances.

@@ -20,8 +20,10 @@ where ``ell`` holds the K quadrature nodes of each segment followed by its
 length and ``w_lin`` the quadrature weights times ``ρ A``.  The actuation
 ``τ = A(q) u`` is selected by ``act_kind``: :data:`ACT_IDENTITY` (``u`` is τ),
 :data:`ACT_TENDON` (``A = −∂ℓ/∂q`` of tendons at ``tendon_offset`` covering
-``tendon_span[k, i]`` of segment i) or :data:`ACT_CONSTANT` (``A =
-act_matrix``).
+``tendon_span[k, i]`` of segment i), :data:`ACT_CONSTANT` (``A =
+act_matrix``) or :data:`ACT_SERVO` (servo-wound elastic tendons: the inputs are
+servo angles [deg], the tensions ``f_k = k_k max(0, r_k θ_k π/180 + ℓ_k(q) −
+ℓ_k(0) − s_k)`` with ``act_matrix`` rows ``[k, r, s]``).
 
 Every kernel is compiled with ``cache=True``: the first call on a machine
 compiles (tens of seconds) and later processes load the cached machine code.
@@ -35,7 +37,7 @@ from numba import njit
 _SERIES_LIMIT = 0.25  # |v| below which sinc and its derivatives use their Taylor series
 
 # actuation kinds of geo[9]
-ACT_IDENTITY, ACT_TENDON, ACT_CONSTANT = 0, 1, 2
+ACT_IDENTITY, ACT_TENDON, ACT_CONSTANT, ACT_SERVO = 0, 1, 2, 3
 
 
 # --------------------------------------------------------------------------
@@ -340,6 +342,23 @@ def actuation_forces(q, u, geo, tau):
             v = 0.0
             for k in range(p):
                 v -= dlength[k, a] * u[k]  # a tension does the virtual work −f δℓ
+            tau[a] = v
+    elif kind == ACT_SERVO:
+        p = offset.shape[0]
+        length = np.empty(p)
+        dlength = np.empty((p, n))
+        tendon_terms(q, offset, span, length, dlength)
+        tension = np.empty(p)
+        for k in range(p):
+            rest = 0.0
+            for i in range(span.shape[1]):
+                rest += span[k, i]  # l_k(0): the offset curve of the straight robot has unit tangent
+            stretch = matrix[1, k] * u[k] * (np.pi / 180.0) + length[k] - rest - matrix[2, k]
+            tension[k] = matrix[0, k] * stretch if stretch > 0.0 else 0.0
+        for a in range(n):
+            v = 0.0
+            for k in range(p):
+                v -= dlength[k, a] * tension[k]
             tau[a] = v
     else:
         for a in range(n):

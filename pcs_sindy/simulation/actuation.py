@@ -18,6 +18,24 @@ tension ``f_k ≥ 0`` does the virtual work ``−f_k δℓ_k``, so its column of
 ``A(q)`` is ``−∂ℓ_k/∂q``.  Tensions can only pull: negative inputs are
 rejected.
 
+**Servo-wound elastic tendons** (``Tendons(..., drive="displacement")``).  A
+servo winds the tendon on a pulley of radius ``r``: at the angle ``φ`` [deg]
+it has taken up ``r φ π/180`` of tendon.  The tendon runs from the pulley,
+along a fixed path to the base, then along the body (length ``ℓ_k(q)``) to
+its termination.  With ``L_n`` its natural (unstretched) length and ``c`` the
+fixed path, the tendon is stretched by
+
+    e_k = c + ℓ_k(q) − (L_n − r φ) = r φ π/180 + (ℓ_k(q) − ℓ_k(0)) − s_k,
+    s_k = L_n − c − ℓ_k(0),
+
+with ``s_k`` the slack of the straight robot at ``φ = 0`` (negative: a
+pretension ``−k_k s_k``).  An elastic tendon of stiffness ``k_k`` [N/m]
+carries ``f_k = k_k max(0, e_k)``: the servo's pull stretches it, the body's
+bending towards it (``ℓ_k`` shrinks) gives some of it back, and it goes slack
+(no force) when the body shortened the path by more than the servo took up.
+The generalised forces are ``τ = −Σ_k ∂ℓ_k/∂q f_k`` as for tensions.  The
+inputs are servo angles [deg] of either sign.
+
 **Pressure chambers.**  Chamber j spans the arc lengths ``[a_j, b_j]`` on
 the side ``σ_j = ±1`` of the backbone.  Its pressure ``p_j`` exerts a bending
 moment ``σ_j g^b_j p_j`` and an axial force ``g^a_j p_j`` along the span
@@ -40,7 +58,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ._kernels import ACT_CONSTANT, ACT_TENDON
+from ._kernels import ACT_CONSTANT, ACT_SERVO, ACT_TENDON
 
 __all__ = ["Tendons", "PressureChambers"]
 
@@ -85,45 +103,114 @@ class Tendons:
         Signed distance [m] of each tendon from the backbone along the
         cross-section axis ``R(θ) e_x``; a tendon at positive offset bends the
         robot towards negative curvature.
+    drive : {"tension", "displacement"}, default "tension"
+        What the inputs are.  ``"tension"``: tendon tensions [N], ``>= 0``.
+        ``"displacement"``: servo angles [deg] winding elastic tendons (the
+        module docstring derives the tensions
+        ``f_k = k_k max(0, r_k φ_k π/180 + ℓ_k(q) − ℓ_k(0) − s_k)``).
+    stiffness : array_like, shape (p,), optional
+        Tendon stiffness ``k`` [N/m] > 0 (``drive="displacement"`` only, required there).
+    pulley_radius : array_like, shape (p,), optional
+        Servo pulley radius ``r`` [m] > 0 (``drive="displacement"`` only, required there).
+    slack : array_like, shape (p,) or float, default 0.0
+        Slack ``s`` [m] of each tendon with the robot straight and the servo at
+        0 deg; negative for a pretensioned tendon (``drive="displacement"`` only).
 
     Notes
     -----
-    Inputs are tensions [N], ``>= 0``.  See the module docstring for the
-    closed form of the lengths.
+    See the module docstring for the closed form of the lengths and the
+    displacement drive.  :meth:`tensions` gives the tendon forces of either drive.
     """
 
     kind = "tendon"
 
-    def __init__(self, end: ArrayLike, offset: ArrayLike) -> None:
+    def __init__(
+        self,
+        end: ArrayLike,
+        offset: ArrayLike,
+        drive: str = "tension",
+        stiffness: ArrayLike | None = None,
+        pulley_radius: ArrayLike | None = None,
+        slack: ArrayLike = 0.0,
+    ) -> None:
         self.end = end
         self.offset = offset
+        self.drive = drive
+        self.stiffness = stiffness
+        self.pulley_radius = pulley_radius
+        self.slack = slack
 
     @property
     def n_inputs(self) -> int:
         return int(np.atleast_1d(np.asarray(self.end)).size)
 
+    def _drive_parameters(self, p: int) -> NDArray[np.float64]:
+        """Rows ``[k, r, s]`` (3, p) of the displacement drive, validated."""
+        if self.drive not in ("tension", "displacement"):
+            raise ValueError(f"drive must be 'tension' or 'displacement'; got {self.drive!r}")
+        if self.drive == "tension":
+            return np.zeros((3, 0))
+        for name in ("stiffness", "pulley_radius"):
+            if getattr(self, name) is None:
+                raise ValueError(f"{name} is required with drive='displacement' (one value per tendon, > 0)")
+        k = _vector(np.broadcast_to(np.asarray(self.stiffness, dtype=float), (p,)), "stiffness", p)
+        r = _vector(np.broadcast_to(np.asarray(self.pulley_radius, dtype=float), (p,)), "pulley_radius", p)
+        s = _vector(np.broadcast_to(np.asarray(self.slack, dtype=float), (p,)), "slack", p)
+        for name, arr in (("stiffness", k), ("pulley_radius", r)):
+            if np.any(arr <= 0):
+                raise ValueError(f"{name} must be > 0 per tendon; got {arr.tolist()}")
+        return np.stack([k, r, s])
+
     def layout(self) -> dict[str, Any]:
-        """What a user knows from the design: terminations and sides (signs of the offsets), JSON-able."""
+        """What a user knows from the design: terminations and sides (signs of the offsets), JSON-able.
+
+        A displacement drive adds ``"drive": "displacement"`` (its stiffness, radius and slack are
+        what the identification estimates, not part of the layout).
+        """
         end = _vector(self.end, "end")
         offset = _vector(self.offset, "offset", end.size)
-        return {"type": "tendon", "end": end.tolist(), "side": np.sign(offset).astype(int).tolist()}
+        out: dict[str, Any] = {"type": "tendon", "end": end.tolist(), "side": np.sign(offset).astype(int).tolist()}
+        if self.drive == "displacement":
+            out["drive"] = "displacement"
+        return out
 
     def encode(self, segment_lengths: Sequence[float]) -> tuple[int, NDArray, NDArray, NDArray]:
-        """Validated arrays for the compiled kernels: ``(kind, offset (p,), span (p, m), matrix (n, 0))``."""
+        """Validated arrays for the compiled kernels: ``(kind, offset (p,), span (p, m), matrix)``.
+
+        ``matrix`` is (n, 0) for tensions and the rows ``[k, r, s]`` (3, p) of a displacement drive.
+        """
         lengths = np.asarray(segment_lengths, dtype=float)
         end = _vector(self.end, "end")
         offset = _vector(self.offset, "offset", end.size)
         _within_robot(end, "end", float(lengths.sum()), allow_zero=False)
         span = _cover(np.zeros_like(end), end, lengths)
+        drive = self._drive_parameters(end.size)
+        if self.drive == "displacement":
+            return ACT_SERVO, offset, span, drive
         return ACT_TENDON, offset, span, np.zeros((3 * lengths.size, 0))
+
+    def tensions(self, lengths: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
+        """Tendon tensions [N] (..., p) at tendon lengths ``lengths`` (..., p) under inputs ``u`` (..., p).
+
+        ``u`` itself for ``drive="tension"``; ``k max(0, r u π/180 + lengths − end − s)`` for a
+        displacement drive (``end`` is the length of the straight robot's tendon).
+        """
+        u = np.asarray(u, dtype=float)
+        if self.drive != "displacement":
+            return u.copy()
+        end = _vector(self.end, "end")
+        k, r, s = self._drive_parameters(end.size)
+        stretch = r * u * (np.pi / 180.0) + np.asarray(lengths, dtype=float) - end - s
+        return k * np.maximum(stretch, 0.0)
 
     def check_inputs(self, u: NDArray, t: NDArray | float | None, name: str = "u") -> None:
         """Raise a ValueError naming the first negative tension, its input index and time.
 
         ``t`` holds the time stamps of the rows of ``u`` (first axis), the time
-        of a single input, or None when there is no time to name.
+        of a single input, or None when there is no time to name.  Servo angles
+        (``drive="displacement"``) may take either sign.
         """
-        if np.all(u >= 0):
+        if self.drive == "displacement" or np.all(u >= 0):
             return
         idx = np.argwhere(u < 0)[0]
         where = f"{name}[{', '.join(str(int(i)) for i in idx)}]"
@@ -135,7 +222,13 @@ class Tendons:
         )
 
     def __repr__(self) -> str:
-        return f"Tendons(end={self.end!r}, offset={self.offset!r})"
+        extra = ""
+        if self.drive != "tension":
+            extra = (
+                f", drive={self.drive!r}, stiffness={self.stiffness!r}, "
+                f"pulley_radius={self.pulley_radius!r}, slack={self.slack!r}"
+            )
+        return f"Tendons(end={self.end!r}, offset={self.offset!r}{extra})"
 
 
 class PressureChambers:

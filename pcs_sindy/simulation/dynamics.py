@@ -356,11 +356,15 @@ class PCSRobot:
 
     # -- actuation --------------------------------------------------------------------
     def actuation_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
-        """``A(q)``, shape (..., n, p): the generalised forces of unit inputs (the identity without actuation)."""
+        """``A(q)``, shape (..., n, p): the generalised forces of unit inputs (the identity without actuation).
+
+        For servo-driven tendons (``Tendons(drive="displacement")``) the map of unit tendon
+        *tensions* ``−∂ℓ/∂q``: the forces are ``A(q) f`` with ``f`` = :meth:`tendon_tensions`.
+        """
         q = self._check("q", q)
         lead, (qf,) = self._flatten(q)
         kind, offset, span, matrix = self._act
-        if kind == _kernels.ACT_TENDON:
+        if kind in (_kernels.ACT_TENDON, _kernels.ACT_SERVO):
             A = -_kernels.tendon_batch(qf, offset, span)[1].transpose(0, 2, 1)
         else:
             A = np.broadcast_to(
@@ -378,11 +382,22 @@ class PCSRobot:
     def tendon_lengths(self, q: ArrayLike) -> NDArray[np.float64]:
         """Lengths ``ℓ_k(q)`` [m] of the tendons, shape (..., p) (tendon actuation only)."""
         kind, offset, span, _ = self._act
-        if kind != _kernels.ACT_TENDON:
+        if kind not in (_kernels.ACT_TENDON, _kernels.ACT_SERVO):
             raise ValueError(f"tendon_lengths needs a robot with Tendons; this one has {self.actuation!r}")
         q = self._check("q", q)
         lead, (qf,) = self._flatten(q)
         return _kernels.tendon_batch(qf, offset, span)[0].reshape(lead + (self.n_inputs,))
+
+    def tendon_tensions(self, q: ArrayLike, u: ArrayLike) -> NDArray[np.float64]:
+        """Tendon tensions [N] (..., p) at strains ``q`` (..., n) under inputs ``u`` (..., p) (tendons only).
+
+        The inputs themselves for ``drive="tension"``; for servo-wound elastic tendons
+        (``drive="displacement"``) ``k max(0, r u π/180 + ℓ(q) − ℓ(0) − s)``.
+        """
+        q = self._check("q", q)
+        lengths = self.tendon_lengths(q)
+        u = self._check("u", u, q, size=self.n_inputs)
+        return self.actuation.tensions(lengths, u)
 
     # -- simulation -----------------------------------------------------------------
     def simulate(

@@ -36,6 +36,7 @@ class WithGains:
         self.gain_names = list(gain_names)
         self.gain_lower = float(gain_lower)
         self._parent = int(library.n_coefficients_) if parent_columns is None else int(parent_columns)
+        self.parent_columns = self._parent  # read back by model files (a fitted regressor's optimizer holds one)
 
     @property
     def kinematics(self) -> Any:
