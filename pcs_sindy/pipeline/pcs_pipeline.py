@@ -218,6 +218,13 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         """
         return self.model_.rollout_error(self.transform_strains(X), y, **kw)
 
+    def rollout_score(self, X: Any, y: Sequence[ArrayLike]) -> float:
+        """R^2 of the tip path of rollouts of ``X`` under ``y`` (the regressor's :meth:`rollout_score`).
+
+        ``score`` is scikit-learn's: the R^2 of the forces ``predict`` returns.
+        """
+        return float(self.model_.rollout_score(self.transform_strains(X), y))
+
     def simulate_poses(
         self,
         q0: ArrayLike,
