@@ -61,8 +61,10 @@ class PCSPipeline(PersistenceMixin, Pipeline):
     segmentation and a clear error when the segmentation does not match the
     forces.  Build it with :func:`make_pcs_pipeline`.
 
-    Attributes (read-only, after ``fit``)
-    -------------------------------------
+    Attributes
+    ----------
+    All read-only, set by ``fit``.
+
     fusion_ : KinematicFusion
         The fitted ``segments`` step.
     model_ : EulerLagrangeRegressor

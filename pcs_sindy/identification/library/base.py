@@ -167,6 +167,30 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         self.n_output_features_ = self.n_lagrangian_terms
         return self
 
+    # ------------------------------------------------------------------ inside a plain pysindy.SINDy
+    def correct_shape(self, x: Any) -> Any:
+        """Refuse a plain ``pysindy.SINDy``: it calls this on its data before anything else.
+
+        ``SINDy`` regresses ``x_dot = Theta(x) Xi`` (first order, one coefficient
+        row per state); a Lagrangian library describes ``tau = Psi(q, qd, qdd) @ coef``
+        (second order, one row shared by every strain), so that fit would be
+        silently meaningless.
+
+        Raises
+        ------
+        TypeError
+            Always, naming the routes that work.
+        """
+        raise TypeError(
+            f"{type(self).__name__} is a Lagrangian library (tau = Psi(q, qd, qdd) @ coef, one coefficient vector "
+            "shared by every strain), which a plain pysindy.SINDy (x_dot = Theta(x) Xi) cannot fit: it would print "
+            "meaningless equations. Use one of: EulerLagrangeRegressor(library=...).fit(strain_trajectories, forces); "
+            "or the pysindy route WeakEulerLagrangeSINDy(feature_library=...).fit(q, t=t, u=forces) "
+            "(pcs_sindy.identification; weak form, no accelerations); or, with exact accelerations, "
+            "SINDy(feature_library=StackedEulerLagrangeLibrary(library)) with x = [q, qd, qdd] and "
+            "x_dot=stack_forces(tau)"
+        )
+
     # ------------------------------------------------------------------ column layout
     @property
     @abstractmethod
