@@ -233,7 +233,9 @@ def test_rollout_score_is_the_r2_of_the_tip_against_a_closed_form():
     tip = np.concatenate([forward_kinematics(x.q, [0.1], [0.1])[:, 0, :2] for x in held])
     np.testing.assert_array_equal(true, tip)
     r2 = 1 - np.sum((sim - tip) ** 2) / np.sum((tip - tip.mean(axis=0)) ** 2)
-    assert wrong.rollout_score(held, tau_held) == pytest.approx(r2, rel=1e-12) and r2 < exact.rollout_score(held, tau_held)
+    assert wrong.rollout_score(held, tau_held) == pytest.approx(r2, rel=1e-12) and r2 < exact.rollout_score(
+        held, tau_held
+    )
 
 
 def test_get_set_params_and_clone():

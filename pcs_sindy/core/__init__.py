@@ -47,7 +47,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "camera": ["Camera", "read_camera_json"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "recording_list": ["RecordingList"],
-        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
+        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"],
         "validation": [
             "validate_parameters",
             "InvalidParameterError",

@@ -265,7 +265,9 @@ class WeakEulerLagrangeSINDy(SINDy):
         out = [p[:, active] for p in self.regressor_.predict(X)]
         return out[0] if single else out
 
-    def score(self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = r2_score, **metric_kws: Any) -> float:
+    def score(
+        self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = r2_score, **metric_kws: Any
+    ) -> float:
         """``metric`` (default R^2) of the predicted against the recorded forces ``u``, trajectories stacked."""
         check_is_fitted(self, "regressor_")
         xs = list(x) if isinstance(x, (list, tuple)) else [x]
@@ -312,4 +314,3 @@ class WeakEulerLagrangeSINDy(SINDy):
         """Number of nonzero coefficients."""
         check_is_fitted(self, "regressor_")
         return int(np.count_nonzero(self.regressor_.coef_))
-
