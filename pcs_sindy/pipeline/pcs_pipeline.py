@@ -7,10 +7,10 @@
               ("dynamics", EulerLagrangeRegressor)])  # strains + tau -> model
 
 ``pipeline.fit(videos, taus)`` fits it; ``predict``/``score`` are the
-regressor's (forces by inverse dynamics; R^2 of window-integrated forces);
+regressor's (forces by inverse dynamics; R^2 of those forces, scikit-learn's rule);
 :meth:`PCSPipeline.simulate` and :meth:`PCSPipeline.simulate_poses` roll the
-identified model out, :meth:`PCSPipeline.rollout_error` scores rollouts (see
-:func:`pcs_sindy.core.metrics.rollout_scorer`).
+identified model out, :meth:`PCSPipeline.rollout_error` and :meth:`PCSPipeline.rollout_score` score rollouts (see
+:func:`pcs_sindy.core.metrics.rollout_scorer` and :func:`pcs_sindy.core.metrics.rollout_r2_scorer`).
 
 The sample unit is a recording: ``X`` is a list with one entry per recording
 and ``y`` the list of their force arrays, so scikit-learn's model selection
@@ -360,7 +360,7 @@ def make_pcs_pipeline(
             pipe,
             {"segments__threshold": [0.1, 0.2, 0.5],
              "dynamics__optimizer__threshold": [1.0, 0.1, 0.01]},
-            cv=GroupKFold(4), error_score=np.nan)
+            cv=GroupKFold(4), scoring=rollout_r2_scorer, error_score=np.nan)
         search.fit(poses, taus, groups=recording_groups(poses))
 
     A candidate whose segmentation does not match the width of the forces
@@ -368,7 +368,7 @@ def make_pcs_pipeline(
     which ``error_score=np.nan`` (GridSearchCV's default) turns into a
     ``FitFailedWarning`` with that message and a last rank for that
     candidate; ``error_score="raise"`` stops the search instead.  Scores of
-    fitted candidates are never NaN: the regressor's ``score`` raises on an
+    fitted candidates are never NaN: the regressor's ``rollout_score`` raises on an
     undefined R^2 instead of returning NaN.
     """
     from ..fusion.kinematic_fusion import KinematicFusion
