@@ -158,3 +158,19 @@ def test_weak_sindy_matches_the_regressor_and_rolls_out(one_segment, capsys):
         model.fit(r.q, t=r.t)
     with pytest.raises(ValueError, match=r"x\[0\] must have shape \(T, 3\)"):
         model.fit(r.q[:, :2], t=r.t, u=r.tau)
+
+
+def test_set_output_where_it_applies_and_pipeline_html_repr_is_quiet():
+    from pcs_sindy.fusion import KinematicFusion
+    from pcs_sindy.pipeline import make_pcs_pipeline
+
+    fusion = KinematicFusion()
+    assert fusion.set_output(transform="default") is fusion and fusion.set_output() is fusion
+    with pytest.raises(ValueError, match="StrainTrajectory per recording"):
+        fusion.set_output(transform="pandas")
+    pipe = make_pcs_pipeline(start="poses")
+    assert pipe.set_output(transform="default") is pipe  # failed: the fusion had no set_output
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the numpydoc section name warned
+        html = pipe._repr_html_()
+    assert "KinematicFusion" in html
