@@ -85,7 +85,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
         material bounds; removes over-stiff strains).  Any other pysindy
         ``BaseOptimizer`` (``STLSQ``, ``SR3``, ...) fits the same rows without
-        strain removal or bounds.
+        strain removal or bounds, at its own defaults: it sees each strain's
+        equation scaled to a unit-RMS target and unit-norm columns
+        (:func:`~pcs_sindy.identification.optimizers.fit_normalized`), so its
+        threshold means the same on every robot; a warning says when it removed
+        a stiffness or left the mass matrix singular.
     differentiation_method : callable, optional
         ``method(x, t)`` giving ``qd`` from ``q`` and ``qdd`` from ``qd`` (e.g. a
         pysindy differentiation object).  Default: Savitzky–Golay.

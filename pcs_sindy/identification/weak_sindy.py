@@ -266,9 +266,12 @@ class WeakEulerLagrangeSINDy(SINDy):
         return out[0] if single else out
 
     def score(
-        self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = r2_score, **metric_kws: Any
+        self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = None, **metric_kws: Any
     ) -> float:
-        """``metric`` (default R^2) of the predicted against the recorded forces ``u``, trajectories stacked."""
+        """``metric`` (default ``sklearn.metrics.r2_score``) of the predicted against the recorded forces ``u``.
+
+        Trajectories stacked; ``t`` gives the rates and accelerations of the prediction.
+        """
         check_is_fitted(self, "regressor_")
         xs = list(x) if isinstance(x, (list, tuple)) else [x]
         X = self._recordings(xs, t)
@@ -276,7 +279,7 @@ class WeakEulerLagrangeSINDy(SINDy):
         active = self.feature_library.kinematics.active_mask
         pred = np.concatenate([p[:, active] for p in self.regressor_.predict(X)])
         truth = np.concatenate([tau[:, active] for tau in taus])
-        return float(metric(truth, pred, **metric_kws))
+        return float((r2_score if metric is None else metric)(truth, pred, **metric_kws))
 
     def simulate(self, x0: ArrayLike, t: ArrayLike, u: Any = None, **simulate_kwargs: Any) -> NDArray[np.float64]:
         """Roll the model out from ``x0 = [q0, qd0]`` under the forces ``u``; returns ``[q, qd]`` (T, 2n).
