@@ -711,7 +711,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
         Also callable the pysindy way, ``simulate(x0, t, u)`` with the state
         ``x0 = [q0, qd0]`` (shape (6m,) or (2n,)): without ``qd0``, or with
-        three positional arguments and no ``u``.
+        three positional arguments and no ``u`` when ``x0`` is not itself the
+        size of a ``q0`` (``x0`` of all strains, (6m,), is never).
 
         Parameters
         ----------
@@ -756,7 +757,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             non-finite or unbounded, ``M(q)`` singular or the step collapses.
         """
         check_is_fitted(self, "coef_")
-        if qd0 is None or (u is None and tau is None and t is not None):
+        q_sizes = (self.kinematics_.n_q, self.kinematics_.n_active)
+        if qd0 is None or (u is None and tau is None and t is not None and np.size(q0) not in q_sizes):
             if qd0 is not None:  # simulate(x0, t, u): shift the positional arguments
                 t, u = qd0, t
             q0, qd0 = self._split_state(q0)
