@@ -174,3 +174,18 @@ def test_set_output_where_it_applies_and_pipeline_html_repr_is_quiet():
         warnings.simplefilter("error")  # the numpydoc section name warned
         html = pipe._repr_html_()
     assert "KinematicFusion" in html
+
+
+def test_score_of_an_actuated_model_compares_forces_of_the_inputs():
+    """With an actuation, y holds actuator inputs: score compares predict with A(q) u, not with the inputs."""
+    scenario = get_scenario("two_segment_tendon")
+    data = scenario.generate(seed=0, n_train=4, validation=False)
+    L = scenario.robot.kinematics.segment_lengths
+    X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in data.train]
+    model = EulerLagrangeRegressor(actuation=scenario.actuation).fit(X, [r.u for r in data.train])
+    score = model.score(X, [r.u for r in data.train])
+    # the simulator's generalised forces (true A(q) u): the identified map is within 0.1 % of it
+    truth = r2_score(np.concatenate([r.tau for r in data.train]), np.asarray(model.predict(X)))
+    assert score == pytest.approx(truth, abs=0.01) and 0.5 < score < 1.0
+    with pytest.raises(ValueError, match=r"y\[0\] must have shape"):
+        model.score(X, [r.tau for r in data.train])

@@ -614,13 +614,28 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         ----------
         X : list of StrainTrajectory
         y : list of array_like, shape (T, 3m)
-            Generalised forces of each recording (``RecordingList`` or a plain list).
+            Generalised forces of each recording (``RecordingList`` or a plain list);
+            with an actuation, the actuator inputs (T, p), mapped to forces by the
+            identified ``A(q)``.
         sample_weight : array_like, shape (sum T,), optional
             Weights of the flattened samples.
         """
         check_is_fitted(self, "coef_")
         X = as_strain_trajectories(X)
         ys = _rec.check_list(y, len(X), "y")
+        act = getattr(self, "actuation_", None)
+        if act is not None and not isinstance(act, IdentityActuation):
+            # y holds actuator inputs: the recorded forces are A(q) u of the identified input map
+            mask = act.kinematics_.active_mask
+            forces = []
+            for k, (rec, u) in enumerate(zip(X, ys, strict=True)):
+                u = act.check_inputs(u, f"y[{k}]")
+                if u.shape[0] != rec.n_frames:
+                    raise ValueError(f"y[{k}] has {u.shape[0]} samples but X[{k}] has {rec.n_frames}")
+                full = np.zeros((rec.n_frames, rec.kinematics.n_q))
+                full[:, mask] = act.forces(rec.q[:, mask], u)
+                forces.append(full)
+            ys = forces
         truth = np.concatenate([np.asarray(a, dtype=float) for a in ys])
         pred = np.asarray(self.predict(X))
         if truth.shape != pred.shape:
