@@ -18,8 +18,8 @@ Sources of the training poses:
   (0.1 mm, 0.5 deg), no video.
 
 Fusion: the rest length is given (measured with a ruler); the merge threshold
-h is chosen by ``GridSearchCV`` (recordings as groups, the default score: R^2
-of rollout tip paths) over h in {0.2, 0.1, 0.05}.  Models:
+h is chosen by ``GridSearchCV`` (recordings as groups, scored by
+``rollout_r2_scorer``: R^2 of rollout tip paths) over h in {0.2, 0.1, 0.05}.  Models:
 
 * tendons: ``A(q) = -dl/dq`` with the four offsets identified by variable
   projection, with one shared offset magnitude identified
@@ -75,6 +75,7 @@ from pcs_sindy.core import (
     Camera,  # noqa: E402
     PoseTrajectory,
     end_effector_errors,  # noqa: E402
+    rollout_r2_scorer,
 )
 from pcs_sindy.fusion import KinematicFusion
 from pcs_sindy.identification import (
@@ -180,7 +181,7 @@ def run(name: str, source: str) -> list[str]:
     pipe = make_pcs_pipeline(start="poses", fusion=KinematicFusion(total_length=total), regressor=reg)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        search = GridSearchCV(pipe, {"segments__threshold": THRESHOLDS}, cv=GroupKFold(4))
+        search = GridSearchCV(pipe, {"segments__threshold": THRESHOLDS}, cv=GroupKFold(4), scoring=rollout_r2_scorer)
         search.fit(poses, u, groups=recording_groups(poses))
     fusion = KinematicFusion(total_length=total, threshold=search.best_params_["segments__threshold"]).fit(poses)
     strains = fusion.transform(poses)

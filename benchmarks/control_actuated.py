@@ -481,8 +481,10 @@ def fine_section(n: int, figs: dict) -> tuple[list[str], list[str]]:
 
 
 def weighting_search(scenario, threshold: float, segs: int) -> list[str]:
-    """``GridSearchCV`` over ``actuation__weighting`` by recording (default score: R^2 of rollout tip paths)."""
+    """``GridSearchCV`` over ``actuation__weighting`` by recording (``rollout_r2_scorer``: R^2 of rollout tip paths)."""
     from sklearn.model_selection import GridSearchCV, GroupKFold
+
+    from pcs_sindy.core import rollout_r2_scorer
 
     data = scenario.generate(seed=SEED)
     poses, _ = video_poses(scenario, data)
@@ -498,6 +500,7 @@ def weighting_search(scenario, threshold: float, segs: int) -> list[str]:
             EulerLagrangeRegressor(actuation=act),
             {"actuation__weighting": ["residual", "none"]},
             cv=GroupKFold(4),
+            scoring=rollout_r2_scorer,
         )
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")

@@ -11,10 +11,10 @@ scenario's seed noise on the tracked poses:
 2. ``GridSearchCV(EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer()),
    {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(4))`` over the 8 training
    recordings (groups = recordings, so every fold holds out 2 whole recordings),
-   scored both by the regressor's own ``score`` (R^2 of the tip path of
-   rollouts of the held-out recordings) and by ``pcs_sindy.core.metrics.rollout_scorer``
-   (minus their mean tip error) — one search with both scorers, each choosing
-   its best candidate as ``GridSearchCV(refit=...)`` would;
+   scored both by ``pcs_sindy.core.metrics.rollout_r2_scorer`` (the regressor's
+   ``rollout_score``: R^2 of the tip path of rollouts of the held-out recordings)
+   and by ``pcs_sindy.core.metrics.rollout_scorer`` (minus their mean tip error) —
+   one search with both scorers, each choosing its best candidate as ``GridSearchCV(refit=...)`` would;
 3. the chosen threshold refitted on all 8 recordings: the strains it removes
    and the tip error e_p^EE of its 7 s validation rollout from rest
    (``simulate(..., method="dopri5", rtol=1e-6, atol=1e-9)`` as in the other
@@ -49,6 +49,7 @@ from dynamic_identification import estimate_strains  # noqa: E402
 from pcs_sindy.core import (  # noqa: E402
     PoseTrajectory,
     StrainTrajectory,
+    rollout_r2_scorer,  # noqa: E402
     rollout_scorer,  # noqa: E402
 )
 from pcs_sindy.fusion import KinematicFusion  # noqa: E402
@@ -73,12 +74,8 @@ SEARCHES = [
 SOURCES = {"known": "poses → strains on the known segmentation", "fused": "poses → KinematicFusion"}
 
 
-def own_score(estimator, X, y) -> float:
-    """The estimator's default score (what ``GridSearchCV(scoring=None)`` uses)."""
-    return float(estimator.score(X, y))
-
-
-SCORERS = {"score": own_score, "rollout_scorer": rollout_scorer}
+# "rollout_score": the R^2 of the tip path of the held-out rollouts (the regressor's score before issue 21)
+SCORERS = {"rollout_score": rollout_r2_scorer, "rollout_scorer": rollout_scorer}
 
 
 def strains(scenario, data, source: str, noise) -> tuple[list[StrainTrajectory], np.ndarray]:
@@ -179,7 +176,8 @@ def render(rows: list[dict]) -> str:
             )
     lines += [
         "",
-        f"Mean cross-validated scores per threshold ({N_FOLDS} folds of 2 held-out recordings): `score` as 1 − R² of "
+        f"Mean cross-validated scores per threshold ({N_FOLDS} folds of 2 held-out recordings): "
+        "`rollout_score` as 1 − R² of "
         "the tip path (lower is better), `rollout_scorer` as the mean tip error in mm (minus the score; lower is "
         "better); `inf` = a held-out rollout diverged.",
         "",
@@ -191,7 +189,7 @@ def render(rows: list[dict]) -> str:
             continue
         for m in SCORERS:
             vals = np.asarray(r["mean_test"][m], dtype=float)
-            shown = 1.0 - vals if m == "score" else -1e3 * vals
+            shown = 1.0 - vals if m == "rollout_score" else -1e3 * vals
             cells = [f"{v:.3g}" for v in shown]
             best = THRESHOLDS.index(r["chosen"][m])
             cells[best] = f"**{cells[best]}**"

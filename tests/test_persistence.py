@@ -330,8 +330,6 @@ def test_unsupported_values_are_refused_at_save(fusion, tmp_path):
         obj = KinematicFusion()
         obj.objs_ = np.array([object()], dtype=object)
         save(obj, tmp_path / "bad")
-    with pytest.raises(ValueError, match="memory"):
-        save(Pipeline([("segments", KinematicFusion())], memory=str(tmp_path)), tmp_path / "bad")
     with pytest.raises(ValueError, match="REGISTRY"):
         save({"a": 1}, tmp_path / "bad")
     assert not (tmp_path / "bad.json").exists()
@@ -512,6 +510,21 @@ def _objects_of_class(node, name):
         for value in node:
             found += _objects_of_class(value, name)
     return found
+
+
+def test_pipeline_built_with_memory_saves_without_its_cache(tmp_path):
+    """Issue 21: save refused a pipeline built with memory=; the cache is no part of the model."""
+    from pcs_sindy.pipeline import PCSPipeline
+
+    cache = tmp_path / "joblib"
+    for pipe in (
+        Pipeline([("segments", KinematicFusion(threshold=0.3))], memory=str(cache)),
+        PCSPipeline([("segments", KinematicFusion()), ("dynamics", EulerLagrangeRegressor())], memory=str(cache)),
+    ):
+        loaded = load(save(pipe, tmp_path / type(pipe).__name__))
+        assert type(loaded) is type(pipe) and loaded.memory is None
+        assert loaded.steps[0][1].get_params() == pipe.steps[0][1].get_params()
+        assert pipe.memory == str(cache)  # the saved object is not changed
 
 
 def test_pipeline_memory_in_file_is_refused(tmp_path):

@@ -12,6 +12,7 @@ import warnings
 import numpy as np
 import pytest
 from sklearn.exceptions import FitFailedWarning
+from sklearn.metrics import r2_score
 from sklearn.model_selection import GridSearchCV, GroupKFold, LeaveOneGroupOut
 
 from pcs_sindy.core import Camera, PoseTrajectory, StrainTrajectory
@@ -77,7 +78,10 @@ def test_video_pipeline_predict_and_score(video_fit) -> None:
         np.testing.assert_array_equal(a, b)
     # the pipeline's score is the dynamics step's on the fitted transformers' strains
     assert pipe.score(frames, taus) == pipe.model_.score(strains, taus)
-    assert pipe.score(frames, taus) > 0.8  # window-integrated forces of the training data explained
+    # scikit-learn's rule: score is the R^2 of what predict returns, recordings stacked
+    assert pipe.score(frames, taus) == pytest.approx(r2_score(np.concatenate(taus), np.vstack(list(pred))), rel=1e-12)
+    assert pipe.score(frames, taus) > 0.7  # measured 0.78: the held forces' jumps are not explained sample by sample
+    assert pipe.rollout_score(frames, taus) > 0.8  # the tip paths of rollouts of the training recordings
 
 
 def test_video_pipeline_takes_pose_trajectories_for_strains(video_fit, data) -> None:

@@ -92,7 +92,7 @@ def test_toy_exact_derivatives_recover_coefficients():
     Xh2, th2, qdh2, qddh2, _ = _toy_data(5)
     pred = model.predict(Xh2[4:], qd=qdh2[4:], qdd=qddh2[4:])[0]
     np.testing.assert_allclose(pred, th2[4], rtol=0, atol=1e-7 * np.abs(th2[4]).max())
-    assert model.score(Xh2[4:], th2[4:]) > 0.999  # fixed Savitzky-Golay rates, window integrals
+    assert model.rollout_score(Xh2[4:], th2[4:]) > 0.999  # fixed Savitzky-Golay rates, window integrals
 
 
 def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form():
@@ -102,7 +102,7 @@ def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form()
     )
     model.fit(X, taus)
     np.testing.assert_allclose(model.stiffness_, K_TOY, rtol=0.05)  # measured 3.2-3.6 %
-    assert model.score(X, taus) > 0.9  # measured 0.95 (force jumps smeared by the filter)
+    assert model.rollout_score(X, taus) > 0.9  # measured 0.95 (force jumps smeared by the filter)
     # rollout of the exactly identified model versus the matrix exponential
     exact = EulerLagrangeRegressor(
         library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
@@ -203,12 +203,14 @@ def test_bad_input_raises_clear_errors():
         model.simulate(np.zeros(4), np.zeros(3), X[0].t, taus[0])
     still = [StrainTrajectory(np.zeros((50, 3)), np.arange(50) * 1e-3, segment_lengths=[0.1])]
     with pytest.raises(ValueError, match="tip does not move"):
-        model.score(still, [np.zeros((50, 3))])
+        model.rollout_score(still, [np.zeros((50, 3))])
     with pytest.raises(ValueError, match=r"y\[0\] must be finite with the shape"):
+        model.rollout_score(X[:1], [taus[0][:, :2]])
+    with pytest.raises(ValueError, match=r"y must hold the forces of X"):
         model.score(X[:1], [taus[0][:, :2]])
 
 
-def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
+def test_rollout_score_is_the_r2_of_the_tip_against_a_closed_form():
     X, taus, qds, qdds, _ = _toy_data()
     exact = EulerLagrangeRegressor(
         library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
@@ -219,7 +221,7 @@ def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
     ]
     tau_held = [_toy_recording(7)[4], _toy_recording(8)[4]]
     # the exact model rolls the matrix-exponential truth out: R^2 = 1 to the integrator's tolerance
-    assert exact.score(held, tau_held) > 1 - 1e-6
+    assert exact.rollout_score(held, tau_held) > 1 - 1e-6
     assert np.all(exact.rollout_error(held, tau_held) < 1e-6)
     # a model with a wrong stiffness scores lower, by the R^2 of its tip path computed here by hand
     wrong = clone(exact).fit(X, [t * 1.3 for t in taus], qd=qds, qdd=qdds)
@@ -231,7 +233,9 @@ def test_score_is_the_rollout_r2_of_the_tip_against_a_closed_form():
     tip = np.concatenate([forward_kinematics(x.q, [0.1], [0.1])[:, 0, :2] for x in held])
     np.testing.assert_array_equal(true, tip)
     r2 = 1 - np.sum((sim - tip) ** 2) / np.sum((tip - tip.mean(axis=0)) ** 2)
-    assert wrong.score(held, tau_held) == pytest.approx(r2, rel=1e-12) and r2 < exact.score(held, tau_held)
+    assert wrong.rollout_score(held, tau_held) == pytest.approx(r2, rel=1e-12) and r2 < exact.rollout_score(
+        held, tau_held
+    )
 
 
 def test_get_set_params_and_clone():
@@ -338,7 +342,7 @@ def test_pcs_savitzky_golay_and_rollout():
     model = EulerLagrangeRegressor(formulation="strong").fit(X, [r[4] for r in recs])
     # measured: stiffness within 0.4 %, damping within 0.14 % on these smooth (1-6 Hz) trajectories
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=0.02)
-    assert model.score(X, [r[4] for r in recs]) > 0.99
+    assert model.rollout_score(X, [r[4] for r in recs]) > 0.99
     # rollout of an exactly identified model follows the simulator
     exact = EulerLagrangeRegressor(formulation="strong").fit(
         X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs]

@@ -39,40 +39,57 @@ from pcs_sindy.simulation import get_scenario
 from pcs_sindy.simulation.rendering import render_frames
 from pcs_sindy.vision import MarkerPoseExtractor
 
-WIDTH_X = "x must be [q, qd] of the library's strains: its width 2n is fixed by the robot, the check feeds other widths"
-# checks that feed 2-D float arrays of arbitrary width to a library
-_WIDTH_CHECKS = [
-    "check_complex_data",
-    "check_dict_unchanged",
-    "check_dont_overwrite_parameters",
-    "check_dtype_object",
-    "check_estimators_dtypes",
-    "check_estimators_empty_data_messages",
-    "check_estimators_fit_returns_self",
-    "check_estimators_nan_inf",
-    "check_estimators_overwrite_params",
-    "check_estimators_pickle",
-    "check_f_contiguous_array_estimator",
-    "check_fit2d_1feature",
-    "check_fit2d_1sample",
-    "check_fit2d_predict1d",
-    "check_fit_check_is_fitted",
-    "check_fit_idempotent",
-    "check_fit_score_takes_y",
-    "check_methods_sample_order_invariance",
-    "check_methods_subset_invariance",
-    "check_n_features_in",
-    "check_n_features_in_after_fitting",
-    "check_pipeline_consistency",
-    "check_positive_only_tag_during_fit",
-    "check_readonly_memmap_input",
-    "check_transformer_data_not_an_array",
-    "check_transformer_general",
-    "check_transformer_preserve_dtypes",
-    "check_estimator_sparse_array",
-    "check_estimator_sparse_matrix",
-    "check_estimator_sparse_tag",
-]
+# A Lagrangian library's states are x = [q, qd] of the robot's 2n strains: PhysicalPCSLibrary([0.1]) takes exactly
+# 6 columns.  The checks below feed arrays of their own width (1 to 10 columns) and fail on that width alone; each
+# reason says what the check wanted to verify and where that property is checked instead.  Input validation itself
+# (NaN/inf, sparse, complex, empty, object) is scikit-learn's check_array and passes the checks that test it.
+_W = "x must be [q, qd] of the library's 2n = 6 strain columns; the check feeds {width}: "
+LIBRARY_CHECKS = {
+    "check_dict_unchanged": _W.format(width="3 columns")
+    + "transform changing no attribute is tested by test_library_transform_is_pure on 6 columns",
+    "check_dont_overwrite_parameters": _W.format(width="3 columns")
+    + "fit setting only trailing-underscore attributes is covered by check_no_attributes_set_in_init",
+    "check_dtype_object": _W.format(width="10 object columns")
+    + "object input is converted by check_array (test_library_input_is_checked_the_sklearn_way)",
+    "check_estimators_dtypes": _W.format(width="5 columns of float32/int")
+    + "float32 and integer states are cast to float64 by check_array",
+    "check_estimators_fit_returns_self": _W.format(width="2 columns")
+    + "fit returning self is asserted in test_library_transform_is_pure",
+    "check_estimators_nan_inf": _W.format(width="3 finite columns after refusing NaN")
+    + "NaN and inf are refused by check_array in fit and transform (test_library_input_is_checked_the_sklearn_way)",
+    "check_estimators_overwrite_params": _W.format(width="2 columns")
+    + "parameters unchanged by fit: the recording estimators' data checks and validate_parameters",
+    "check_estimators_pickle": _W.format(width="3 columns")
+    + "pickling a fitted library is tested in test_library (generated code dropped and rebuilt)",
+    "check_f_contiguous_array_estimator": _W.format(width="3 F-ordered columns")
+    + "check_array accepts any memory order",
+    "check_fit2d_1feature": _W.format(width="1 column")
+    + "a 1-column input is refused, by the width message instead of sklearn's '1 feature(s)'",
+    "check_fit2d_1sample": _W.format(width="10 columns, 1 sample")
+    + "one sample of 6 columns is a valid state (the library has no statistics to estimate)",
+    "check_fit2d_predict1d": _W.format(width="3 columns") + "1-D input is refused by check_array (a state is a row)",
+    "check_fit_check_is_fitted": _W.format(width="2 columns") + "transform before fit raises NotFittedError",
+    "check_fit_idempotent": _W.format(width="2 columns")
+    + "fit depends only on the segmentation (a re-fit gives the same columns)",
+    "check_fit_score_takes_y": _W.format(width="3 columns") + "fit(x, y) ignores y, as pysindy's libraries do",
+    "check_methods_sample_order_invariance": _W.format(width="3 columns")
+    + "the basis is evaluated row by row (test_library_transform_is_pure permutes rows)",
+    "check_methods_subset_invariance": _W.format(width="3 columns")
+    + "the basis is evaluated row by row (test_library_transform_is_pure evaluates a subset)",
+    "check_n_features_in": _W.format(width="2 columns") + "n_features_in_ = 2n is set by fit",
+    "check_n_features_in_after_fitting": _W.format(width="4 columns")
+    + "a width other than n_features_in_ is refused by transform, naming the width",
+    "check_pipeline_consistency": _W.format(width="3 columns")
+    + "a library inside a scikit-learn Pipeline transforms as alone (it is stateless but for the segmentation)",
+    "check_positive_only_tag_during_fit": _W.format(width="3 columns")
+    + "negative strains are valid (bending either way); the refusal is the width",
+    "check_readonly_memmap_input": _W.format(width="2 columns") + "check_array reads read-only memory maps",
+    "check_transformer_data_not_an_array": _W.format(width="3 columns") + "array-likes are converted by check_array",
+    "check_transformer_general": _W.format(width="3 columns")
+    + "fit_transform = fit().transform is tested in test_library_transform_is_pure",
+    "check_transformer_preserve_dtypes": _W.format(width="3 columns")
+    + "the basis is float64 whatever the input dtype (the energies need double precision)",
+}
 
 EXPECTED_FAILED_CHECKS: dict[str, dict[str, str]] = {
     "StiffnessThresholdOptimizer": {
@@ -81,8 +98,8 @@ EXPECTED_FAILED_CHECKS: dict[str, dict[str, str]] = {
             "instead of returning one of infinitely many models"
         ),
     },
-    "PCSLagrangianLibrary": {c: WIDTH_X for c in _WIDTH_CHECKS},
-    "PhysicalPCSLibrary": {c: WIDTH_X for c in _WIDTH_CHECKS},
+    "PCSLagrangianLibrary": LIBRARY_CHECKS,
+    "PhysicalPCSLibrary": LIBRARY_CHECKS,
 }
 
 ARRAY_ESTIMATORS = {
@@ -165,7 +182,7 @@ def recordings():
 
 def _same(a, b) -> None:
     """Outputs of our estimators: lists of trajectories or arrays, compared exactly."""
-    assert type(a) is type(b)
+    assert type(a) is type(b) or (isinstance(a, list) and isinstance(b, list))  # RecordingList is a list
     if isinstance(a, list):
         assert len(a) == len(b)
         for u, v in zip(a, b, strict=True):
@@ -254,3 +271,49 @@ def test_extractor_invariants_on_frames() -> None:
     for bad, match in (([], "non-empty"), ([videos[0].astype(float)], "uint8"), ([videos[0][0]], "shape")):
         with pytest.raises(ValueError, match=match):
             ex.fit(bad)
+
+
+# -- the libraries' input checks (issue 21: sparse accepted by fit then failing in transform, other messages) --
+@pytest.mark.parametrize(
+    "make", [lambda: PhysicalPCSLibrary([0.1]), lambda: PCSLagrangianLibrary([0.1], basis="physical")]
+)
+def test_library_input_is_checked_the_sklearn_way(make) -> None:
+    from scipy import sparse
+
+    good = np.random.default_rng(0).normal(size=(5, 6))
+    lib = make().fit(good)
+    for bad, err, match in (
+        (sparse.csr_matrix(good), TypeError, "Sparse data was passed for x, but dense data is required"),
+        (np.where(good > 1, np.nan, good), ValueError, "Input x contains NaN"),
+        (np.where(good > 1, np.inf, good), ValueError, "Input x contains infinity"),
+        (good * 1j, ValueError, "Complex data not supported"),
+        (np.zeros((0, 6)), ValueError, r"Found array with 0 sample\(s\)"),
+        (np.zeros((5, 0)), ValueError, r"0 feature\(s\)"),
+        (np.array([["a"] * 6] * 5, dtype=object), ValueError, "could not convert"),
+    ):
+        with pytest.raises(err, match=match):
+            make().fit(bad)
+        with pytest.raises(err, match=match):
+            lib.transform(bad)
+    objects = good.astype(object)  # numbers stored as objects are converted, like any array-like
+    np.testing.assert_array_equal(np.asarray(lib.transform(objects)), np.asarray(lib.transform(good)))
+    names = lib.get_feature_names_out()
+    assert list(names) == lib.get_feature_names() and names.shape == (np.asarray(lib.transform(good)).shape[1],)
+
+
+def test_library_transform_is_pure() -> None:
+    rng = np.random.default_rng(1)
+    x = rng.normal(size=(20, 6)) * np.array([10.0, 0.1, 0.05, 30.0, 0.3, 0.1])
+    lib = PhysicalPCSLibrary([0.1])
+    assert lib.fit(x) is lib
+    before = {k: id(v) for k, v in vars(lib).items()}
+    full = np.asarray(lib.transform(x))
+    assert {k: id(v) for k, v in vars(lib).items()} == before  # transform sets or replaces no attribute
+    order = rng.permutation(20)
+    np.testing.assert_array_equal(np.asarray(lib.transform(x[order])), full[order])  # row by row
+    np.testing.assert_array_equal(np.asarray(lib.transform(x[5:9])), full[5:9])
+    np.testing.assert_array_equal(np.asarray(lib.fit_transform(x)), full)
+    with pytest.raises(NotFittedError):
+        PhysicalPCSLibrary([0.1]).transform(x)
+    with pytest.raises(ValueError, match="6"):
+        lib.transform(x[:, :4])

@@ -6,6 +6,7 @@ Takes in nothing of the package and gives every other stage:
 * the trajectory containers that flow through every estimator (:mod:`.trajectory`:
   :class:`PoseTrajectory`, :class:`StrainTrajectory`);
 * the seed's task-space error metrics (:mod:`.metrics`);
+* per-recording arrays that scikit-learn's metrics read stacked (:mod:`.recording_list`: :class:`RecordingList`);
 * the camera model between the base frame and image pixels (:mod:`.camera`: :class:`Camera`);
 * the simulate contract shared by the ground truth and identified models
   (:mod:`.simulate_contract`: :class:`SimulationError`, the method names);
@@ -46,7 +47,8 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "camera": ["Camera", "camera_extras", "read_camera_json"],
         "progress": ["ticking"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
-        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"],
+        "recording_list": ["RecordingList"],
+        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"],
         "validation": [
             "validate_parameters",
             "InvalidParameterError",

@@ -17,7 +17,7 @@ from numpy.typing import ArrayLike
 
 from .kinematics import wrap_angle
 
-__all__ = ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer"]
+__all__ = ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"]
 
 
 def _pair(estimate: ArrayLike, truth: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
@@ -77,3 +77,32 @@ def rollout_scorer(estimator: Any, X: Any, y: Any) -> float:
     if errors.size == 0 or np.any(np.isnan(errors)):
         raise ValueError(f"rollout_error returned {errors!r}; expected one finite or inf error per recording")
     return -float(np.mean(errors))
+
+
+def rollout_r2_scorer(estimator: Any, X: Any, y: Any) -> float:
+    """Scorer of rollouts for scikit-learn's model selection: the R^2 of the tip path (``estimator.rollout_score``).
+
+    Each held-out recording is rolled out from its measured state under its
+    own forces and its tip path compared with the recording's:
+    ``1 - SS_res / SS_tot`` pooled over recordings (``-inf`` for a diverged
+    rollout).  Dimensionless, unlike :func:`rollout_scorer` (minus the mean tip
+    error in m); both rank candidates by their rollouts, which the estimators'
+    ``score`` (the R^2 of the forces ``predict`` returns, scikit-learn's rule)
+    does not.  Use as ``GridSearchCV(..., scoring=rollout_r2_scorer)``.
+
+    Parameters
+    ----------
+    estimator : fitted estimator with ``rollout_score(X, y)``
+        :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor` or
+        :class:`~pcs_sindy.pipeline.pcs_pipeline.PCSPipeline`.
+    X, y : recordings and their forces
+
+    Returns
+    -------
+    float
+    """
+    if not hasattr(estimator, "rollout_score"):
+        raise ValueError(
+            f"rollout_r2_scorer needs an estimator with rollout_score(X, y); got {type(estimator).__name__}"
+        )
+    return float(estimator.rollout_score(X, y))

@@ -224,6 +224,26 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         tags.input_tags.two_d_array = False  # X is a list of pose recordings
         return tags
 
+    def set_output(self, *, transform: str | None = None) -> KinematicFusion:
+        """scikit-learn's output configuration, where it applies: ``"default"`` (or None) only.
+
+        :meth:`transform` returns one :class:`~pcs_sindy.core.StrainTrajectory` per
+        recording (strains, times and the segmentation), not a 2-D array, so there is
+        no DataFrame to give; ``Pipeline.set_output(transform="default")`` works.
+
+        Raises
+        ------
+        ValueError
+            For ``"pandas"`` or ``"polars"``, with the way to a table of strains.
+        """
+        if transform not in (None, "default"):
+            raise ValueError(
+                f"set_output(transform={transform!r}) does not apply to KinematicFusion: transform returns one "
+                "StrainTrajectory per recording, not a 2-D array; only 'default' (or None) does. For a table of "
+                "one recording's strains: pandas.DataFrame(traj.q, columns=traj.kinematics.strain_names())"
+            )
+        return self
+
     def fit(self, X: Any, y: Any = None) -> KinematicFusion:
         """Find the segmentation from pose recordings.
 

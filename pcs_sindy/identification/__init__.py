@@ -6,6 +6,7 @@ whose ``forward_model()`` is a :class:`~pcs_sindy.models.ForwardModel`.
 
 * :mod:`.regressor` - :class:`EulerLagrangeRegressor`: library x formulation x optimizer x actuation;
 * :mod:`.library` - Lagrangian libraries (physical, the seed's monomial basis, pysindy's stacked form);
+* :mod:`.weak_sindy` - :class:`WeakEulerLagrangeSINDy`: the weak form as a ``pysindy.SINDy`` (forces as ``u``);
 * :mod:`.formulations` - the strong (samples) and weak (window integrals) regression rows;
 * :mod:`.recordings` - recordings checked, differentiated and cut for a formulation;
 * :mod:`.optimizers` - least squares with the seed's stiffness-threshold sparsification;
@@ -23,6 +24,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
     submodules=["library"],
     submod_attrs={
         "regressor": ["EulerLagrangeRegressor"],
+        "weak_sindy": ["WeakEulerLagrangeSINDy"],
         "optimizers": ["StiffnessThresholdOptimizer"],
         "library": [
             "LagrangianLibrary",

@@ -40,7 +40,7 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ..core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 
-__all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq"]
+__all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq", "fit_normalized"]
 
 from .least_squares import scaled_lstsq, stiffness_bounds  # noqa: E402 - re-exported: the optimizer's solvers
 
@@ -478,3 +478,64 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.condition_number_ = final["condition_number"]
         self.intercept_ = 0.0
         return self
+
+
+def fit_normalized(optimizer: Any, x: ArrayLike, y: ArrayLike) -> NDArray[np.float64]:
+    """Fit a pysindy optimizer on unit-norm columns and a unit-RMS target; return unscaled coefficients.
+
+    pysindy's ``normalize_columns`` idea, made independent of the robot's units:
+
+    1. each equation (strain) is divided by the root mean square of its target,
+       so that moments (N m) and forces (N) weigh alike;
+    2. each column of the stacked regression is scaled to unit norm.
+
+    A coefficient the optimizer returns is then the norm of its term's
+    contribution over all rows, in units of the root mean square of one row of
+    the target: ``STLSQ(threshold=0.1)`` removes a term whose whole
+    contribution is smaller than a tenth of a typical row (below what the data
+    can show), whatever the units of the physical parameters (kg/m next to
+    N m²) or the robot's size.  The coefficients are mapped back to the
+    physical columns afterwards; an all-zero column keeps coefficient 0.
+
+    Parameters
+    ----------
+    optimizer : pysindy BaseOptimizer
+        Fitted in place (pass a clone).
+    x : array_like, shape (n_rows, n_equations, n_columns)
+        Regression rows per equation (see :func:`pcs_sindy.identification.formulations.regression`).
+    y : array_like, shape (n_rows, n_equations)
+        Targets.
+
+    Returns
+    -------
+    ndarray, shape (n_columns,)
+
+    Raises
+    ------
+    ValueError
+        When ``y`` is zero (nothing to fit) or the optimizer returns coefficients of
+        another shape or with NaN.
+    """
+    x = np.asarray(x, dtype=float)
+    y = np.asarray(y, dtype=float)
+    if x.ndim != 3 or y.shape != x.shape[:2]:
+        raise ValueError(
+            f"x must have shape (n_rows, n_equations, n_columns) and y (n_rows, n_equations); "
+            f"got shapes {x.shape} and {y.shape}"
+        )
+    rms = np.sqrt(np.mean(y**2, axis=0))
+    if not np.any(rms > 0):
+        raise ValueError("y is zero: the regression has nothing to fit")
+    eq = np.where(rms > 0, rms, 1.0)  # an unforced equation keeps its units
+    x2 = (x / eq[None, :, None]).reshape(-1, x.shape[-1])
+    y2 = (y / eq).reshape(-1, 1)
+    col = np.linalg.norm(x2, axis=0)
+    safe = np.where(col > 0, col, 1.0)
+    optimizer.fit(x2 / safe, y2)
+    coef = np.asarray(optimizer.coef_, dtype=float).reshape(-1)
+    if coef.shape != (x.shape[-1],) or not np.all(np.isfinite(coef)):
+        raise ValueError(
+            f"{type(optimizer).__name__} returned coefficients of shape {coef.shape} or with NaN; "
+            f"expected ({x.shape[-1]},) finite values"
+        )
+    return np.where(col > 0, coef / safe, 0.0)

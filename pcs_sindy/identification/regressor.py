@@ -29,9 +29,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pysindy.optimizers import BaseOptimizer
 from sklearn.base import BaseEstimator, RegressorMixin, clone
+from sklearn.metrics import r2_score
 from sklearn.utils.validation import check_is_fitted
 
 from ..core.kinematics import PlanarPCS
+from ..core.recording_list import RecordingList
 from ..core.saving import PersistenceMixin
 from ..core.simulate_contract import DivergenceError, simulate_inputs
 from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
@@ -43,7 +45,7 @@ from . import identifiability as _ident
 from . import recordings as _rec
 from .library.base import LagrangianLibrary
 from .library.with_gains import WithGains
-from .optimizers import StiffnessThresholdOptimizer
+from .optimizers import StiffnessThresholdOptimizer, fit_normalized
 from .recordings import WEAK_WINDOW
 from .variable_projection import fit_offsets
 
@@ -90,7 +92,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
         material bounds; removes over-stiff strains).  Any other pysindy
         ``BaseOptimizer`` (``STLSQ``, ``SR3``, ...) fits the same rows without
-        strain removal or bounds.
+        strain removal or bounds, at its own defaults: it sees each strain's
+        equation scaled to a unit-RMS target and unit-norm columns
+        (:func:`~pcs_sindy.identification.optimizers.fit_normalized`), so its
+        threshold means the same on every robot; a warning says when it removed
+        a stiffness or left the mass matrix singular.
     differentiation_method : callable, optional
         ``method(x, t)`` giving ``qd`` from ``q`` and ``qdd`` from ``qd`` (e.g. a
         pysindy differentiation object).  Default: Savitzky–Golay.
@@ -378,13 +384,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                     f"identified gains need a scale constraint, which {type(opt).__name__} cannot hold; "
                     "use StiffnessThresholdOptimizer"
                 )
-            opt.fit(x.reshape(-1, x.shape[-1]), target.reshape(-1, 1))
-            coef_all = np.asarray(opt.coef_, dtype=float).reshape(-1)
-            if coef_all.shape != (x.shape[-1],) or not np.all(np.isfinite(coef_all)):
-                raise ValueError(
-                    f"{type(opt).__name__} returned coefficients of shape {coef_all.shape} or with NaN; "
-                    f"expected ({x.shape[-1]},) finite values"
-                )
+            # unit-norm columns and target: the optimizer's thresholds mean the same on every robot
+            coef_all = fit_normalized(opt, x, target)
+            self._warn_missing_physics(lib, coef_all[:p_lib], type(opt).__name__)
             lib_r, column_map = lib, np.arange(p_lib)
             active, removed = kin.active_strains.copy(), []
         coef, library_ = coef_all[:p_lib], lib_r
@@ -418,6 +420,29 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
+
+    @staticmethod
+    def _warn_missing_physics(lib: LagrangianLibrary, coef: NDArray[np.float64], optimizer: str) -> None:
+        """Warn when a sparsifying optimizer removed a stiffness or left the mass matrix singular."""
+        names = lib.kinematics.strain_names(active_only=True)
+        stiff = np.asarray(lib.stiffness_from_coef(coef))
+        lost = [nm for nm, k in zip(names, stiff) if not k > 0]
+        if lost:
+            warnings.warn(
+                f"{optimizer} removed (or made non-positive) the stiffness of {', '.join(lost)}: an elastic "
+                "robot needs every modelled strain's stiffness (a rigid strain is removed with "
+                "StiffnessThresholdOptimizer instead); lower the optimizer's threshold or use the default optimizer",
+                UserWarning,
+                stacklevel=3,
+            )
+        z = np.zeros((1, lib.n_strains))
+        if not np.linalg.eigvalsh(np.asarray(lib.mass_matrix(z, coef), dtype=float))[0, 0] > 0:
+            warnings.warn(
+                f"{optimizer} removed inertia terms: the mass matrix at the straight pose is singular, so the model "
+                "cannot be rolled out; lower the optimizer's threshold or use the default optimizer",
+                UserWarning,
+                stacklevel=3,
+            )
 
     def _set_physical_attributes(self, kin: PlanarPCS) -> None:
         final = self.active_strains_.reshape(-1)
@@ -548,7 +573,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         *,
         qd: Sequence[ArrayLike] | None = None,
         qdd: Sequence[ArrayLike] | None = None,
-    ) -> list[NDArray[np.float64]]:
+    ) -> RecordingList:
         """Forces ``tau_hat = Psi(q, qd, qdd) coef`` (inverse dynamics) per recording.
 
         Rates and accelerations come from ``qd``/``qdd`` or from this
@@ -556,9 +581,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
         Returns
         -------
-        list of ndarray, shape (T, 3m)
+        RecordingList of ndarray, shape (T, 3m)
             Forces on the modelled strains; 0 in the columns of strains that
             are not modelled (the model has no equation for a rigid strain).
+            A list with one array per recording; ``np.asarray`` of it stacks
+            the recordings (what scikit-learn's string scorers compare).
         """
         check_is_fitted(self, "coef_")
         validate_parameters(self)
@@ -574,9 +601,58 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             if not np.all(np.isfinite(tau)):
                 raise ValueError(f"the model predicts NaN or inf forces on X[{k}]")
             out.append(tau)
-        return out
+        return RecordingList(out)
 
-    def score(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], sample_weight: None = None) -> float:
+    def score(
+        self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], sample_weight: ArrayLike | None = None
+    ) -> float:
+        """R^2 of the forces :meth:`predict` returns, the recordings flattened (scikit-learn's ``score``).
+
+        ``r2_score(np.asarray(RecordingList(y)), np.asarray(self.predict(X)))``:
+        the same number as ``cross_val_score(..., scoring="r2")``, averaged
+        uniformly over the strains (a strain that is not modelled is predicted
+        as 0).  It measures how well the identified model explains the recorded
+        forces sample by sample (inverse dynamics, with this estimator's rates
+        and accelerations); to judge a model by what it is for, its rollouts,
+        use :meth:`rollout_score` or :func:`pcs_sindy.core.metrics.rollout_scorer`
+        (the scorer for model selection: ``GridSearchCV(..., scoring=rollout_scorer)``).
+
+        Parameters
+        ----------
+        X : list of StrainTrajectory
+        y : list of array_like, shape (T, 3m)
+            Generalised forces of each recording (``RecordingList`` or a plain list);
+            with an actuation, the actuator inputs (T, p), mapped to forces by the
+            identified ``A(q)``.
+        sample_weight : array_like, shape (sum T,), optional
+            Weights of the flattened samples.
+        """
+        check_is_fitted(self, "coef_")
+        X = as_strain_trajectories(X)
+        ys = _rec.check_list(y, len(X), "y")
+        act = getattr(self, "actuation_", None)
+        if act is not None and not isinstance(act, IdentityActuation):
+            # y holds actuator inputs: the recorded forces are A(q) u of the identified input map
+            mask = act.kinematics_.active_mask
+            forces = []
+            for k, (rec, u) in enumerate(zip(X, ys, strict=True)):
+                u = act.check_inputs(u, f"y[{k}]")
+                if u.shape[0] != rec.n_frames:
+                    raise ValueError(f"y[{k}] has {u.shape[0]} samples but X[{k}] has {rec.n_frames}")
+                full = np.zeros((rec.n_frames, rec.kinematics.n_q))
+                full[:, mask] = act.forces(rec.q[:, mask], u)
+                forces.append(full)
+            ys = forces
+        truth = np.concatenate([np.asarray(a, dtype=float) for a in ys])
+        pred = np.asarray(self.predict(X))
+        if truth.shape != pred.shape:
+            raise ValueError(
+                f"y must hold the forces of X, stacked shape {pred.shape} (one (T, 3m) array per recording); "
+                f"got stacked shape {truth.shape}"
+            )
+        return float(r2_score(truth, pred, sample_weight=sample_weight))
+
+    def rollout_score(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike]) -> float:
         """R^2 of the tip positions of rollouts of the recordings ``X`` under their forces ``y``.
 
         Each recording is rolled out from its measured state (as in
@@ -586,7 +662,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         recordings themselves, so every candidate of a search is scored on the
         same numbers whatever its settings, and every strain counts: a strain
         removed as rigid is predicted by the reduced model (held at 0).  A
-        diverged rollout scores ``-inf`` (never NaN).
+        diverged rollout scores ``-inf`` (never NaN).  (In 0.1.0 this was
+        :meth:`score`.)
 
         Raises
         ------
@@ -594,8 +671,6 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             When the tip does not move in ``X`` (R^2 undefined).
         """
         check_is_fitted(self, "coef_")
-        if sample_weight is not None:
-            raise ValueError("sample_weight is not supported; weight recordings by their length instead")
         pairs = self._rollout_tips(X, y)
         truth = np.concatenate([true for _, true in pairs])
         ss_tot = float(np.sum((truth - truth.mean(axis=0)) ** 2))
@@ -640,7 +715,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def simulate(
         self,
         q0: ArrayLike,
-        qd0: ArrayLike,
+        qd0: ArrayLike | None = None,
         t: ArrayLike | None = None,
         u: ArrayLike | Callable[[float], ArrayLike] | None = None,
         *,
@@ -655,6 +730,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         stats: dict | None = None,
     ) -> StrainTrajectory:
         """Roll the identified model out under the input ``u``: the contract of :mod:`pcs_sindy.core.simulate_contract`.
+
+        Also callable the pysindy way, ``simulate(x0, t, u)`` with the state
+        ``x0 = [q0, qd0]`` (shape (6m,) or (2n,)): without ``qd0``, or with
+        three positional arguments and no ``u`` when ``x0`` is not itself the
+        size of a ``q0`` (``x0`` of all strains, (6m,), is never).
 
         Parameters
         ----------
@@ -699,6 +779,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             non-finite or unbounded, ``M(q)`` singular or the step collapses.
         """
         check_is_fitted(self, "coef_")
+        q_sizes = (self.kinematics_.n_q, self.kinematics_.n_active)
+        if qd0 is None or (u is None and tau is None and t is not None and np.size(q0) not in q_sizes):
+            if qd0 is not None:  # simulate(x0, t, u): shift the positional arguments
+                t, u = qd0, t
+            q0, qd0 = self._split_state(q0)
         t, u = simulate_inputs(t, u, tau)
         return self.forward_model().simulate(
             q0,
@@ -744,6 +829,18 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         q = self.forward_model().equilibrium(u, q0, **kwargs)
         return self.kinematics_.to_full(q)
+    def _split_state(self, x0: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``[q0, qd0]`` of pysindy's ``simulate(x0, t, u)`` -> ``(q0, qd0)``."""
+        x = np.asarray(x0, dtype=float)
+        sizes = {2 * self.kinematics_.n_q, 2 * self.kinematics_.n_active}
+        if x.ndim != 1 or x.size not in sizes:
+            raise ValueError(
+                f"x0 must be the state [q0, qd0] of shape ({2 * self.kinematics_.n_q},) (all strains) or "
+                f"({2 * self.kinematics_.n_active},) (the modelled ones) in simulate(x0, t, u); got shape {x.shape}. "
+                "Or call simulate(q0, qd0, t, u)"
+            )
+        half = x.size // 2
+        return x[:half], x[half:]
 
     def rollout_error(self, X: Sequence[StrainTrajectory], y: Sequence[ArrayLike], **simulate_kwargs: Any) -> NDArray:
         """Mean tip position error ``e_p^EE`` (m) of rolling each recording out from a measured state under ``y``.
@@ -783,10 +880,86 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             return lines
         return lines[:-1] + act.describe(precision) + lines[-1:]
 
-    def print(self, precision: int = 3, threshold: float = 0.0) -> None:
-        """Print :meth:`equations`."""
+    def print(self, precision: int = 3, threshold: float = 0.0, *, by_strain: bool = False) -> None:
+        """Print :meth:`equations` (``by_strain=True``: one ``tau_<strain> = ...`` line per modelled strain)."""
+        if by_strain:
+            names = ["tau_" + nm for nm in self.kinematics_.strain_names(active_only=True)]
+            for name, rhs in zip(names, self.strain_equations(precision=precision, threshold=threshold), strict=True):
+                print(f"{name} = {rhs}")
+            return
         for line in self.equations(precision=precision, threshold=threshold):
             print(line)
+
+    # pysindy's idioms: coefficients(), get_feature_names(), one equation per coordinate
+    def coefficients(self) -> NDArray[np.float64]:
+        """The coefficients as pysindy's ``SINDy.coefficients()``: shape (1, n_psi), one shared row.
+
+        Every strain's equation ``tau = Psi(q, qd, qdd) @ coef`` shares the same
+        physical coefficients, so there is one row (the columns of
+        :meth:`get_feature_names`; ``coef_`` as a row).
+        """
+        check_is_fitted(self, "coef_")
+        return self.coef_[None, :].copy()
+
+    def get_feature_names(self) -> list[str]:
+        """Names of the columns of :meth:`coefficients` (the full library's coefficient names)."""
+        check_is_fitted(self, "coef_")
+        return list(self.full_library_.coefficient_names())
+
+    def strain_equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
+        """Right-hand sides of ``tau_e = ...``, one per modelled strain (pysindy's ``equations()`` form).
+
+        A stiffness reads ``k e`` (the strain), a damping ``d de/dt``, a constant
+        force ``- f0``; every other column ``c EL[name]``, the Euler–Lagrange
+        image ``d/dt dL/d(de/dt) - dL/de`` of the Lagrangian term ``name``
+        (e.g. ``EL[rhoA_1]``: kinetic and gravitational terms of segment 1's line density).
+        Only the terms that act on the strain's equation are listed.
+
+        Parameters
+        ----------
+        precision : int
+            Significant digits.
+        threshold : float
+            Terms with ``|coefficient| <= threshold`` are hidden (exact zeros always are).
+
+        Returns
+        -------
+        list of str
+        """
+        check_is_fitted(self, "coef_")
+        lib, coef = self.library_, self.model_coef_
+        n = lib.n_strains
+        strains = self.kinematics_.strain_names(active_only=True)
+        names = lib.coefficient_names()
+        rng = np.random.default_rng(0)  # probe states: which columns act on which equation
+        lo, hi = self.strain_range_ if getattr(self, "strain_range_", None) is not None else (-np.ones(n), np.ones(n))
+        q = rng.uniform(lo, hi, (4, n)) + 1e-3 * rng.standard_normal((4, n))
+        psi = np.asarray(lib.euler_lagrange_matrix(q, rng.standard_normal((4, n)), rng.standard_normal((4, n))))
+        acts = np.any(psi != 0, axis=0)  # (n, n_psi)
+        kind = {int(j): ("k", e) for e, j in enumerate(np.asarray(lib.stiffness_index_))}
+        kind.update({int(j): ("d", e) for e, j in enumerate(np.asarray(lib.damping_index_))})
+        rest = np.asarray(lib.rest_force_index_)
+        kind.update({int(j): ("f0", int(r)) for j, r in zip(rest, np.asarray(lib.rest_force_rows_))})
+        factor = float(lib.stiffness_factor_)
+        out = []
+        for e in range(n):
+            terms = []
+            for j in np.flatnonzero(acts[e]):
+                c = float(coef[j])
+                kd = kind.get(int(j))
+                if kd is not None and kd[0] == "k":
+                    c, label = c * factor, strains[kd[1]]
+                elif kd is not None and kd[0] == "d":
+                    label = f"d{strains[kd[1]]}/dt"
+                elif kd is not None and kd[0] == "f0":
+                    c, label = -c, "1"
+                else:
+                    label = f"EL[{names[j]}]"
+                if c == 0.0 or abs(c) <= threshold:
+                    continue
+                terms.append(f"{c:.{precision}g}" + ("" if label == "1" else f" {label}"))
+            out.append(" + ".join(terms).replace("+ -", "- ") if terms else "0")
+        return out
 
     @classmethod
     def from_sindy(cls, model: Any) -> EulerLagrangeRegressor:

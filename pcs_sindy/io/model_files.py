@@ -21,8 +21,9 @@ Loading an untrusted file cannot execute code:
   active strains, basis) and re-derive or read their own cache; a model file
   may not choose that cache directory (it holds generated code that the
   library executes), see ``cache_dir`` of :func:`load`;
-* a ``Pipeline``'s ``memory`` (a joblib cache of pickles) must be None, and its steps
-  a list of uniquely named (name, estimator) pairs.
+* a ``Pipeline``'s ``memory`` (a joblib cache of pickles) is not stored (a pipeline
+  built with ``memory=`` is saved, and loads, with ``memory=None``), and its steps
+  must be a list of uniquely named (name, estimator) pairs.
 
 A file names its format version; files from a newer format are refused.
 """
@@ -291,11 +292,10 @@ class _Encoder:
             state = {}
         else:
             params = obj.get_params(deep=False)
-            if name in ("Pipeline", "PCSPipeline") and params.get("memory") is not None:
-                raise ValueError(
-                    f"cannot store {label}.memory = {params['memory']!r}: a joblib cache holds pickles; "
-                    "set memory=None before saving"
-                )
+            if name in ("Pipeline", "PCSPipeline"):
+                # a cache of fitted transformers is no part of the model (and a joblib cache holds pickles):
+                # the file stores the pipeline with memory=None
+                params = {**params, "memory": None}
             state = {}
             if not spec.params_only:
                 for key, val in vars(obj).items():

@@ -388,8 +388,8 @@ class TendonActuation(Actuation):
         the model is coarser than the robot (a continuum, a stiffness that
         varies along a segment) the residual is the model's own error and
         neither rule is right in general: choose by rollout score, e.g.
-        ``GridSearchCV`` over ``actuation__weighting`` (docs/method.md,
-        "Actuation").
+        ``GridSearchCV(..., scoring=rollout_r2_scorer)`` over ``actuation__weighting``
+        (docs/method.md, "Actuation").
     drive : {"tension", "displacement"}, default "tension"
         What the inputs are.  ``"tension"``: tendon tensions [N].
         ``"displacement"``: servo angles [deg] winding elastic tendons on

@@ -7,10 +7,10 @@
               ("dynamics", EulerLagrangeRegressor)])  # strains + tau -> model
 
 ``pipeline.fit(videos, taus)`` fits it; ``predict``/``score`` are the
-regressor's (forces by inverse dynamics; R^2 of window-integrated forces);
+regressor's (forces by inverse dynamics; R^2 of those forces, scikit-learn's rule);
 :meth:`PCSPipeline.simulate` and :meth:`PCSPipeline.simulate_poses` roll the
-identified model out, :meth:`PCSPipeline.rollout_error` scores rollouts (see
-:func:`pcs_sindy.core.metrics.rollout_scorer`).
+identified model out, :meth:`PCSPipeline.rollout_error` and :meth:`PCSPipeline.rollout_score` score rollouts (see
+:func:`pcs_sindy.core.metrics.rollout_scorer` and :func:`pcs_sindy.core.metrics.rollout_r2_scorer`).
 
 The sample unit is a recording: ``X`` is a list with one entry per recording
 and ``y`` the list of their force arrays, so scikit-learn's model selection
@@ -61,8 +61,10 @@ class PCSPipeline(PersistenceMixin, Pipeline):
     segmentation and a clear error when the segmentation does not match the
     forces.  Build it with :func:`make_pcs_pipeline`.
 
-    Attributes (read-only, after ``fit``)
-    -------------------------------------
+    Attributes
+    ----------
+    All read-only, set by ``fit``.
+
     fusion_ : KinematicFusion
         The fitted ``segments`` step.
     model_ : EulerLagrangeRegressor
@@ -218,6 +220,13 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         """
         return self.model_.rollout_error(self.transform_strains(X), y, **kw)
 
+    def rollout_score(self, X: Any, y: Sequence[ArrayLike]) -> float:
+        """R^2 of the tip path of rollouts of ``X`` under ``y`` (the regressor's :meth:`rollout_score`).
+
+        ``score`` is scikit-learn's: the R^2 of the forces ``predict`` returns.
+        """
+        return float(self.model_.rollout_score(self.transform_strains(X), y))
+
     def simulate_poses(
         self,
         q0: ArrayLike,
@@ -351,7 +360,7 @@ def make_pcs_pipeline(
             pipe,
             {"segments__threshold": [0.1, 0.2, 0.5],
              "dynamics__optimizer__threshold": [1.0, 0.1, 0.01]},
-            cv=GroupKFold(4), error_score=np.nan)
+            cv=GroupKFold(4), scoring=rollout_r2_scorer, error_score=np.nan)
         search.fit(poses, taus, groups=recording_groups(poses))
 
     A candidate whose segmentation does not match the width of the forces
@@ -359,7 +368,7 @@ def make_pcs_pipeline(
     which ``error_score=np.nan`` (GridSearchCV's default) turns into a
     ``FitFailedWarning`` with that message and a last rank for that
     candidate; ``error_score="raise"`` stops the search instead.  Scores of
-    fitted candidates are never NaN: the regressor's ``score`` raises on an
+    fitted candidates are never NaN: the regressor's ``rollout_score`` raises on an
     undefined R^2 instead of returning NaN.
     """
     from ..fusion.kinematic_fusion import KinematicFusion

@@ -24,13 +24,16 @@ All ``q``, ``qd``, ``qdd`` arguments hold the *active* strains only.
 
 from __future__ import annotations
 
+import functools
 from abc import ABC, abstractmethod
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from pysindy.feature_library.base import BaseFeatureLibrary
+from scipy import sparse
 from sklearn.exceptions import NotFittedError
+from sklearn.utils import check_array
 
 from ...core.kinematics import PlanarPCS
 from ...core.trajectory import kinematics_of
@@ -75,6 +78,27 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
     """
 
     stiffness_factor_: float = 1.0
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        """Refuse sparse input to a subclass's ``transform`` with scikit-learn's message.
+
+        pysindy's ``x_sequence_or_item`` (which the subclasses' ``transform`` use)
+        fails on a sparse matrix with an unrelated error before the method runs.
+        """
+        super().__init_subclass__(**kwargs)
+        inner = cls.__dict__.get("transform")
+        if inner is None:
+            return
+
+        @functools.wraps(inner)
+        def transform(self: Any, x: Any, *args: Any, **kw: Any) -> Any:
+            items = x if isinstance(x, (list, tuple)) else [x]
+            for item in items:
+                if sparse.issparse(item):
+                    check_array(item, input_name="x")  # raises: dense data is required
+            return inner(self, x, *args, **kw)
+
+        cls.transform = transform
 
     # ------------------------------------------------------------------ segmentation
     @property
@@ -153,9 +177,11 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         """
         validate_parameters(self)
         self._check_segmentation()
+        if kinematics_of(x) is None:
+            x = self.check_states(x)
         width = self._set_segmentation(x)
         if kinematics_of(x) is None:
-            arrays = x if isinstance(x, (list, tuple)) else [x]
+            arrays = x
             got = {np.shape(a)[-1] if np.ndim(a) else None for a in arrays}
             if got != {width}:
                 raise ValueError(
@@ -166,6 +192,53 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         self.n_features_in_ = width
         self.n_output_features_ = self.n_lagrangian_terms
         return self
+
+    @staticmethod
+    def check_states(x: Any) -> list[NDArray[np.float64]]:
+        """State arrays ``[q, qd]`` (one, or a list of them) checked the scikit-learn way.
+
+        :func:`sklearn.utils.check_array` on each: dense (a sparse matrix is
+        refused with scikit-learn's message), real numbers (complex and object
+        arrays refused), finite (NaN and inf refused), at least one sample and
+        one column, 2-D.
+
+        Returns
+        -------
+        list of ndarray, shape (n_samples, width)
+        """
+        arrays = list(x) if isinstance(x, (list, tuple)) else [x]
+        if not arrays:
+            raise ValueError("x must be an array (n_samples, 2n) of states [q, qd] or a non-empty list of them")
+        return [check_array(a, dtype=np.float64, input_name="x") for a in arrays]
+
+    def get_feature_names_out(self, input_features: Any = None) -> NDArray[np.object_]:
+        """scikit-learn's name of :meth:`get_feature_names`: the Lagrangian basis terms, as an array of str."""
+        names = self.get_feature_names(None if input_features is None else list(input_features))
+        return np.asarray(names, dtype=object)
+
+    # ------------------------------------------------------------------ inside a plain pysindy.SINDy
+    def correct_shape(self, x: Any) -> Any:
+        """Refuse a plain ``pysindy.SINDy``: it calls this on its data before anything else.
+
+        ``SINDy`` regresses ``x_dot = Theta(x) Xi`` (first order, one coefficient
+        row per state); a Lagrangian library describes ``tau = Psi(q, qd, qdd) @ coef``
+        (second order, one row shared by every strain), so that fit would be
+        silently meaningless.
+
+        Raises
+        ------
+        TypeError
+            Always, naming the routes that work.
+        """
+        raise TypeError(
+            f"{type(self).__name__} is a Lagrangian library (tau = Psi(q, qd, qdd) @ coef, one coefficient vector "
+            "shared by every strain), which a plain pysindy.SINDy (x_dot = Theta(x) Xi) cannot fit: it would print "
+            "meaningless equations. Use one of: EulerLagrangeRegressor(library=...).fit(strain_trajectories, forces); "
+            "or the pysindy route WeakEulerLagrangeSINDy(feature_library=...).fit(q, t=t, u=forces) "
+            "(pcs_sindy.identification; weak form, no accelerations); or, with exact accelerations, "
+            "SINDy(feature_library=StackedEulerLagrangeLibrary(library)) with x = [q, qd, qdd] and "
+            "x_dot=stack_forces(tau)"
+        )
 
     # ------------------------------------------------------------------ column layout
     @property

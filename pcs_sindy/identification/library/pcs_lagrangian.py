@@ -306,7 +306,7 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         self._ensure_setup()
         out = []
         for x in x_full:
-            arr = np.asarray(x, dtype=float)
+            arr = self.check_states(np.asarray(x))[0]
             if arr.shape[-1] != self.n_features_in_:
                 raise ValueError(f"x must have {self.n_features_in_} columns [q, qd]; got {arr.shape[-1]}")
             if not np.all(np.isfinite(arr)):

@@ -701,7 +701,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         spec = self._spec
         out = []
         for x in x_full:
-            arr = np.asarray(x, dtype=float)
+            arr = self.check_states(np.asarray(x))[0]
             if arr.ndim != 2 or arr.shape[-1] != self.n_features_in_:
                 raise ValueError(f"x must have shape (n_samples, {self.n_features_in_}); got shape {arr.shape}")
             if not np.all(np.isfinite(arr)):
