@@ -42,6 +42,8 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "as_pose_trajectories",
             "as_strain_trajectories",
             "kinematics_of",
+            "MarkerPlane",
+            "clean_marker_tracks",
         ],
         "camera": ["Camera", "read_camera_json"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
