@@ -89,7 +89,9 @@ class MarkerPlane:
         self.axes = np.asarray(axes, dtype=float)
         d = self.origin.size
         if d not in (2, 3) or self.axes.shape != (d, 2):
-            raise ValueError(f"origin must have 2 or 3 entries and axes shape (D, 2); got {self.origin.shape}, {self.axes.shape}")
+            raise ValueError(
+                f"origin must have 2 or 3 entries and axes shape (D, 2); got {self.origin.shape}, {self.axes.shape}"
+            )
         if not np.allclose(self.axes.T @ self.axes, np.eye(2), atol=1e-9):
             raise ValueError("axes must be two orthonormal columns")
         self.normal = np.cross(self.axes[:, 0], self.axes[:, 1]) if d == 3 else None

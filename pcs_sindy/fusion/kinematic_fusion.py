@@ -517,7 +517,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         trajs = as_pose_trajectories(X)
         rec = self.reconstruct(trajs)
         if trajs[0].positions_only:  # mean marker position error over the valid samples, in the user's frame
-            err = np.concatenate([np.linalg.norm(r.positions - tr.positions, axis=2).ravel() for r, tr in zip(rec, trajs)])
+            err = np.concatenate(
+                [np.linalg.norm(r.positions - tr.positions, axis=2).ravel() for r, tr in zip(rec, trajs)]
+            )
             return -float(np.nanmean(err))
         est = np.concatenate([r.poses[:, 1:, :] for r in rec], axis=0)
         tru = np.concatenate([tr.poses[:, 1:, :] for tr in trajs], axis=0)

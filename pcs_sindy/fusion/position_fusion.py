@@ -138,4 +138,3 @@ def positions_in_user_frame(st: StrainTrajectory, poses: NDArray[np.float64]) ->
     if plane is None:
         return None
     return plane.from_plane(poses[:, 1:, :2])
-
