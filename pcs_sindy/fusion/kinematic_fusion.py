@@ -155,10 +155,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         base pose and (unless given) the markers' rest arc lengths are fitted to the positions,
         Algorithm 1 runs on the curvatures of bending-only segments between markers
         (:mod:`pcs_sindy.fusion.position_fusion`; ``min_segment_markers``, ``shape_fit``,
-        ``refine_boundaries``, ``merge``, ``pose_std``, ``fixed_base`` and ``scaling`` do not
-        apply, ``max_refine_frames`` bounds the frames of the geometry fit), the strain
-        trajectories have only bending strains active, and :meth:`inverse_transform` returns
-        the markers in the user's frame as ``.positions`` (3-D in, 3-D out).
+        ``refine_boundaries``, ``merge``, ``pose_std`` and ``fixed_base`` do not apply,
+        ``scaling="data"`` scales by the 99th percentile of the initial curvatures,
+        ``max_refine_frames`` bounds the frames of the geometry fit), the strain trajectories
+        have only bending strains active, and :meth:`inverse_transform` returns the markers
+        in the user's frame as ``.positions`` (3-D in, 3-D out).
     base_pose_std_, marker_arc_lengths_std_ : ndarray
         Standard errors of the fitted base pose and arc lengths (positions-only fits).
     position_rms_ : float
@@ -308,7 +309,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         if len({tr.n_markers for tr in trajs}) != 1:
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
         q_max = check_q_max(self.q_max)
-        fit = fuse_position_segments(trajs, float(self.threshold), float(q_max[0]), int(self.max_refine_frames))
+        bend = None if self.scaling == "data" else float(q_max[0])
+        fit = fuse_position_segments(trajs, float(self.threshold), bend, int(self.max_refine_frames))
         s = fit["arc_lengths"]
         self.total_length_ = float(s[-1])
         known = "marker_arc_lengths" in trajs[0].metadata
@@ -319,7 +321,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.marker_arc_lengths_ = s
         self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
         self.n_markers_ = s.size - 1
-        self.q_max_ = q_max
+        self.q_max_ = np.array([fit["bend_scale"], q_max[1], q_max[2]]) if self.scaling == "data" else q_max
         self.history_ = fit["history"]
         self.distance_profile_ = self.history_[0]["distances"] if self.history_ else np.zeros(0)
         self.boundaries_ = fit["boundaries"]

@@ -75,15 +75,19 @@ def fit_marker_geometry(
     *,
     max_frames: int = 300,
     base_pose: ArrayLike | None = None,
+    curvatures: str = "uniform",
 ) -> dict[str, NDArray[np.float64] | float]:
     """Fixed base pose and rest arc lengths of position-only markers.
 
-    Model: one constant-curvature, inextensible segment between the base and
-    marker 1 and between consecutive markers; unknowns are the base pose, the
-    arc lengths (unless given) and each sampled frame's curvatures.  The
-    shape of the curves the markers sweep (a marker at arc length ``s`` on a
-    bending robot moves on a path set by ``s`` and the base) determines them:
-    the recordings must bend the robot, at least a few degrees.
+    Model: an inextensible robot bending with one curvature per frame
+    (``curvatures="uniform"``) or one per marker spacing (``"per_segment"``);
+    unknowns are the base pose, the arc lengths (unless given) and each
+    sampled frame's curvatures.  The shape of the curves the markers sweep (a
+    marker at arc length ``s`` of a uniformly bending robot moves by about
+    ``kappa s^2 / 2``) determines them: the recordings must bend the robot.
+    With a curvature per spacing a small bending no longer tells the base's
+    distance (any pattern of displacements fits), hence the uniform default;
+    its bias when the robot does not bend uniformly is the price.
 
     Parameters
     ----------
@@ -95,6 +99,7 @@ def fit_marker_geometry(
         Frames used (evenly spread over all recordings).
     base_pose : array_like, shape (3,), optional
         A known base pose (then only the arc lengths are fitted).
+    curvatures : {"uniform", "per_segment"}, default "uniform"
 
     Returns
     -------
@@ -114,6 +119,9 @@ def fit_marker_geometry(
     b0, s0 = _initial_geometry(P, None if arc_lengths is None else np.asarray(arc_lengths, dtype=float))
     if base_pose is not None:
         b0 = np.asarray(base_pose, dtype=float).reshape(3)
+    if curvatures not in ("uniform", "per_segment"):
+        raise ValueError(f"curvatures must be 'uniform' or 'per_segment'; got {curvatures!r}")
+    nk = 1 if curvatures == "uniform" else N
     fit_base = base_pose is None
     fit_s = arc_lengths is None
     mask = np.all(np.isfinite(P), axis=2)  # (F, N)
@@ -131,7 +139,7 @@ def fit_marker_geometry(
         s = s0
         if fit_s:
             s = np.cumsum(np.exp(x[k : k + N])) * scale
-        kappa = x[n_glob:].reshape(F, N) / scale
+        kappa = np.broadcast_to(x[n_glob:].reshape(F, nk), (F, N)) / scale
         return b, s, kappa
 
     def residuals(x):
@@ -146,12 +154,12 @@ def fit_marker_geometry(
         x0 += list(b0 / np.array([scale, scale, 1.0]))
     if fit_s:
         x0 += list(np.log(np.diff(np.concatenate([[0.0], s0])) / scale))
-    x0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(F * N)])
+    x0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(F * nk)])
     sparsity = lil_matrix((2 * F * N, x0.size), dtype=int)
     sparsity[:, :n_glob] = 1
     for f in range(F):
         rows = slice(2 * N * f, 2 * N * (f + 1))
-        sparsity[rows, n_glob + N * f : n_glob + N * (f + 1)] = 1
+        sparsity[rows, n_glob + nk * f : n_glob + nk * (f + 1)] = 1
     res = least_squares(residuals, x0, jac_sparsity=sparsity, x_scale="jac", method="trf", max_nfev=200)
     b, s, _ = unpack(res.x)
     dof = max(int(mask.sum()) * 2 - x0.size, 1)
@@ -232,14 +240,14 @@ def fit_position_strains(
         JtJ = np.einsum("tia,tib->tab", J, J)
         g = np.einsum("tia,ti->ta", J, r)
         diag = np.einsum("taa->ta", JtJ)
-        A = JtJ + lam[:, None, None] * (diag[:, :, None] * eye + 1e-12 * eye)
+        A = JtJ + lam[:, None, None] * diag[:, :, None] * eye + 1e-12 * eye  # unseen curvatures stay put
         step = -np.linalg.solve(A, g[..., None])[..., 0]
         r_new, J_new = evaluate(kappa + step)
         c_new = np.sum(r_new**2, axis=1)
         better = c_new <= cost
         kappa[better] += step[better]
         r[better], J[better], cost[better] = r_new[better], J_new[better], c_new[better]
-        lam = np.where(better, lam * 0.3, lam * 10.0)
+        lam = np.clip(np.where(better, lam * 0.3, lam * 10.0), 1e-12, 1e12)
         if np.max(np.abs(step[better]), initial=0.0) < 1e-10 and np.all(better):
             break
     # curvature j is seen by the valid markers beyond the start of segment j; frames that do not see it

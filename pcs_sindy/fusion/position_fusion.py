@@ -3,7 +3,8 @@
 Recordings made by :meth:`pcs_sindy.core.PoseTrajectory.from_positions`
 carry marker positions in a plane, no orientations and no base.  This module
 
-* fits the fixed base pose and (unless known) the markers' rest arc lengths
+* fits the markers' rest arc lengths (unless known) with a uniformly bending
+  robot, then the fixed base pose with a curvature per marker spacing
   (:func:`pcs_sindy.fusion.position_fit.fit_marker_geometry`);
 * runs the seed's Algorithm 1 on the curvatures of one bending-only segment
   per marker spacing (:func:`fuse_position_segments`): adjacent segments
@@ -44,7 +45,7 @@ def _known_arc_lengths(trajs: Sequence[PoseTrajectory]) -> NDArray[np.float64] |
 
 
 def fuse_position_segments(
-    trajs: Sequence[PoseTrajectory], threshold: float, bend_scale: float, max_frames: int = 300
+    trajs: Sequence[PoseTrajectory], threshold: float, bend_scale: float | None, max_frames: int = 300
 ) -> dict[str, Any]:
     """Base pose, marker arc lengths and the fused segmentation of positions-only recordings.
 
@@ -54,8 +55,9 @@ def fuse_position_segments(
         Made by ``PoseTrajectory.from_positions``, all with the same markers.
     threshold : float
         Merge threshold on the mean scaled curvature distance (seed eq. 11).
-    bend_scale : float
-        Curvature scale [1/m] (the bending entry of ``q_max``).
+    bend_scale : float or None
+        Curvature scale [1/m] (the bending entry of ``q_max``); None: the 99th percentile of the
+        initial segments' curvature magnitudes (``KinematicFusion(scaling="data")``).
     max_frames : int, default 300
         Frames used to fit the geometry.
 
@@ -67,7 +69,14 @@ def fuse_position_segments(
         end, ``segment_lengths`` (m,), ``history`` (per merge iteration).
     """
     known = _known_arc_lengths(trajs)
-    geo = fit_marker_geometry([tr.plane_positions for tr in trajs], known, max_frames=max_frames)
+    given = known is not None
+    planar = [tr.plane_positions for tr in trajs]
+    arc_std = np.zeros(planar[0].shape[1])
+    if known is None:  # the arc lengths from a uniformly bending robot (a curvature per spacing leaves them free)
+        first = fit_marker_geometry(planar, None, max_frames=max_frames, curvatures="uniform")
+        known, arc_std = first["arc_lengths"], np.asarray(first["std"])[3:]
+    # the base pose for those arc lengths with a curvature per marker spacing (no uniform-bending bias)
+    geo = fit_marker_geometry(planar, known, max_frames=max_frames, curvatures="per_segment")
     s = np.concatenate([[0.0], geo["arc_lengths"]])
     N = s.size - 1
     std = np.asarray(geo["std"])
@@ -79,6 +88,8 @@ def fuse_position_segments(
         kappa = np.concatenate(
             [fit_position_strains(p, geo["base_pose"], lengths, s[1:])[0][:, 0::3] for p in P], axis=0
         )
+        if bend_scale is None:
+            bend_scale = float(np.percentile(np.abs(kappa), 99.0)) or 1.0
         distances = np.mean(np.abs(np.diff(kappa, axis=1)), axis=0) / bend_scale
         groups = merge_runs(distances, threshold)
         history.append({"boundaries": boundaries.copy(), "distances": distances, "groups": groups})
@@ -88,12 +99,13 @@ def fuse_position_segments(
     return {
         "base_pose": np.asarray(geo["base_pose"], dtype=float),
         "arc_lengths": s,
-        "base_pose_std": std[:3] if std.size >= 3 and known is None else np.full(3, np.nan),
-        "arc_lengths_std": std[3:] if known is None else np.zeros(N),
+        "base_pose_std": std[:3],
+        "arc_lengths_std": np.zeros(N) if given else arc_std,
         "rms": float(geo["rms"]),
         "boundaries": boundaries,
         "segment_lengths": np.diff(s[np.concatenate([[0], boundaries])]),
         "history": history,
+        "bend_scale": bend_scale,
     }
 
 
