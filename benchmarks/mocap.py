@@ -12,7 +12,9 @@ loop from the recorded inputs.  Models:
 
 * PCS: ``PoseTrajectory.from_positions`` -> ``KinematicFusion`` (base pose and
   arc lengths fitted) -> ``EulerLagrangeRegressor(actuation=TendonActuation(...,
-  shared=True))``; rolled out from the fused strains at the split (at rest
+  offset=...))`` with the design offset (it fixes the scale of the identified parameters)
+  and the tendon sides from the sign of the tension-curvature correlation; rolled out from the
+  fused strains at the split (at rest
   rates) and mapped back to the capture frame by ``inverse_transform``.
 * quasi-static polynomial: the tip position as a quadratic polynomial of the
   inputs passed through a first-order lag, the lag's time constant chosen on
@@ -97,6 +99,12 @@ def roll_arx(coef, u, y0, y1):
     return out
 
 
+def tendon_sides(kappa, u):
+    """Side (+1 / -1) of each tendon from the sign of the correlation of its tension with the mean curvature."""
+    kc = kappa - kappa.mean()
+    return [-1 if np.sum((u[:, k] - u[:, k].mean()) * kc) > 0 else 1 for k in range(u.shape[1])]
+
+
 def rmse(pred, ref, ok):
     return float(np.sqrt(np.mean(np.sum((pred[ok] - ref[ok]) ** 2, axis=1))))
 
@@ -135,10 +143,14 @@ def main(argv=None):
         traj = PoseTrajectory.from_positions(data.positions[train], dt=dt, arc_lengths=arc)
         fusion = KinematicFusion().fit(traj)
         strains = fusion.transform(traj)
-        actuation = TendonActuation(end=[fusion.total_length_] * 2, side=[1, -1], shared=True)
+        # which side each tendon runs on in the model's plane: a tendon at a positive offset bends the robot
+        # towards negative curvature (the plane's orientation in the capture frame is the data's choice)
+        side = tendon_sides(strains[0].q[:, 0::3].mean(axis=1), u[train])
+        actuation = TendonActuation(end=[fusion.total_length_] * 2, side=side, offset=[scenario.tendon_offset] * 2)
         model = EulerLagrangeRegressor(actuation=actuation).fit(strains, [u[train]])
         fit_s = time.perf_counter() - t0
-        (st_test,) = fusion.transform(PoseTrajectory.from_positions(data.positions[test], dt=dt, arc_lengths=arc))
+        test_traj = PoseTrajectory.from_positions(data.positions[test], dt=dt, arc_lengths=arc, plane=traj.plane)
+        (st_test,) = fusion.transform(test_traj)
         sim = model.simulate(st_test.q[0], np.zeros(st_test.q.shape[1]), st_test.t, u[test])
         sim.metadata.update({k: st_test.metadata[k] for k in ("plane", "marker_arc_lengths", "base_poses")})
         (pred,) = fusion.inverse_transform([sim])

@@ -29,6 +29,8 @@ __all__ = [
     "clean_marker_tracks",
 ]
 
+# default jump detection never flags less than this [m] (a smooth, noise-free track has a tiny noise estimate)
+MIN_JUMP = 1e-3
 # out-of-plane RMS above this fraction of the in-plane motion RMS warns in PoseTrajectory.from_positions
 WOBBLE_WARNING = 0.2
 
@@ -102,8 +104,13 @@ class MarkerPlane:
         return self.origin.size
 
     @classmethod
-    def fit(cls, points: ArrayLike) -> MarkerPlane:
-        """Best-fit (total least squares) plane of finite points (..., 3); identity for 2-D points."""
+    def fit(cls, points: ArrayLike, normal: ArrayLike | None = None) -> MarkerPlane:
+        """Best-fit (total least squares) plane of finite points (..., 3); identity for 2-D points.
+
+        The plane's normal (and so the handedness of the in-plane axes, i.e. the sign of the
+        curvatures) points to the side of ``normal`` when given, else to the side of the
+        capture axis it is most aligned with (a deterministic, data-independent choice).
+        """
         P = np.asarray(points, dtype=float)
         P = P.reshape(-1, P.shape[-1])
         P = P[np.all(np.isfinite(P), axis=1)]
@@ -113,7 +120,14 @@ class MarkerPlane:
             raise ValueError(f"need at least 3 finite 3-D positions to fit a plane; got {P.shape[0]}")
         origin = P.mean(axis=0)
         _, _, vt = np.linalg.svd(P - origin, full_matrices=False)
-        return cls(origin, vt[:2].T)
+        axes = vt[:2].T.copy()
+        n = np.cross(axes[:, 0], axes[:, 1])
+        hint = np.eye(3)[int(np.argmax(np.abs(n)))] if normal is None else np.asarray(normal, dtype=float)
+        if hint.shape != (3,) or not np.all(np.isfinite(hint)) or not np.any(hint):
+            raise ValueError(f"normal must be a non-zero 3-vector; got {normal!r}")
+        if n @ hint < 0:
+            axes[:, 1] *= -1.0
+        return cls(origin, axes)
 
     def to_plane(self, points: ArrayLike) -> NDArray[np.float64]:
         """In-plane coordinates (..., 2) of points (..., D); NaN stays NaN."""
@@ -158,8 +172,8 @@ def clean_marker_tracks(
     lose a marker; real, noisy measurements never repeat exactly).  A sample
     is a *jump* when it lies farther than the threshold from the running
     median (``window`` samples) of its track: ``jump_threshold`` [m], or by
-    default ``jump_factor * sigma * sqrt(D)`` with ``sigma`` the noise level
-    estimated robustly from the track's second differences.
+    default ``jump_factor * sigma * sqrt(D)`` (at least 1 mm) with ``sigma``
+    the noise level estimated robustly from the track's second differences.
 
     Parameters
     ----------
@@ -211,7 +225,7 @@ def clean_marker_tracks(
             sigma = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
             if sigma <= 0:
                 continue
-            limit = jump_factor * sigma * np.sqrt(P.shape[2])
+            limit = max(jump_factor * sigma * np.sqrt(P.shape[2]), MIN_JUMP)
         else:
             limit = float(jump_threshold)
         jumps[:, i] = ok & (dist > limit)
@@ -283,6 +297,8 @@ class PoseTrajectory:
         frozen_tol: float = 0.0,
         jump_threshold: float | None = None,
         jump_factor: float = 10.0,
+        normal: ArrayLike | None = None,
+        plane: MarkerPlane | None = None,
     ) -> PoseTrajectory:
         """A positions-only recording: marker positions without orientations or base.
 
@@ -309,6 +325,12 @@ class PoseTrajectory:
         metadata : mapping, optional
         frozen_tol, jump_threshold, jump_factor
             Passed to :func:`clean_marker_tracks`.
+        normal : array_like, shape (3,), optional
+            A direction the plane's normal should point to (its side fixes the sign of the
+            curvatures, so which tendon bends the robot which way); see :meth:`MarkerPlane.fit`.
+        plane : MarkerPlane, optional
+            Project on this plane instead of fitting one: give the ``.plane`` of the
+            recording a fusion was fitted on to transform more recordings of the same set-up.
         """
         P = np.asarray(positions, dtype=float)
         if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
@@ -330,7 +352,10 @@ class PoseTrajectory:
         for i in range(P.shape[1]):
             if not ok[:, i].any():
                 raise ValueError(f"positions: marker {i} has no valid sample (all NaN, frozen or jumps)")
-        plane = MarkerPlane.fit(cleaned)
+        if plane is None:
+            plane = MarkerPlane.fit(cleaned, normal)
+        elif not isinstance(plane, MarkerPlane) or plane.dim != P.shape[2]:
+            raise ValueError(f"plane must be a MarkerPlane of {P.shape[2]}-D positions; got {plane!r}")
         inplane = plane.to_plane(cleaned)
         oop = float(np.sqrt(np.nanmean(plane.distance(cleaned) ** 2))) if plane.dim == 3 else 0.0
         dev = inplane - np.nanmean(inplane, axis=0, keepdims=True)

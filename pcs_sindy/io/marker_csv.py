@@ -216,7 +216,10 @@ def read_marker_csv(
     text = path.read_text(encoding="utf-8-sig")
     delimiter = "\t" if text.count("\t") > text.count(",") else ","
     rows = list(csv.reader(text.splitlines(), delimiter=delimiter))
-    first_data = next((k for k, row in enumerate(rows) if _numeric_row(row)), None)
+    # the first numeric row with a few cells (a lone number, e.g. Vicon's rate, is header)
+    first_data = next(
+        (k for k, row in enumerate(rows) if _numeric_row(row) and sum(c.strip() != "" for c in row) >= 3), None
+    )
     if first_data is None:
         raise DataFileError(f"{path}: no numeric data rows")
     try:
