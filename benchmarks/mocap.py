@@ -42,7 +42,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from pcs_sindy.core import PoseTrajectory  # noqa: E402
-from pcs_sindy.fusion import KinematicFusion  # noqa: E402
+from pcs_sindy.fusion import KinematicFusion, tendon_sides  # noqa: E402
 from pcs_sindy.identification import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.io import read_marker_csv  # noqa: E402
 from pcs_sindy.models import TendonActuation  # noqa: E402
@@ -99,12 +99,6 @@ def roll_arx(coef, u, y0, y1):
     return out
 
 
-def tendon_sides(kappa, u):
-    """Side (+1 / -1) of each tendon from the sign of the correlation of its tension with the mean curvature."""
-    kc = kappa - kappa.mean()
-    return [-1 if np.sum((u[:, k] - u[:, k].mean()) * kc) > 0 else 1 for k in range(u.shape[1])]
-
-
 def rmse(pred, ref, ok):
     return float(np.sqrt(np.mean(np.sum((pred[ok] - ref[ok]) ** 2, axis=1))))
 
@@ -145,7 +139,7 @@ def main(argv=None):
         strains = fusion.transform(traj)
         # which side each tendon runs on in the model's plane: a tendon at a positive offset bends the robot
         # towards negative curvature (the plane's orientation in the capture frame is the data's choice)
-        side = tendon_sides(strains[0].q[:, 0::3].mean(axis=1), u[train])
+        side = tendon_sides(strains, [u[train]])
         actuation = TendonActuation(end=[fusion.total_length_] * 2, side=side, offset=[scenario.tendon_offset] * 2)
         model = EulerLagrangeRegressor(actuation=actuation).fit(strains, [u[train]])
         fit_s = time.perf_counter() - t0

@@ -538,6 +538,16 @@ def _fuse_marker_csv(
         if u is not None:
             np.savez(files.output_dir(folder / "inputs") / (Path(name).stem + ".npz"), t=st.t, u=u)
     seg = files.write_model_file(fusion, folder / "segmentation.json")
+    if input_columns:
+        from ..fusion.position_fusion import tendon_sides
+
+        sides = tendon_sides(strains, inputs)
+        say(
+            quiet,
+            "inputs bend the robot towards "
+            + ", ".join(f"{c}: {'negative' if v > 0 else 'positive'}" for c, v in zip(input_columns, sides))
+            + f" curvature (tendons: \"side\": {sides} in the --actuation JSON of 'fit')",
+        )
     arcs = ", ".join(f"{1e3 * v:.1f}" for v in fusion.marker_arc_lengths_[1:])
     say(
         quiet,

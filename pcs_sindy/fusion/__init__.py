@@ -35,6 +35,11 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         ],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
-        "position_fusion": ["fuse_position_segments", "position_strain_trajectories", "positions_in_user_frame"],
+        "position_fusion": [
+            "fuse_position_segments",
+            "position_strain_trajectories",
+            "positions_in_user_frame",
+            "tendon_sides",
+        ],
     },
 )

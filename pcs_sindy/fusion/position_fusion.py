@@ -29,7 +29,13 @@ from ..core.trajectory import PoseTrajectory, StrainTrajectory
 from .merging import merge_runs
 from .position_fit import fit_marker_geometry, fit_position_strains
 
-__all__ = ["fuse_position_segments", "position_strain_trajectories", "positions_in_user_frame", "BENDING_ONLY"]
+__all__ = [
+    "fuse_position_segments",
+    "position_strain_trajectories",
+    "positions_in_user_frame",
+    "tendon_sides",
+    "BENDING_ONLY",
+]
 
 #: active strains of every segment of a positions-only fusion: bending
 BENDING_ONLY = (True, False, False)
@@ -150,3 +156,30 @@ def positions_in_user_frame(st: StrainTrajectory, poses: NDArray[np.float64]) ->
     if plane is None:
         return None
     return plane.from_plane(poses[:, 1:, :2])
+
+
+def tendon_sides(strains: Sequence[StrainTrajectory], inputs: Sequence[NDArray[np.float64]]) -> list[int]:
+    """The side (+1 / -1) of each tendon in the fused plane, from the data.
+
+    A tendon at a positive offset bends the robot towards negative curvature
+    (:class:`pcs_sindy.models.TendonActuation`); the orientation of a plane fitted
+    to 3-D positions (the sign of its curvatures) is the capture's, so the side of
+    each tendon follows from the sign of the correlation of its input with the
+    mean curvature of the segments.
+
+    Parameters
+    ----------
+    strains : sequence of StrainTrajectory
+    inputs : sequence of array_like, each (T_k, p)
+        The tendon inputs (tensions, servo angles) of each recording.
+
+    Returns
+    -------
+    list of int, length p
+    """
+    if len(strains) != len(inputs):
+        raise ValueError(f"got {len(strains)} strain trajectories but {len(inputs)} input arrays")
+    kappa = np.concatenate([st.q[:, 0::3].mean(axis=1) for st in strains])
+    u = np.concatenate([np.asarray(v, dtype=float).reshape(len(st.q), -1) for st, v in zip(strains, inputs)])
+    corr = (u - u.mean(axis=0)).T @ (kappa - kappa.mean())
+    return [-1 if c > 0 else 1 for c in corr]
