@@ -235,3 +235,26 @@ def test_simulated_capture_has_the_nuisances_and_round_trips_through_csv(tmp_pat
     )
     np.testing.assert_allclose(data.positions, rec.positions, atol=1e-7)
     np.testing.assert_allclose(data.inputs, rec.u, rtol=1e-5)
+
+
+def test_cli_fuse_reads_marker_csv_and_writes_inputs(tmp_path, capsys):
+    from pcs_sindy.cli.main import main
+
+    planar, q = _bending_robot(T=300)
+    P3, _ = _to_capture(planar + 1e-5 * np.random.default_rng(5).standard_normal(planar.shape), 0.0)
+    u = np.stack([np.maximum(q[:, 0], 0), np.maximum(-q[:, 0], 0)], axis=1)  # pulls with the bending
+    rows = ["Frame,servo_a,servo_b," + ",".join(f"d{i}_{c}" for i in (1, 2, 3) for c in "XYZ")]
+    rows += [f"{k},{u[k, 0]},{u[k, 1]}," + ",".join(f"{1e3 * v:.5f}" for v in P3[k].ravel()) for k in range(300)]
+    (tmp_path / "run1.csv").write_text("\n".join(rows) + "\n")
+    argv = ["fuse", "--markers-csv", str(tmp_path / "run1.csv"), "--markers", "d1", "d2", "d3", "--rate", "100"]
+    argv += ["--units", "mm", "--input-columns", "servo_a", "servo_b", "--arc-lengths", "0.1", "0.2", "0.3"]
+    assert main([*argv, "--out", str(tmp_path / "out"), "--quiet"]) in (0, None)
+    with np.load(tmp_path / "out" / "run1.npz") as z:
+        np.testing.assert_allclose(z["marker_arc_lengths"], [0.0, 0.1, 0.2, 0.3])
+        assert z["q"].shape == (300, 3 * len(z["segment_lengths"]))
+        np.testing.assert_allclose(z["t"], np.arange(300) * 0.01)
+    with np.load(tmp_path / "out" / "inputs" / "run1.npz") as z:
+        np.testing.assert_allclose(z["u"], u, rtol=1e-12, atol=1e-12)
+    capsys.readouterr()
+    assert main(["fuse", "--out", str(tmp_path / "o2"), "--quiet"]) == 2
+    assert "give either pose files or --markers-csv" in capsys.readouterr().err
