@@ -170,16 +170,17 @@ def fit_marker_geometry(
         sigma2 = np.sum(res.fun**2) / dof
         try:
             cov = np.linalg.pinv(J.T @ J)[:n_glob, :n_glob] * sigma2
-            std = np.sqrt(np.clip(np.diag(cov), 0.0, None))
         except np.linalg.LinAlgError:
-            pass
-        # back to physical units: base x, y and the gaps (log gaps times gap) in metres
-        units = np.ones(n_glob)
+            cov = np.full((n_glob, n_glob), np.nan)
+        # back to physical units: base x, y in metres; arc lengths s_i = scale sum_{j<=i} exp(x_j)
+        units = np.eye(n_glob)
         if fit_base:
-            units[:2] = scale
+            units[0, 0] = units[1, 1] = scale
         if fit_s:
-            units[3 * fit_base :] = np.diff(np.concatenate([[0.0], s]))
-        std = std * units
+            gaps = np.diff(np.concatenate([[0.0], s]))
+            k = 3 * fit_base
+            units[k:, k:] = np.tril(np.ones((N, N))) * gaps[None, :]
+        std = np.sqrt(np.clip(np.diag(units @ cov @ units.T), 0.0, None))
     return {"base_pose": np.asarray(b, dtype=float), "arc_lengths": np.asarray(s, dtype=float), "rms": rms, "std": std}
 
 
