@@ -258,3 +258,15 @@ def test_cli_fuse_reads_marker_csv_and_writes_inputs(tmp_path, capsys):
     capsys.readouterr()
     assert main(["fuse", "--out", str(tmp_path / "o2"), "--quiet"]) == 2
     assert "give either pose files or --markers-csv" in capsys.readouterr().err
+
+
+def test_positions_only_fusion_saves_and_loads(tmp_path):
+    planar, _ = _bending_robot(T=200)
+    P3, _ = _to_capture(planar + 1e-5 * np.random.default_rng(6).standard_normal(planar.shape), 0.0)
+    tr = PoseTrajectory.from_positions(P3, dt=0.01, arc_lengths=[0.1, 0.2, 0.3])
+    fusion = KinematicFusion(threshold=0.01).fit(tr)
+    loaded = KinematicFusion.load(fusion.save(tmp_path / "seg.json"))
+    assert loaded.positions_only_
+    (a,), (b,) = fusion.transform(tr), loaded.transform(tr)
+    np.testing.assert_array_equal(a.q, b.q)
+    np.testing.assert_array_equal(fusion.base_pose_, loaded.base_pose_)

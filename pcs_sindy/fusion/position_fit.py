@@ -75,7 +75,7 @@ def fit_marker_geometry(
     *,
     max_frames: int = 300,
     base_pose: ArrayLike | None = None,
-    curvatures: str = "uniform",
+    curvatures: str | ArrayLike = "uniform",
 ) -> dict[str, NDArray[np.float64] | float]:
     """Fixed base pose and rest arc lengths of position-only markers.
 
@@ -99,7 +99,9 @@ def fit_marker_geometry(
         Frames used (evenly spread over all recordings).
     base_pose : array_like, shape (3,), optional
         A known base pose (then only the arc lengths are fitted).
-    curvatures : {"uniform", "per_segment"}, default "uniform"
+    curvatures : {"uniform", "per_segment"} or array_like of int, default "uniform"
+        Or the index (0, 1, ...) of the curvature of each of the N marker spacings, e.g.
+        ``[0, 0, 1]`` for a segment over the first two spacings and one over the third.
 
     Returns
     -------
@@ -119,9 +121,17 @@ def fit_marker_geometry(
     b0, s0 = _initial_geometry(P, None if arc_lengths is None else np.asarray(arc_lengths, dtype=float))
     if base_pose is not None:
         b0 = np.asarray(base_pose, dtype=float).reshape(3)
-    if curvatures not in ("uniform", "per_segment"):
-        raise ValueError(f"curvatures must be 'uniform' or 'per_segment'; got {curvatures!r}")
-    nk = 1 if curvatures == "uniform" else N
+    if isinstance(curvatures, str):
+        if curvatures not in ("uniform", "per_segment"):
+            raise ValueError(f"curvatures must be 'uniform', 'per_segment' or indices; got {curvatures!r}")
+        group = np.zeros(N, dtype=int) if curvatures == "uniform" else np.arange(N)
+    else:
+        group = np.asarray(curvatures)
+        if group.shape != (N,) or group[0] != 0 or not np.all(np.isin(np.diff(group), (0, 1))):
+            raise ValueError(
+                f"curvatures must be {N} non-decreasing indices from 0 in steps of 0 or 1; got {curvatures!r}"
+            )
+    nk = int(group[-1]) + 1
     fit_base = base_pose is None
     fit_s = arc_lengths is None
     mask = np.all(np.isfinite(P), axis=2)  # (F, N)
@@ -139,7 +149,7 @@ def fit_marker_geometry(
         s = s0
         if fit_s:
             s = np.cumsum(np.exp(x[k : k + N])) * scale
-        kappa = np.broadcast_to(x[n_glob:].reshape(F, nk), (F, N)) / scale
+        kappa = x[n_glob:].reshape(F, nk)[:, group] / scale
         return b, s, kappa
 
     def residuals(x):

@@ -51,7 +51,11 @@ def _known_arc_lengths(trajs: Sequence[PoseTrajectory]) -> NDArray[np.float64] |
 
 
 def fuse_position_segments(
-    trajs: Sequence[PoseTrajectory], threshold: float, bend_scale: float | None, max_frames: int = 300
+    trajs: Sequence[PoseTrajectory],
+    threshold: float,
+    bend_scale: float | None,
+    max_frames: int = 300,
+    refit_base: bool = True,
 ) -> dict[str, Any]:
     """Base pose, marker arc lengths and the fused segmentation of positions-only recordings.
 
@@ -66,6 +70,9 @@ def fuse_position_segments(
         initial segments' curvature magnitudes (``KinematicFusion(scaling="data")``).
     max_frames : int, default 300
         Frames used to fit the geometry.
+    refit_base : bool, default True
+        Fit the base pose again for the fused segmentation (constant curvature over each
+        fused segment), so that the model's own shape, not the finer initial one, matches the markers.
 
     Returns
     -------
@@ -102,6 +109,10 @@ def fuse_position_segments(
         if len(groups) == boundaries.size:
             break
         boundaries = np.array([boundaries[g[-1]] for g in groups])
+    if refit_base:  # the base pose of the fused model itself: its curvature is constant over each segment
+        group = np.searchsorted(boundaries, np.arange(1, N + 1))
+        geo = fit_marker_geometry(planar, s[1:], max_frames=max_frames, base_pose=None, curvatures=group)
+        std = np.asarray(geo["std"])
     return {
         "base_pose": np.asarray(geo["base_pose"], dtype=float),
         "arc_lengths": s,
