@@ -129,18 +129,22 @@ def test_positions_only_fusion_recovers_strains_and_returns_3d():
     assert fusion.score(tr) > -1e-6
 
 
-def test_positions_only_fusion_estimates_base_and_arc_lengths():
+@pytest.mark.parametrize("arcs", [(0.08, 0.19, 0.3), (0.15, 0.3)])
+def test_positions_only_fusion_estimates_base_and_arc_lengths(arcs):
     # a uniformly bending robot: the arc lengths follow from how far each marker swings
     T = 300
     t = np.arange(T) * 0.01
     q = np.zeros((T, 3))
     q[:, 0] = 4 * np.sin(2 * np.pi * 0.5 * t)
     base = np.array([0.03, 0.01, -0.2])
-    planar = forward_kinematics(q, [0.3], [0.08, 0.19, 0.3], base_pose=base)[..., :2]
+    planar = forward_kinematics(q, [0.3], arcs, base_pose=base)[..., :2]
     rng = np.random.default_rng(4)
-    P3, _ = _to_capture(planar + 1e-4 * rng.standard_normal(planar.shape), 0.0)
-    fusion = KinematicFusion().fit(PoseTrajectory.from_positions(P3, dt=0.01))
-    np.testing.assert_allclose(fusion.marker_arc_lengths_, [0.0, 0.08, 0.19, 0.3], atol=3e-3)
+    P3, R = _to_capture(planar + 1e-4 * rng.standard_normal(planar.shape), 0.0)
+    tr = PoseTrajectory.from_positions(P3, dt=0.01)
+    fusion = KinematicFusion().fit(tr)
+    base_capture = np.array([base[0], base[1], 0.0]) @ R.T + np.array([0.5, -1.0, 2.0])
+    np.testing.assert_allclose(tr.plane.from_plane(fusion.base_pose_[:2]), base_capture, atol=3e-3)
+    np.testing.assert_allclose(fusion.marker_arc_lengths_, [0.0, *arcs], atol=3e-3)
     assert np.all(fusion.marker_arc_lengths_std_[1:] < 3e-3)
     assert fusion.n_segments_ == 1 and fusion.position_rms_ < 3e-4
 
