@@ -14,6 +14,8 @@ plain functions on numpy arrays in the modules named after what they hold:
   :func:`merge_runs`, :func:`fuse_segments`);
 * :mod:`pcs_sindy.fusion.shape_fit` - the least-squares strains
   (:func:`fit_strains_least_squares`) and boundaries (:func:`refine_boundaries`);
+* :mod:`pcs_sindy.fusion.position_fusion`, :mod:`pcs_sindy.fusion.position_fit` - recordings of
+  marker positions only (:meth:`PoseTrajectory.from_positions`): base pose, arc lengths, bending strains;
 * :mod:`pcs_sindy.fusion.threshold_selection` - the seed's Fig. 8 trade-off
   (:func:`threshold_sweep`) and its selection rule (:func:`select_threshold`), which run this
   estimator for several thresholds.
