@@ -482,8 +482,19 @@ def fuse(
     shape_fit: str | None = None,
     n_jobs: int | None = None,
     quiet: bool = False,
+    markers_csv: Sequence[str | Path] | None = None,
+    markers: Sequence[str] | None = None,
+    rate: float | None = None,
+    units: str | None = None,
+    input_columns: Sequence[str] | None = None,
+    arc_lengths: Sequence[float] | None = None,
 ) -> tuple[Any, list[Any], list[Any]]:
     """Kinematic fusion of pose files: ``segmentation.json`` and one strain file per pose file in ``out``.
+
+    With ``markers_csv`` (instead of pose files): motion-capture CSV files of marker positions
+    (:func:`pcs_sindy.io.read_marker_csv` with ``markers``, ``rate``, ``units`` and the input
+    columns ``input_columns``, whose values go to ``out/inputs/<stem>.npz`` for ``fit --inputs``),
+    fused from positions alone (``arc_lengths``: the markers' measured rest arc lengths).
 
     Parameters
     ----------
@@ -506,6 +517,12 @@ def fuse(
     from ..core.trajectory import PoseTrajectory
     from ..io import data_files as files
 
+    if bool(markers_csv) == bool(poses):
+        raise CLIError("give either pose files or --markers-csv files (not both)")
+    if markers_csv:
+        return _fuse_marker_csv(
+            markers_csv, out, markers, rate, units, input_columns, arc_lengths, threshold, n_jobs, quiet
+        )
     trajs = []
     for name in poses:
         t, arr = files.read_poses(name)
@@ -545,6 +562,74 @@ def fuse(
             "('fit' absorbs it in rest strains): pass --total-length, or --robot-length to 'extract'",
         )
     say(quiet, f"segmentation -> {seg}; {len(strains)} strain file(s) -> {folder}")
+    return fusion, strains, trajs
+
+
+def _fuse_marker_csv(
+    csv_files: Sequence[str | Path],
+    out: str | Path,
+    markers: Sequence[str] | None,
+    rate: float | None,
+    units: str | None,
+    input_columns: Sequence[str] | None,
+    arc_lengths: Sequence[float] | None,
+    threshold: float | None,
+    n_jobs: int | None,
+    quiet: bool,
+) -> tuple[Any, list[Any], list[Any]]:
+    """:func:`fuse` of motion-capture CSV files (positions only)."""
+    import numpy as np
+
+    from ..core.trajectory import PoseTrajectory
+    from ..io import data_files as files
+    from ..io.marker_csv import read_marker_csv
+
+    if not markers or rate is None:
+        raise CLIError("--markers-csv needs --markers (names, base to tip) and --rate (the nominal rate in Hz)")
+    _unique_stems(csv_files, "marker CSV files")
+    trajs, inputs, plane = [], [], None
+    for name in csv_files:
+        try:
+            data = read_marker_csv(name, markers, rate=rate, units=units, inputs=input_columns)
+            tr = PoseTrajectory.from_positions(
+                data.positions, dt=data.dt, arc_lengths=arc_lengths, plane=plane, metadata={"source": str(name)}
+            )
+        except ValueError as err:
+            raise CLIError(str(err)) from None
+        plane = tr.plane  # every file of one set-up in the first file's plane
+        trajs.append(tr)
+        inputs.append(data.inputs)
+        say(
+            quiet,
+            f"{name}: {tr.n_frames} samples, out-of-plane RMS {1e3 * tr.metadata['out_of_plane_rms']:.2f} mm, "
+            f"{tr.metadata['frozen_samples']} frozen and {tr.metadata['jump_samples']} jump samples set missing",
+        )
+    folder = files.output_dir(out)
+    fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet)
+    strains = fusion.fit(trajs).transform(trajs)
+    for name, st, u in zip(csv_files, strains, inputs):
+        files.write_strains(folder / (Path(name).stem + ".npz"), st)
+        if u is not None:
+            np.savez(files.output_dir(folder / "inputs") / (Path(name).stem + ".npz"), t=st.t, u=u)
+    seg = files.write_model_file(fusion, folder / "segmentation.json")
+    if input_columns:
+        from ..fusion.position_fusion import tendon_sides
+
+        sides = tendon_sides(strains, inputs)
+        say(
+            quiet,
+            "inputs bend the robot towards "
+            + ", ".join(f"{c}: {'negative' if v > 0 else 'positive'}" for c, v in zip(input_columns, sides))
+            + f" curvature (tendons: \"side\": {sides} in the --actuation JSON of 'fit')",
+        )
+    arcs = ", ".join(f"{1e3 * v:.1f}" for v in fusion.marker_arc_lengths_[1:])
+    say(
+        quiet,
+        f"{fusion.n_segments_} bending segment(s), lengths "
+        f"[{', '.join(f'{v:.4f}' for v in fusion.segment_lengths_)}] m; marker arc lengths [{arcs}] mm "
+        f"({fusion.total_length_source_}); segmentation -> {seg}; strain files -> {folder}"
+        + ("; inputs -> " + str(folder / "inputs") if input_columns else ""),
+    )
     return fusion, strains, trajs
 
 

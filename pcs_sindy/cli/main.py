@@ -470,8 +470,26 @@ def build_parser() -> argparse.ArgumentParser:
     add_extractor_options(p)
 
     p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)
-    p.add_argument("poses", nargs="+", help="pose files (.npz with t, poses)")
+    p.add_argument("poses", nargs="*", help="pose files (.npz with t, poses); or --markers-csv")
     p.add_argument("--out", required=True, help="output directory")
+    p.add_argument(
+        "--markers-csv",
+        nargs="+",
+        help="instead of pose files: motion-capture CSV/TSV exports of marker positions (Motive, Vicon, Qualisys "
+        "or one header row like M1_X,M1_Y,M1_Z); needs --markers and --rate (docs/mocap.md)",
+    )
+    p.add_argument("--markers", nargs="+", help="marker names in the CSV, base to tip (base not included)")
+    p.add_argument("--rate", type=_positive_float, help="nominal capture rate [Hz] of --markers-csv")
+    p.add_argument("--units", choices=["m", "mm", "cm"], help="length units of --markers-csv (default: from the file)")
+    p.add_argument(
+        "--input-columns", nargs="+", help="input columns of --markers-csv, written to OUT/inputs/ for 'fit --inputs'"
+    )
+    p.add_argument(
+        "--arc-lengths",
+        nargs="+",
+        type=_positive_float,
+        help="measured rest arc lengths [m] of the --markers (default: fitted to the positions)",
+    )
     p.add_argument(
         "--threshold",
         type=_positive_float,

@@ -43,6 +43,8 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "as_pose_trajectories",
             "as_strain_trajectories",
             "kinematics_of",
+            "MarkerPlane",
+            "clean_marker_tracks",
         ],
         "camera": ["Camera", "camera_extras", "read_camera_json"],
         "progress": ["ticking"],

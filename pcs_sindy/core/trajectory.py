@@ -9,6 +9,7 @@ Ground floor: imports only :mod:`pcs_sindy.core.kinematics`.
 
 from __future__ import annotations
 
+import warnings
 from collections.abc import Mapping, Sequence
 from typing import Any
 
@@ -24,7 +25,14 @@ __all__ = [
     "as_pose_trajectories",
     "as_strain_trajectories",
     "kinematics_of",
+    "MarkerPlane",
+    "clean_marker_tracks",
 ]
+
+# default jump detection never flags less than this [m] (a smooth, noise-free track has a tiny noise estimate)
+MIN_JUMP = 1e-3
+# out-of-plane RMS above this fraction of the in-plane motion RMS warns in PoseTrajectory.from_positions
+WOBBLE_WARNING = 0.2
 
 
 def check_time(t: ArrayLike | None, n_samples: int, *, dt: float | None = None, name: str = "t") -> NDArray[np.float64]:
@@ -60,6 +68,172 @@ def check_time(t: ArrayLike | None, n_samples: int, *, dt: float | None = None, 
     return t
 
 
+class MarkerPlane:
+    """The plane a planar model of 3-D marker positions lives in, and the maps in and out of it.
+
+    Parameters
+    ----------
+    origin : array_like, shape (D,)
+        A point of the plane in the user's frame (D = 2 or 3).
+    axes : array_like, shape (D, 2)
+        Orthonormal in-plane axes (columns) in the user's frame; for D = 2 the
+        identity, so 2-D positions pass through unchanged.
+
+    Attributes
+    ----------
+    origin, axes
+    normal : ndarray, shape (3,) or None
+        Unit normal of the plane (3-D only).
+    """
+
+    def __init__(self, origin: ArrayLike, axes: ArrayLike) -> None:
+        self.origin = np.asarray(origin, dtype=float).reshape(-1)
+        self.axes = np.asarray(axes, dtype=float)
+        d = self.origin.size
+        if d not in (2, 3) or self.axes.shape != (d, 2):
+            raise ValueError(
+                f"origin must have 2 or 3 entries and axes shape (D, 2); got {self.origin.shape}, {self.axes.shape}"
+            )
+        if not np.allclose(self.axes.T @ self.axes, np.eye(2), atol=1e-9):
+            raise ValueError("axes must be two orthonormal columns")
+        self.normal = np.cross(self.axes[:, 0], self.axes[:, 1]) if d == 3 else None
+
+    @property
+    def dim(self) -> int:
+        """Dimension D of the user's frame."""
+        return self.origin.size
+
+    @classmethod
+    def fit(cls, points: ArrayLike, normal: ArrayLike | None = None) -> MarkerPlane:
+        """Best-fit (total least squares) plane of finite points (..., 3); identity for 2-D points.
+
+        The plane's normal (and so the handedness of the in-plane axes, i.e. the sign of the
+        curvatures) points to the side of ``normal`` when given, else to the side of the
+        capture axis it is most aligned with (a deterministic, data-independent choice).
+        """
+        P = np.asarray(points, dtype=float)
+        P = P.reshape(-1, P.shape[-1])
+        P = P[np.all(np.isfinite(P), axis=1)]
+        if P.shape[1] == 2:
+            return cls(np.zeros(2), np.eye(2))
+        if P.shape[0] < 3:
+            raise ValueError(f"need at least 3 finite 3-D positions to fit a plane; got {P.shape[0]}")
+        origin = P.mean(axis=0)
+        _, _, vt = np.linalg.svd(P - origin, full_matrices=False)
+        axes = vt[:2].T.copy()
+        n = np.cross(axes[:, 0], axes[:, 1])
+        hint = np.eye(3)[int(np.argmax(np.abs(n)))] if normal is None else np.asarray(normal, dtype=float)
+        if hint.shape != (3,) or not np.all(np.isfinite(hint)) or not np.any(hint):
+            raise ValueError(f"normal must be a non-zero 3-vector; got {normal!r}")
+        if n @ hint < 0:
+            axes[:, 1] *= -1.0
+        return cls(origin, axes)
+
+    def to_plane(self, points: ArrayLike) -> NDArray[np.float64]:
+        """In-plane coordinates (..., 2) of points (..., D); NaN stays NaN."""
+        P = np.asarray(points, dtype=float)
+        if P.shape[-1] != self.dim:
+            raise ValueError(f"points must end in {self.dim} coordinates; got shape {P.shape}")
+        return (P - self.origin) @ self.axes
+
+    def from_plane(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Points (..., D) in the user's frame of in-plane coordinates (..., 2)."""
+        P = np.asarray(points, dtype=float)
+        if P.shape[-1] != 2:
+            raise ValueError(f"in-plane points must end in 2 coordinates; got shape {P.shape}")
+        return self.origin + P @ self.axes.T
+
+    def distance(self, points: ArrayLike) -> NDArray[np.float64]:
+        """Signed distance (...) of 3-D points from the plane (zeros for 2-D)."""
+        P = np.asarray(points, dtype=float)
+        if self.normal is None:
+            return np.zeros(P.shape[:-1])
+        return (P - self.origin) @ self.normal
+
+    def to_dict(self) -> dict[str, list]:
+        return {"origin": self.origin.tolist(), "axes": self.axes.tolist()}
+
+    def __repr__(self) -> str:
+        return f"MarkerPlane(dim={self.dim}, origin={np.round(self.origin, 4).tolist()})"
+
+
+def clean_marker_tracks(
+    positions: ArrayLike,
+    *,
+    frozen_tol: float = 0.0,
+    jump_threshold: float | None = None,
+    jump_factor: float = 10.0,
+    window: int = 9,
+) -> tuple[NDArray[np.float64], dict[str, int]]:
+    """Mark frozen samples and jumps of marker tracks as missing (NaN).
+
+    A sample is *frozen* when every coordinate of a marker equals the previous
+    sample's within ``frozen_tol`` (trackers repeat the last value when they
+    lose a marker; real, noisy measurements never repeat exactly).  A sample
+    is a *jump* when it lies farther than the threshold from the running
+    median (``window`` samples) of its track: ``jump_threshold`` [m], or by
+    default ``jump_factor * sigma * sqrt(D)`` (at least 1 mm) with ``sigma``
+    the noise level estimated robustly from the track's second differences.
+
+    Parameters
+    ----------
+    positions : array_like, shape (T, N, D)
+        Marker positions, NaN for samples already missing.
+    frozen_tol : float, default 0.0
+    jump_threshold : float, optional
+    jump_factor : float, default 10.0
+    window : int, default 9
+        Odd width of the running median: bursts of up to ``window // 2``
+        samples are caught.
+
+    Returns
+    -------
+    cleaned : ndarray, shape (T, N, D)
+    counts : dict
+        ``{"missing": ..., "frozen": ..., "jumps": ...}`` sample counts (marker-samples).
+    """
+    from scipy.ndimage import median_filter
+
+    P = np.array(positions, dtype=float, copy=True)
+    if P.ndim != 3:
+        raise ValueError(f"positions must have shape (T, N, D); got {P.shape}")
+    if not (np.isfinite(frozen_tol) and frozen_tol >= 0):
+        raise ValueError(f"frozen_tol must be finite and >= 0; got {frozen_tol!r}")
+    if jump_threshold is not None and not (np.isfinite(jump_threshold) and jump_threshold > 0):
+        raise ValueError(f"jump_threshold must be a distance > 0 in metres or None; got {jump_threshold!r}")
+    if isinstance(window, bool) or int(window) != window or window < 3 or window % 2 == 0:
+        raise ValueError(f"window must be an odd integer >= 3; got {window!r}")
+    missing0 = ~np.all(np.isfinite(P), axis=2)
+    P[missing0] = np.nan
+    frozen = np.zeros(P.shape[:2], dtype=bool)
+    frozen[1:] = np.all(np.abs(np.diff(P, axis=0)) <= frozen_tol, axis=2)  # NaN compares False
+    # a run of repeats keeps its first (the last real) value: compare with the previous sample
+    P[frozen] = np.nan
+    jumps = np.zeros_like(frozen)
+    T = P.shape[0]
+    idx = np.arange(T)
+    for i in range(P.shape[1]):
+        ok = np.all(np.isfinite(P[:, i]), axis=1)
+        if ok.sum() < window:
+            continue
+        filled = np.stack([np.interp(idx, idx[ok], P[ok, i, c]) for c in range(P.shape[2])], axis=1)
+        med = median_filter(filled, size=(int(window), 1), mode="nearest")
+        dist = np.linalg.norm(filled - med, axis=1)
+        if jump_threshold is None:
+            # noise scale from second differences (white noise: sqrt(6) sigma per coordinate), robust to jumps
+            d2 = np.abs(np.diff(filled[ok], n=2, axis=0))
+            sigma = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
+            if sigma <= 0:
+                continue
+            limit = max(jump_factor * sigma * np.sqrt(P.shape[2]), MIN_JUMP)
+        else:
+            limit = float(jump_threshold)
+        jumps[:, i] = ok & (dist > limit)
+    P[jumps] = np.nan
+    counts = {"missing": int(missing0.sum()), "frozen": int((frozen & ~missing0).sum()), "jumps": int(jumps.sum())}
+    return P, counts
+
+
 class PoseTrajectory:
     """Poses of the base and N tracked cross-sections over time.
 
@@ -78,7 +252,20 @@ class PoseTrajectory:
     Attributes
     ----------
     poses, t, metadata
+    positions : ndarray, shape (T, N, D) or None
+        Marker positions in the user's frame (D = 2 or 3, NaN = missing) when
+        the trajectory was built by :meth:`from_positions` or returned by
+        ``KinematicFusion.inverse_transform`` of such one; ``poses`` is None
+        for a positions-only recording.
+    plane : MarkerPlane or None
+        The plane the positions are modelled in.
+    plane_positions : ndarray, shape (T, N, 2) or None
+        Marker positions in that plane.
     """
+
+    positions: NDArray[np.float64] | None = None
+    plane: MarkerPlane | None = None
+    plane_positions: NDArray[np.float64] | None = None
 
     def __init__(
         self,
@@ -98,14 +285,120 @@ class PoseTrajectory:
         self.t = check_time(t, poses.shape[0], dt=dt)
         self.metadata = dict(metadata or {})
 
+    @classmethod
+    def from_positions(
+        cls,
+        positions: ArrayLike,
+        t: ArrayLike | None = None,
+        *,
+        dt: float | None = None,
+        arc_lengths: ArrayLike | None = None,
+        metadata: Mapping[str, Any] | None = None,
+        frozen_tol: float = 0.0,
+        jump_threshold: float | None = None,
+        jump_factor: float = 10.0,
+        normal: ArrayLike | None = None,
+        plane: MarkerPlane | None = None,
+    ) -> PoseTrajectory:
+        """A positions-only recording: marker positions without orientations or base.
+
+        3-D positions are projected on their best-fit plane
+        (:class:`MarkerPlane`); the out-of-plane RMS is reported in
+        ``metadata["out_of_plane_rms"]`` (and the in-plane motion RMS in
+        ``metadata["motion_rms"]``), with a warning when it exceeds
+        ``WOBBLE_WARNING`` (0.2) of the motion.  Frozen samples and jumps are
+        detected (:func:`clean_marker_tracks`) and set missing (NaN);
+        ``KinematicFusion`` fits the robot's fixed base pose and, unless given,
+        the markers' rest arc lengths from such recordings.
+
+        Parameters
+        ----------
+        positions : array_like, shape (T, N, 2) or (T, N, 3)
+            Markers ordered base to tip, the base not included, in metres; NaN
+            for missing samples.
+        t : array_like, shape (T,), optional
+            Time stamps [s]; otherwise ``dt``.
+        dt : float, optional
+            Sample period [s] (e.g. 0.01 for a 100 Hz capture without time stamps).
+        arc_lengths : array_like, shape (N,), optional
+            Rest arc lengths of the markers from the base [m], when measured.
+        metadata : mapping, optional
+        frozen_tol, jump_threshold, jump_factor
+            Passed to :func:`clean_marker_tracks`.
+        normal : array_like, shape (3,), optional
+            A direction the plane's normal should point to (its side fixes the sign of the
+            curvatures, so which tendon bends the robot which way); see :meth:`MarkerPlane.fit`.
+        plane : MarkerPlane, optional
+            Project on this plane instead of fitting one: give the ``.plane`` of the
+            recording a fusion was fitted on to transform more recordings of the same set-up.
+        """
+        P = np.asarray(positions, dtype=float)
+        if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
+            raise ValueError(f"positions must have shape (T, N, 2) or (T, N, 3) with N >= 1; got {P.shape}")
+        if np.any(np.isinf(P)):
+            raise ValueError("positions contains inf; use NaN for missing samples")
+        if arc_lengths is not None:
+            s = np.asarray(arc_lengths, dtype=float)
+            if s.shape != (P.shape[1],) or not np.all(np.isfinite(s)) or s[0] <= 0 or np.any(np.diff(s) <= 0):
+                raise ValueError(
+                    f"arc_lengths must be {P.shape[1]} increasing rest arc lengths > 0 [m], one per marker; got {s!r}"
+                )
+        cleaned, counts = clean_marker_tracks(
+            P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
+        )
+        ok = np.all(np.isfinite(cleaned), axis=2)
+        if ok.sum() < 3:
+            raise ValueError(f"positions has only {int(ok.sum())} valid marker samples; need at least 3")
+        for i in range(P.shape[1]):
+            if not ok[:, i].any():
+                raise ValueError(f"positions: marker {i} has no valid sample (all NaN, frozen or jumps)")
+        if plane is None:
+            plane = MarkerPlane.fit(cleaned, normal)
+        elif not isinstance(plane, MarkerPlane) or plane.dim != P.shape[2]:
+            raise ValueError(f"plane must be a MarkerPlane of {P.shape[2]}-D positions; got {plane!r}")
+        inplane = plane.to_plane(cleaned)
+        oop = float(np.sqrt(np.nanmean(plane.distance(cleaned) ** 2))) if plane.dim == 3 else 0.0
+        dev = inplane - np.nanmean(inplane, axis=0, keepdims=True)
+        motion = float(np.sqrt(np.nanmean(np.sum(dev**2, axis=2))))
+        if plane.dim == 3 and oop > WOBBLE_WARNING * motion:
+            warnings.warn(
+                f"positions: out-of-plane RMS {1e3 * oop:.3g} mm is {oop / max(motion, 1e-300):.2f} of the in-plane "
+                f"motion RMS {1e3 * motion:.3g} mm; a planar model will miss that part of the motion",
+                UserWarning,
+                stacklevel=2,
+            )
+        obj = cls.__new__(cls)
+        obj.poses = None
+        obj.positions = cleaned
+        obj.plane = plane
+        obj.plane_positions = inplane
+        obj.t = check_time(t, P.shape[0], dt=dt)
+        meta = dict(metadata or {})
+        meta.update(
+            out_of_plane_rms=oop,
+            motion_rms=motion,
+            missing_fraction=float(1.0 - ok.mean()),
+            frozen_samples=counts["frozen"],
+            jump_samples=counts["jumps"],
+        )
+        if arc_lengths is not None:
+            meta["marker_arc_lengths"] = np.asarray(arc_lengths, dtype=float)
+        obj.metadata = meta
+        return obj
+
+    @property
+    def positions_only(self) -> bool:
+        """True for a recording of marker positions without poses (:meth:`from_positions`)."""
+        return self.poses is None
+
     @property
     def n_frames(self) -> int:
-        return self.poses.shape[0]
+        return self.t.shape[0]
 
     @property
     def n_markers(self) -> int:
         """Number of tracked cross-sections N (the base not counted)."""
-        return self.poses.shape[1] - 1
+        return self.positions.shape[1] if self.poses is None else self.poses.shape[1] - 1
 
     def __len__(self) -> int:
         return self.n_frames

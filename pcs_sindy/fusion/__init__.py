@@ -8,7 +8,9 @@ fused segmentation (``KinematicFusion.segment_lengths_``) and
 * :mod:`.chain_geometry` - the marker chain in the base frame, rest length, segment strains;
 * :mod:`.merging` - the seed's Algorithm 1 (strain distances, merging runs of segments);
 * :mod:`.threshold_selection` - the seed's Fig. 8 trade-off and its selection rule;
-* :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries.
+* :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries;
+* :mod:`.position_fit`, :mod:`.position_fusion` - positions-only markers (motion capture): base pose,
+  marker arc lengths, bending strains and Algorithm 1 on them.
 
 Fusion knows no images and no dynamics.
 """
@@ -32,5 +34,12 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "rest_length_factor",
         ],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
+        "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
+        "position_fusion": [
+            "fuse_position_segments",
+            "position_strain_trajectories",
+            "positions_in_user_frame",
+            "tendon_sides",
+        ],
     },
 )

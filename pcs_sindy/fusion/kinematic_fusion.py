@@ -14,6 +14,8 @@ plain functions on numpy arrays in the modules named after what they hold:
   :func:`merge_runs`, :func:`fuse_segments`);
 * :mod:`pcs_sindy.fusion.shape_fit` - the least-squares strains
   (:func:`fit_strains_least_squares`) and boundaries (:func:`refine_boundaries`);
+* :mod:`pcs_sindy.fusion.position_fusion`, :mod:`pcs_sindy.fusion.position_fit` - recordings of
+  marker positions only (:meth:`PoseTrajectory.from_positions`): base pose, arc lengths, bending strains;
 * :mod:`pcs_sindy.fusion.threshold_selection` - the seed's Fig. 8 trade-off
   (:func:`threshold_sweep`) and its selection rule (:func:`select_threshold`), which run this
   estimator for several thresholds.
@@ -47,6 +49,7 @@ from .chain_geometry import (
     segment_strains,
 )
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
+from .position_fusion import fuse_position_segments, position_strain_trajectories, positions_in_user_frame
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
 
 __all__ = ["KinematicFusion"]
@@ -147,7 +150,22 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         Segment rest lengths (off the marker grid after boundary refinement).
     n_segments_ : int
     base_pose_ : ndarray, shape (3,)
-        Median base pose of the fitted recordings (the reference of :meth:`transform_frame`).
+        Median base pose of the fitted recordings (the reference of :meth:`transform_frame`);
+        for positions-only recordings the fitted fixed base pose in the marker plane.
+    positions_only_ : bool
+        Fitted on positions-only recordings (:meth:`PoseTrajectory.from_positions`).  Then the
+        base pose and (unless given) the markers' rest arc lengths are fitted to the positions,
+        Algorithm 1 runs on the curvatures of bending-only segments between markers
+        (:mod:`pcs_sindy.fusion.position_fusion`; ``min_segment_markers``, ``shape_fit``,
+        ``refine_boundaries``, ``merge``, ``pose_std`` and ``fixed_base`` do not apply,
+        ``scaling="data"`` scales by the 99th percentile of the initial curvatures,
+        ``max_refine_frames`` bounds the frames of the geometry fit), the strain trajectories
+        have only bending strains active, and :meth:`inverse_transform` returns the markers
+        in the user's frame as ``.positions`` (3-D in, 3-D out).
+    base_pose_std_, marker_arc_lengths_std_ : ndarray
+        Standard errors of the fitted base pose and arc lengths (positions-only fits).
+    position_rms_ : float
+        RMS position residual of the geometry fit [m] (positions-only fits).
 
     Examples
     --------
@@ -253,6 +271,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         y : ignored
         """
         validate_parameters(self)
+        if self._positions_only(X):
+            return self._fit_positions(X)
         _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
         total, source, std = self._rest_length(X, chains)
@@ -288,6 +308,51 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.n_segments_ = int(boundaries.size)
         all_bases = np.concatenate(bases)
         self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
+        self.positions_only_ = False
+        return self
+
+    @staticmethod
+    def _positions_only(X: Any) -> bool:
+        trajs = as_pose_trajectories(X)
+        flags = {tr.positions_only for tr in trajs}
+        if len(flags) > 1:
+            raise ValueError("X mixes positions-only recordings (PoseTrajectory.from_positions) with pose recordings")
+        return flags.pop()
+
+    def _fit_positions(self, X: Any) -> KinematicFusion:
+        """Fit on positions-only recordings (:mod:`pcs_sindy.fusion.position_fusion`)."""
+        trajs = as_pose_trajectories(X)
+        if self.total_length is not None:
+            raise ValueError(
+                f"total_length={self.total_length!r} is not used with positions-only recordings: the model spans "
+                "the base to the last marker; give the markers' rest arc lengths to "
+                "PoseTrajectory.from_positions(arc_lengths=...) instead"
+            )
+        if len({tr.n_markers for tr in trajs}) != 1:
+            raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
+        q_max = check_q_max(self.q_max)
+        bend = None if self.scaling == "data" else float(q_max[0])
+        fit = fuse_position_segments(trajs, float(self.threshold), bend, int(self.max_refine_frames))
+        s = fit["arc_lengths"]
+        self.total_length_ = float(s[-1])
+        known = "marker_arc_lengths" in trajs[0].metadata
+        self.total_length_source_ = (
+            "arc length of the last marker (given)" if known else "arc length of the last marker, fitted to positions"
+        )
+        self.total_length_std_ = float(fit["arc_lengths_std"][-1])
+        self.marker_arc_lengths_ = s
+        self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
+        self.n_markers_ = s.size - 1
+        self.q_max_ = np.array([fit["bend_scale"], q_max[1], q_max[2]]) if self.scaling == "data" else q_max
+        self.history_ = fit["history"]
+        self.distance_profile_ = self.history_[0]["distances"] if self.history_ else np.zeros(0)
+        self.boundaries_ = fit["boundaries"]
+        self.segment_lengths_ = fit["segment_lengths"]
+        self.n_segments_ = int(self.boundaries_.size)
+        self.base_pose_ = fit["base_pose"]
+        self.base_pose_std_ = fit["base_pose_std"]
+        self.position_rms_ = fit["rms"]
+        self.positions_only_ = True
         return self
 
     def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
@@ -363,6 +428,17 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         reproduces the poses in the input frame.
         """
         check_is_fitted(self, "segment_lengths_")
+        if getattr(self, "positions_only_", False) or self._positions_only(X):
+            trajs = as_pose_trajectories(X)
+            if not getattr(self, "positions_only_", False) or not self._positions_only(trajs):
+                raise ValueError(
+                    "X and the fit must both be positions-only recordings (PoseTrajectory.from_positions) or both poses"
+                )
+            if trajs[0].n_markers != self.n_markers_:
+                raise ValueError(f"X has {trajs[0].n_markers} markers; the fusion was fitted with {self.n_markers_}")
+            return position_strain_trajectories(
+                trajs, self.base_pose_, self.segment_lengths_, self.marker_arc_lengths_, self.boundaries_
+            )
         trajs, chains, bases = self._chains(X)
         if chains[0].shape[1] - 1 != self.n_markers_:
             raise ValueError(f"X has {chains[0].shape[1] - 1} markers; the fusion was fitted with {self.n_markers_}")
@@ -407,6 +483,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             ignored by ``shape_fit="end_pose"``).
         """
         check_is_fitted(self, "segment_lengths_")
+        if getattr(self, "positions_only_", False):
+            raise ValueError("transform_frame needs marker poses; this fusion was fitted on positions only")
         P = np.array(poses, dtype=float)
         if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
             raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
@@ -447,7 +525,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             base = np.asarray(base, dtype=float)
             if base.shape != (st.n_frames, 3):
                 raise ValueError(f"X[{k}].metadata['base_poses'] must have shape ({st.n_frames}, 3); got {base.shape}")
-            out.append(PoseTrajectory(se2_compose(base[:, None, :], local), st.t, metadata=dict(st.metadata)))
+            rec = PoseTrajectory(se2_compose(base[:, None, :], local), st.t, metadata=dict(st.metadata))
+            positions = positions_in_user_frame(st, rec.poses)
+            if positions is not None:  # positions-only input: markers back in the user's (3-D) frame
+                rec.positions, rec.plane, rec.plane_positions = positions, st.metadata["plane"], rec.poses[:, 1:, :2]
+            out.append(rec)
         return out
 
     def reconstruct(self, X: Any) -> list[PoseTrajectory]:
@@ -458,6 +540,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         """Minus the distributed position error e_p^dist (seed eq. 23) over markers (not the base)."""
         trajs = as_pose_trajectories(X)
         rec = self.reconstruct(trajs)
+        if trajs[0].positions_only:  # mean marker position error over the valid samples, in the user's frame
+            err = np.concatenate(
+                [np.linalg.norm(r.positions - tr.positions, axis=2).ravel() for r, tr in zip(rec, trajs)]
+            )
+            return -float(np.nanmean(err))
         est = np.concatenate([r.poses[:, 1:, :] for r in rec], axis=0)
         tru = np.concatenate([tr.poses[:, 1:, :] for tr in trajs], axis=0)
         e_p, _ = distributed_errors(est, tru)

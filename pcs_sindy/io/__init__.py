@@ -16,6 +16,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={
         "model_files": ["save", "load", "REGISTRY", "FORMAT_NAME", "FORMAT_VERSION"],
+        "marker_csv": ["MarkerData", "read_marker_csv"],
         "data_files": [
             "DataFileError",
             "FILE_FORMATS",

@@ -9,6 +9,7 @@ inputs that drove the robot, and rendered videos of it.
   :class:`PressureChambers`;
 * :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
 * :mod:`.scenarios`, :mod:`.catalog` - the seed's scenarios and how their data are generated;
+* :mod:`.mocap` - :class:`MocapScenario`: a hanging tendon robot tracked by 3 position-only markers;
 * :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances.
 
 This package is the independent truth the identification side is checked against: it
@@ -26,5 +27,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "catalog": ["get_scenario", "list_scenarios"],
         "rendering": ["render_video", "render_frames", "RenderedVideo"],
         "actuation": ["Tendons", "PressureChambers"],
+        "mocap": ["MocapScenario", "MocapRecording", "play_operator"],
     },
 )

@@ -1,0 +1,281 @@
+"""Marker CSV files of motion-capture systems: 3-D marker positions (and logged inputs) at a nominal rate.
+
+:func:`read_marker_csv` reads the text exports of common systems without
+conversion by hand, given the marker names in base-to-tip order:
+
+* one header row naming each coordinate column, e.g. ``frame,u1,M1_X,M1_Y,M1_Z,...``
+  (also ``M1 X``, ``M1:X``, ``M1.X``; what :meth:`MocapRecording.to_csv` writes);
+* OptiTrack Motive CSV: metadata rows (``Length Units`` is read when present),
+  then rows ``Type``, ``Name`` (the marker or rigid-body name repeated over its
+  columns), ``ID``, ``Position``/``Rotation`` and ``Frame, Time (Seconds), X, Y, Z, ...``;
+  rigid bodies give their ``Position`` columns;
+* Vicon Nexus CSV: ``Trajectories``, the rate, a row of ``Subject:Marker`` names
+  over every third column, ``Frame, Sub Frame, X, Y, Z, ...`` and a units row (``mm``);
+* Qualisys QTM TSV: header lines (``MARKER_NAMES`` ...), then a row ``Frame  Time  M1 X  M1 Y  M1 Z ...``
+  (tab-separated; the delimiter is detected).
+
+Missing samples (empty cells, ``NaN``) are NaN.  A frame/sample index column,
+when present, places each row: skipped indices become NaN rows.  Time stamps
+are never read: samples are ``1 / rate`` apart (the nominal rate).
+"""
+
+from __future__ import annotations
+
+import csv
+import re
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..core.trajectory import PoseTrajectory
+from .data_files import DataFileError
+
+__all__ = ["MarkerData", "read_marker_csv", "UNITS"]
+
+#: length units accepted by read_marker_csv and their size in metres
+UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "meters": 1.0, "millimeters": 1e-3, "centimeters": 1e-2}
+_AXES = ("x", "y", "z")
+_FRAME_NAMES = ("frame", "frame #", "frame number", "sample", "index", "sample index")
+
+
+@dataclass
+class MarkerData:
+    """Marker positions and inputs read from a capture file.
+
+    Attributes
+    ----------
+    positions : ndarray, shape (T, N, 3)
+        Marker positions [m] in the capture frame, base to tip; NaN = missing.
+    inputs : ndarray, shape (T, p) or None
+        The input columns asked for.
+    dt : float
+        Sample period [s] (1 / rate).
+    markers : list of str
+    units : str
+        Units the file was in.
+    source : str
+    """
+
+    positions: NDArray[np.float64]
+    inputs: NDArray[np.float64] | None
+    dt: float
+    markers: list[str]
+    units: str
+    source: str = ""
+    metadata: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def t(self) -> NDArray[np.float64]:
+        return np.arange(self.positions.shape[0]) * self.dt
+
+    def trajectory(self, **kwargs: Any) -> PoseTrajectory:
+        """``PoseTrajectory.from_positions(positions, dt=dt, **kwargs)``."""
+        meta = {"source": self.source, "markers": list(self.markers)}
+        return PoseTrajectory.from_positions(self.positions, dt=self.dt, metadata=meta, **kwargs)
+
+
+def _norm(cell: str) -> str:
+    return cell.strip().strip('"').strip().lower()
+
+
+def _name_matches(cell: str, name: str) -> bool:
+    """``Subject:M1`` and ``M1`` both name marker ``M1``."""
+    c = _norm(cell)
+    n = name.lower()
+    return c == n or c.endswith(":" + n)
+
+
+def _split_name_axis(cell: str) -> tuple[str, str] | None:
+    """``('m1', 'x')`` from ``M1_X``, ``M1 X``, ``M1:X``, ``M1.X``; None otherwise."""
+    m = re.fullmatch(r"(.+?)[\s_:.\-]+([xyz])", _norm(cell))
+    return (m.group(1), m.group(2)) if m else None
+
+
+def _number(cell: str) -> float:
+    c = cell.strip()
+    if c == "" or c.lower() in ("nan", "na", "null", "-"):
+        return np.nan
+    return float(c)
+
+
+def _numeric_row(row: list[str]) -> bool:
+    cells = [c for c in row if c.strip() != ""]
+    if not cells:
+        return False
+    try:
+        [_number(c) for c in cells]
+    except ValueError:
+        return False
+    return True
+
+
+def _find_columns(header: list[list[str]], markers: Sequence[str]) -> tuple[dict[str, list[int]], int]:
+    """Columns of every marker's X, Y, Z and the index of the row naming the axes."""
+    # layout 1: one row with combined names (M1_X)
+    for r, row in enumerate(header):
+        found: dict[str, list[int]] = {}
+        for name in markers:
+            cols = {}
+            for j, cell in enumerate(row):
+                sa = _split_name_axis(cell)
+                if sa and (sa[0] == name.lower() or sa[0].endswith(":" + name.lower())):
+                    cols.setdefault(sa[1], j)
+            if len(cols) == 3:
+                found[name] = [cols[a] for a in _AXES]
+        if len(found) == len(markers):
+            return found, r
+    # layout 2: a row of bare axes (X, Y, Z) under a row of names (Motive, Vicon), names forward-filled
+    for r, row in enumerate(header):
+        axes = [_norm(c) for c in row]
+        if sum(a in _AXES for a in axes) < 3:
+            continue
+        for rn in range(r - 1, -1, -1):
+            names = list(header[rn]) + [""] * max(0, len(row) - len(header[rn]))
+            filled, last = [], ""
+            for c in names:
+                last = c if c.strip() else last
+                filled.append(last)
+            kind = next((header[k] for k in range(rn + 1, r) if any(_norm(c) == "position" for c in header[k])), None)
+            found = {}
+            for name in markers:
+                cols = {}
+                for j, a in enumerate(axes):
+                    if a not in _AXES or not _name_matches(filled[j], name):
+                        continue
+                    if kind is not None and j < len(kind) and _norm(kind[j]) not in ("position", ""):
+                        continue  # a rigid body's rotation columns
+                    cols.setdefault(a, j)
+                if len(cols) == 3:
+                    found[name] = [cols[a] for a in _AXES]
+            if len(found) == len(markers):
+                return found, r
+    raise ValueError(
+        f"no X, Y, Z columns found for every marker of {list(markers)}; the header rows name "
+        f"{sorted({c.strip() for row in header for c in row if c.strip()})[:40]}"
+    )
+
+
+def _detect_units(header: list[list[str]]) -> str | None:
+    for row in header:
+        cells = [_norm(c) for c in row]
+        for k, c in enumerate(cells):
+            if c in ("length units", "units") and k + 1 < len(cells) and cells[k + 1] in UNITS:
+                return cells[k + 1]
+        if cells and all(c in ("mm", "m", "") for c in cells) and any(cells):
+            return next(c for c in cells if c)  # Vicon's units row
+    return None
+
+
+def read_marker_csv(
+    path: str | Path,
+    markers: Sequence[str],
+    *,
+    rate: float,
+    units: str | None = None,
+    inputs: Sequence[str] | None = None,
+    frame_column: str | None = "auto",
+) -> MarkerData:
+    """Read marker positions (and input columns) from a motion-capture CSV/TSV export.
+
+    Parameters
+    ----------
+    path : str or Path
+    markers : sequence of str
+        Marker (or rigid-body) names, ordered base to tip, the base not
+        included, as the file names them (``Subject:`` prefixes are matched too).
+    rate : float
+        Nominal sample rate [Hz]; samples are ``1 / rate`` apart.
+    units : {"m", "mm", "cm"}, optional
+        Length units of the file; by default read from the file (Motive's
+        ``Length Units``, Vicon's units row), else an error asks for them.
+    inputs : sequence of str, optional
+        Names of columns holding the inputs (e.g. servo angles), in order.
+    frame_column : str, "auto" or None
+        Column of the sample index; ``"auto"`` looks for ``Frame``/``Sample``/``Index``.
+
+    Returns
+    -------
+    MarkerData
+
+    Raises
+    ------
+    DataFileError
+        Naming the file and what is missing or malformed.
+    """
+    path = Path(path)
+    if not (isinstance(rate, (int, float)) and np.isfinite(rate) and rate > 0):
+        raise DataFileError(f"{path}: rate must be a sample rate > 0 in Hz; got {rate!r}")
+    if isinstance(markers, str) or len(markers) < 1:
+        raise DataFileError(f"{path}: markers must be a list of marker names, base to tip; got {markers!r}")
+    if units is not None and units.lower() not in UNITS:
+        raise DataFileError(f"{path}: units must be one of {sorted(set(UNITS))}; got {units!r}")
+    text = path.read_text(encoding="utf-8-sig")
+    delimiter = "\t" if text.count("\t") > text.count(",") else ","
+    rows = list(csv.reader(text.splitlines(), delimiter=delimiter))
+    # the first numeric row with a few cells (a lone number, e.g. Vicon's rate, is header)
+    first_data = next(
+        (k for k, row in enumerate(rows) if _numeric_row(row) and sum(c.strip() != "" for c in row) >= 3), None
+    )
+    if first_data is None:
+        raise DataFileError(f"{path}: no numeric data rows")
+    try:
+        cols, axis_row = _find_columns(rows[:first_data], list(markers))
+    except ValueError as err:
+        raise DataFileError(f"{path}: {err}") from None
+    names = [_norm(c) for c in rows[axis_row]]
+    unit = units.lower() if units is not None else _detect_units(rows[:first_data])
+    if unit is None:
+        raise DataFileError(f"{path}: the file does not say its length units; give units='mm' or units='m'")
+    in_cols = []
+    for name in inputs or []:
+        hits = [j for row in rows[:first_data] for j, c in enumerate(row) if _norm(c) == name.lower()]
+        if not hits:
+            raise DataFileError(f"{path}: no input column named {name!r}; header cells: {rows[axis_row]}")
+        in_cols.append(hits[0])
+    frame_col = None
+    if frame_column == "auto":
+        frame_col = next((j for j, c in enumerate(names) if c in _FRAME_NAMES), None)
+    elif frame_column is not None:
+        if frame_column.lower() not in names:
+            raise DataFileError(f"{path}: no frame column {frame_column!r} in {rows[axis_row]}")
+        frame_col = names.index(frame_column.lower())
+    data = [row for row in rows[first_data:] if any(c.strip() for c in row)]
+    width = max(max(c) for c in cols.values()) + 1
+    values = np.full((len(data), max(width, max(in_cols, default=0) + 1, (frame_col or 0) + 1)), np.nan)
+    for k, row in enumerate(data):
+        if not _numeric_row(row):
+            raise DataFileError(f"{path}: row {first_data + k + 1} is not numeric: {row[:8]}")
+        vals = [_number(c) for c in row]
+        values[k, : len(vals)] = vals[: values.shape[1]]
+    scale = UNITS[unit]
+    pos = np.stack([values[:, cols[name]] for name in markers], axis=1) * scale
+    u = values[:, in_cols] if in_cols else None
+    meta: dict[str, Any] = {}
+    if frame_col is not None:
+        frame = values[:, frame_col]
+        if np.any(~np.isfinite(frame)) or np.any(frame != np.round(frame)):
+            raise DataFileError(f"{path}: the frame column holds non-integer or empty values")
+        idx = (frame - frame[0]).astype(int)
+        if np.any(np.diff(idx) <= 0):
+            k = int(np.argmax(np.diff(idx) <= 0))
+            raise DataFileError(f"{path}: frame indices must increase; row {first_data + k + 2} repeats or goes back")
+        if idx[-1] + 1 != idx.size:  # skipped samples: NaN rows at their places
+            full = np.full((idx[-1] + 1,) + pos.shape[1:], np.nan)
+            full[idx] = pos
+            pos = full
+            if u is not None:
+                uf = np.full((idx[-1] + 1, u.shape[1]), np.nan)
+                uf[idx] = u
+                # inputs are held: a skipped sample keeps the last logged input
+                ok = np.isfinite(uf[:, 0])
+                last = np.maximum.accumulate(np.where(ok, np.arange(ok.size), 0))
+                u = uf[last]
+            meta["skipped_samples"] = int(idx[-1] + 1 - idx.size)
+        meta["first_frame"] = int(frame[0])
+    if u is not None and not np.all(np.isfinite(u)):
+        raise DataFileError(f"{path}: input columns {list(inputs or [])} have empty or NaN cells")
+    return MarkerData(pos, u, 1.0 / float(rate), list(markers), unit, str(path), meta)
