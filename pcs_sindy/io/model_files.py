@@ -38,13 +38,14 @@ import json
 import math
 import os
 import re
-import secrets
+import stat
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._version import __version__
+from ..core.atomic import FileSet, recover
 from ..core.validation import InvalidParameterError, validate_parameters
 
 __all__ = ["save", "load", "FORMAT_VERSION", "FORMAT_NAME", "REGISTRY"]
@@ -58,6 +59,8 @@ FORMAT_VERSION = 1
 _MAX_JSON_BYTES = 64 * 2**20
 # largest total of array bytes we unpack from the npz (a crafted zip can claim far more than its size)
 _MAX_ARRAY_BYTES = 2**30
+# largest npz file we read (the arrays plus the zip's headers)
+_MAX_NPZ_BYTES = _MAX_ARRAY_BYTES + 64 * 2**20
 _ALLOWED_DTYPE_KINDS = "biufcU"
 _SCALAR_DTYPES = (
     "bool",
@@ -517,35 +520,11 @@ def _paths(path: str | os.PathLike) -> tuple[Path, Path]:
     return stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")
 
 
-def _atomic_write(path: Path, payload: bytes) -> None:
-    """Write ``payload`` to a fresh sibling file, then rename it over ``path`` (readers never see half a file)."""
-    for _ in range(100):
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-        try:
-            # mode 0o666 minus the umask, like a plain open(); O_EXCL never follows a planted link
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        except FileExistsError:
-            continue
-        break
-    else:
-        raise OSError(f"cannot create a temporary file next to {str(path)!r}")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(payload)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def _package_version() -> str:
     return __version__
 
 
-def save(obj: Any, path: str | os.PathLike) -> Path:
+def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> Path:
     """Write a fitted estimator (or pipeline) to ``path`` as JSON plus ``.npz``.
 
     Parameters
@@ -558,6 +537,12 @@ def save(obj: Any, path: str | os.PathLike) -> Path:
     path : str or path-like
         ``model``, ``model.json`` or ``model.npz``: writes ``model.json`` and
         ``model.npz`` side by side (replacing existing files).
+    into : FileSet, optional
+        A :class:`~pcs_sindy.core.atomic.FileSet` the pair joins (written when the set
+        commits, with the other files of the set); default: the pair is its own set.
+
+    The pair is written atomically as a set: a failure (disk full, ``ulimit -f``) or a
+    crash leaves the previous pair loadable, never a new ``.npz`` beside an old JSON.
 
     Returns
     -------
@@ -597,12 +582,14 @@ def save(obj: Any, path: str | os.PathLike) -> Path:
     text = _NUMBER_LIST.sub(_one_line, json.dumps(doc, indent=1, allow_nan=False)) + "\n"
     if not json_path.parent.is_dir():
         raise OSError(f"cannot save to path={str(path)!r}: directory {str(json_path.parent)!r} does not exist")
-    try:
-        # npz first: the JSON, written last, names the npz content it belongs to (sha256)
-        _atomic_write(npz_path, npz_bytes)
-        _atomic_write(json_path, text.encode("utf-8"))
-    except OSError as err:
-        raise OSError(f"cannot save model to path={str(path)!r}: {err}") from err
+    # npz first: the JSON, written last, names the npz content it belongs to (sha256)
+    if into is not None:
+        into.write_bytes(npz_path, npz_bytes)
+        into.write_bytes(json_path, text.encode("utf-8"))
+        return json_path
+    with FileSet() as pair:
+        pair.write_bytes(npz_path, npz_bytes)
+        pair.write_bytes(json_path, text.encode("utf-8"))
     return json_path
 
 
@@ -618,13 +605,40 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"non-standard JSON constant {name}")
 
 
-def _read_npz_bytes(npz_path: Path, source: str) -> bytes:
+def _read_regular(path: Path, limit: int, source: str, what: str) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes, read without blocking on a FIFO or device.
+
+    A symbolic link is followed only to a file in the same folder (or below it).
+    """
+    if path.is_symlink():
+        target = Path(os.path.realpath(path))
+        folder = Path(os.path.realpath(path.parent))
+        if folder != target.parent and folder not in target.parents:
+            raise ValueError(
+                f"model file {source}: {what} {str(path)!r} is a symbolic link out of its folder (to "
+                f"{str(target)!r}); copy the file instead"
+            )
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
     try:
-        data = npz_path.read_bytes()
+        fd = os.open(path, flags)
     except FileNotFoundError:
-        raise OSError(f"model file {source}: its array file {str(npz_path)!r} is missing") from None
+        raise OSError(f"model file {source}: {what} {str(path)!r} is missing (does not exist)") from None
+    except IsADirectoryError:
+        raise OSError(f"model file {source}: {what} {str(path)!r} is a directory") from None
     except OSError as err:
-        raise OSError(f"model file {source}: cannot read {str(npz_path)!r}: {err}") from err
+        raise OSError(f"model file {source}: cannot read {what} {str(path)!r}: {err.strerror or err}") from None
+    with os.fdopen(fd, "rb") as fh:
+        info = os.fstat(fh.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError(
+                f"model file {source}: {what} {str(path)!r} is not a regular file (a device, FIFO or socket); "
+                "model files are plain files"
+            )
+        if info.st_size > limit:
+            raise ValueError(f"model file {source}: {what} {str(path)!r} is {info.st_size} bytes (at most {limit})")
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise ValueError(f"model file {source}: {what} {str(path)!r} is over {limit} bytes")
     return data
 
 
@@ -658,15 +672,8 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
     """
     json_path, npz_path = _paths(path)
     source = repr(str(json_path))
-    try:
-        size = json_path.stat().st_size
-        if size > _MAX_JSON_BYTES:
-            raise ValueError(f"model file {source} is {size} bytes; model JSON files are at most {_MAX_JSON_BYTES}")
-        raw = json_path.read_bytes()
-    except FileNotFoundError:
-        raise OSError(f"model file {source} does not exist") from None
-    except IsADirectoryError:
-        raise OSError(f"model file {source} is a directory") from None
+    recover(json_path.parent)  # finish a save a crash interrupted (the pair is then the new one)
+    raw = _read_regular(json_path, _MAX_JSON_BYTES, source, "the JSON file")
     try:
         doc = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as err:
@@ -693,7 +700,7 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
         or not isinstance(meta.get("sha256"), str)
     ):
         raise ValueError(f"model file {source}: 'arrays' must hold 'sha256' and 'entries'")
-    data = _read_npz_bytes(npz_path, source)
+    data = _read_regular(npz_path, _MAX_NPZ_BYTES, source, "its array file")
     if hashlib.sha256(data).hexdigest() != meta["sha256"]:
         raise ValueError(
             f"model file {source}: {str(npz_path)!r} does not belong to it (sha256 mismatch; "
