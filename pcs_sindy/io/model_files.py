@@ -746,4 +746,3 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
                 )
             arrays[key] = arr
     return arrays
-
