@@ -53,6 +53,14 @@ def _rebuilt(path, reference) -> codegen.CompiledBasis:
     return basis
 
 
+HEAD = "def features(q, qd, L):\n"
+
+
+def _first_line(line: str):
+    """An edit that puts ``line`` first in the body of features()."""
+    return lambda s: s.replace(HEAD, HEAD + "    " + line + "\n", 1)
+
+
 HOSTILE = {
     # rebinds numpy's cos for the whole process when psi runs (passed the old check)
     "attribute store": lambda s: s.replace("    return out\n", "    np.cos = np.sin\n    return out\n", 1),
@@ -60,13 +68,13 @@ HOSTILE = {
     "default argument": lambda s: s.replace("def features(q, qd, L):", "def features(q, qd, L=9**9**9):"),
     # a default that raises while the text is executed: escaped build_basis before
     "raising default": lambda s: s.replace("def features(q, qd, L):", "def features(q, qd, L=1/0):"),
-    "import": lambda s: s.replace("def features(q, qd, L):\n", "def features(q, qd, L):\n    import os\n", 1),
-    "loop": lambda s: s.replace("def features(q, qd, L):\n", "def features(q, qd, L):\n    while 1: pass\n", 1),
-    "huge power": lambda s: s.replace("def features(q, qd, L):\n", "def features(q, qd, L):\n    z = 9**9**9\n", 1),
-    "lambda": lambda s: s.replace("def features(q, qd, L):\n", "def features(q, qd, L):\n    z = (lambda: 0)()\n", 1),
+    "import": _first_line("import os"),
+    "loop": _first_line("while 1: pass"),
+    "huge power": _first_line("z = 9**9**9"),
+    "lambda": _first_line("z = (lambda: 0)()"),
     "decorator": lambda s: s.replace("def psi(", "@np.vectorize\ndef psi(", 1),
     "store into an argument": lambda s: s.replace("    return out\n", "    q[:, 0] = 0\n    return out\n", 1),
-    "tuple unpacking": lambda s: s.replace("def features(q, qd, L):\n", "def features(q, qd, L):\n    a, b = 1, 2\n", 1),
+    "tuple unpacking": _first_line("a, b = 1, 2"),
     "keyword call": lambda s: s.replace("np.empty((q.shape[0],", "np.empty(shape=(q.shape[0],", 1),
     "unknown special function": lambda s: s.replace("SF['IEE']", "SF['IEE" + "_u" * 50 + "']", 1),
     "wrong result shape": lambda s: s.replace("    return out\n", "    out = out[:, :1]\n    return out\n", 1),

@@ -537,7 +537,10 @@ def _check_generated_source(source: str) -> None:
         raise _SourceShapeError("cached source must define exactly features(), psi() and weak()")
     for fn, name in zip(tree.body, _SIGNATURES):
         local = set(_SIGNATURES[name]) | {
-            t.id for stmt in getattr(fn, "body", []) if isinstance(stmt, ast.Assign) for t in stmt.targets
+            t.id
+            for stmt in getattr(fn, "body", [])
+            if isinstance(stmt, ast.Assign)
+            for t in stmt.targets
             if isinstance(t, ast.Name)
         }
         _GeneratedForm(local - _GLOBALS).function(fn, name)
