@@ -199,6 +199,10 @@ REGISTRY: dict[str, ClassSpec] = {
 }
 
 
+#: constructor fields of an ``"init"`` class that are not attributes of the same name
+_FIELD_GETTERS = {("StrainTrajectory", "base_pose"): lambda obj: tuple(float(v) for v in obj.kinematics.base_pose)}
+
+
 def _resolve(name: str) -> type:
     """The registered class called ``name``."""
     spec = REGISTRY[name]
@@ -306,7 +310,7 @@ class _Encoder:
             params = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj) if f.init}
             state: dict[str, Any] = {}
         elif spec.kind == "init":
-            params = {f: getattr(obj, f) for f in spec.fields}
+            params = {f: _FIELD_GETTERS.get((name, f), lambda o, f=f: getattr(o, f))(obj) for f in spec.fields}
             state = {}
         else:
             params = obj.get_params(deep=False)
