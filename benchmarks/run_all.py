@@ -36,6 +36,7 @@ ORDER = [
     "control",
     "control_actuated",
     "cli_startup",
+    "atomic_writes",
 ]
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
