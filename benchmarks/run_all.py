@@ -40,6 +40,7 @@ ORDER = [
     "servo_tendon",
     "static_holds",
     "cli_startup",
+    "atomic_writes",
 ]
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]

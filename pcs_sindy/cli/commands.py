@@ -122,6 +122,7 @@ def simulate(
     list of Path
         The recordings, validation last.
     """
+    from ..core.atomic import FileSet
     from ..io import data_files as files
     from ..simulation.catalog import get_scenario
 
@@ -140,22 +141,25 @@ def simulate(
         progress=not quiet,
     )
     folder = files.output_dir(out)
-    paths = [files.write_recording(folder / f"train_{k:02d}.npz", rec) for k, rec in enumerate(data.train)]
-    if data.validation is not None:
-        paths.append(files.write_recording(folder / "validation.npz", data.validation))
-    summary = {
-        "scenario": spec.name,
-        "description": spec.description,
-        "seed": data.seed,
-        "noise": list(data.noise),
-        "n_markers": spec.n_markers,
-        "marker_arc_lengths": spec.marker_arc_lengths.tolist(),
-        "segment_lengths": None if spec.is_kinematic else list(spec.robot.kinematics.segment_lengths),
-        "actuation": spec.actuation,  # the layout of an actuated robot (None: driven by tau directly)
-        "files": [p.name for p in paths],
-        "seconds": round(time.perf_counter() - start, 2),
-    }
-    (folder / "scenario.json").write_text(json.dumps(summary, indent=2))
+    with FileSet(folder) as outputs:  # the recordings and scenario.json: all new or all old
+        paths = [
+            files.write_recording(folder / f"train_{k:02d}.npz", rec, into=outputs) for k, rec in enumerate(data.train)
+        ]
+        if data.validation is not None:
+            paths.append(files.write_recording(folder / "validation.npz", data.validation, into=outputs))
+        summary = {
+            "scenario": spec.name,
+            "description": spec.description,
+            "seed": data.seed,
+            "noise": list(data.noise),
+            "n_markers": spec.n_markers,
+            "marker_arc_lengths": spec.marker_arc_lengths.tolist(),
+            "segment_lengths": None if spec.is_kinematic else list(spec.robot.kinematics.segment_lengths),
+            "actuation": spec.actuation,  # the layout of an actuated robot (None: driven by tau directly)
+            "files": [p.name for p in paths],
+            "seconds": round(time.perf_counter() - start, 2),
+        }
+        outputs.write_text(folder / "scenario.json", json.dumps(summary, indent=2))
     say(quiet, f"simulated {spec.name} ({len(paths)} recordings) in {summary['seconds']} s -> {folder}")
     return paths
 
@@ -410,6 +414,7 @@ def extract(
     """
     from sklearn.base import clone
 
+    from ..core.atomic import FileSet
     from ..io import data_files as files
     from ..vision.frame_source import group_image_files
 
@@ -448,16 +453,20 @@ def extract(
     folder = files.output_dir(out)
     results = _over_files(_extract_one, [(clone(extractor), str(v)) for v in videos], n_jobs, "extract", quiet)
     paths = []
-    for name, (tr, diag, caught) in zip(videos, results):
+    with FileSet(folder) as outputs:  # the pose files of one call: all new or all old
+        for name, (tr, _, _) in zip(videos, results):
+            rest = tr.metadata.get("rest_length")
+            paths.append(
+                files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses, rest_length=rest, into=outputs)
+            )
+    for name, (tr, diag, caught), path in zip(videos, results, paths):
         for message in caught:  # raised in a worker: shown here, once
             _warn(message)
-        rest = tr.metadata.get("rest_length")
-        paths.append(files.write_poses(folder / (Path(name).stem + ".npz"), tr.t, tr.poses, rest_length=rest))
         repaired = len(diag["frames_repaired"])
         say(
             quiet,
             f"extracted {Path(name).name}: {tr.n_frames} frames, {tr.n_markers} markers"
-            f"{f', {repaired} frames interpolated' if repaired else ''} ({diag['calibration']}) -> {paths[-1]}",
+            f"{f', {repaired} frames interpolated' if repaired else ''} ({diag['calibration']}) -> {path}",
         )
     if plot:
         from .sheet import inspect_video
@@ -514,6 +523,7 @@ def fuse(
     strains : list of StrainTrajectory
     pose_trajectories : list of PoseTrajectory
     """
+    from ..core.atomic import FileSet
     from ..core.trajectory import PoseTrajectory
     from ..io import data_files as files
 
@@ -545,9 +555,10 @@ def fuse(
         progress=not quiet,
     )
     strains = fusion.fit(trajs).transform(trajs)
-    for name, st in zip(poses, strains):
-        files.write_strains(folder / (Path(name).stem + ".npz"), st)
-    seg = files.write_model_file(fusion, folder / "segmentation.json")
+    with FileSet(folder) as outputs:  # segmentation and strain files: all new or all old
+        for name, st in zip(poses, strains):
+            files.write_strains(folder / (Path(name).stem + ".npz"), st, into=outputs)
+        seg = files.write_model_file(fusion, folder / "segmentation.json", into=outputs)
     lengths = ", ".join(f"{v:.4f}" for v in fusion.segment_lengths_)
     say(
         quiet,
@@ -834,6 +845,7 @@ def rollout(
     """
     import numpy as np
 
+    from ..core.atomic import FileSet
     from ..core.metrics import distributed_errors, end_effector_errors
     from ..fusion.kinematic_fusion import KinematicFusion
     from ..identification.regressor import EulerLagrangeRegressor
@@ -885,15 +897,6 @@ def rollout(
     sim = model.simulate(q0, qd0, t, u, method=method, rtol=rtol, atol=atol, progress=not quiet)
     seconds = time.perf_counter() - start
     poses = sim.poses(s)
-    np.savez(
-        folder / "rollout.npz",
-        t=t,
-        q=sim.q,
-        qd=sim.qd,
-        poses=poses,
-        marker_arc_lengths=s,
-        segment_lengths=np.asarray(kin.segment_lengths, dtype=float),
-    )
     metrics: dict[str, Any] = {
         "model": model_name,
         "tau": str(tau),
@@ -902,21 +905,39 @@ def rollout(
         "n_markers": int(s.size - 1),
         "method": method or forward.default_method,
     }
-    say(quiet, f"rolled out {t[-1] - t[0]:.3g} s in {seconds:.1f} s -> {folder / 'rollout.npz'}")
     if true_poses is not None:
         e_p, e_th = end_effector_errors(poses[:, 1:], true_poses[:, 1:])
         d_p, d_th = distributed_errors(poses[:, 1:], true_poses[:, 1:])
         metrics.update(truth=str(truth), e_p_ee=e_p, e_theta_ee=e_th, e_p_dist=d_p, e_theta_dist=d_th)
-        (folder / "metrics.json").write_text(json.dumps(metrics, indent=2) + "\n")
+    with FileSet(folder) as outputs:  # rollout.npz, metrics.json and rollout.png: all new or all old
+        outputs.savez(
+            folder / "rollout.npz",
+            t=t,
+            q=sim.q,
+            qd=sim.qd,
+            poses=poses,
+            marker_arc_lengths=s,
+            segment_lengths=np.asarray(kin.segment_lengths, dtype=float),
+        )
+        if true_poses is not None:
+            outputs.write_text(folder / "metrics.json", json.dumps(metrics, indent=2) + "\n")
+        if plot:
+            figure = rollout_figure(
+                folder / "rollout.png",
+                t,
+                sim.q,
+                poses,
+                true_poses,
+                sim.kinematics.strain_names(active_only=False),
+                into=outputs,
+            )
+    say(quiet, f"rolled out {t[-1] - t[0]:.3g} s in {seconds:.1f} s -> {folder / 'rollout.npz'}")
+    if true_poses is not None:
         say(
             quiet,
             f"e_p^EE = {e_p * 1e3:.3f} mm, e_theta^EE = {e_th:.4f} rad, e_p^dist = {d_p * 1e3:.3f} mm, "
             f"e_theta^dist = {d_th:.4f} rad -> {folder / 'metrics.json'}",
         )
     if plot:
-        metrics["plot"] = str(
-            rollout_figure(
-                folder / "rollout.png", t, sim.q, poses, true_poses, sim.kinematics.strain_names(active_only=False)
-            )
-        )
+        metrics["plot"] = str(figure)
     return RolloutResult(sim, poses, s, metrics)

@@ -17,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from ..core import atomic
 from ..io.data_files import output_dir, read_arrays, read_poses
 
 __all__ = ["SEED_TWO_SEGMENT", "DEMO_SIZE", "DEMO_MARKER_SIZE", "rollout_figure", "demo_report", "write_report_md"]
@@ -47,7 +48,13 @@ def _pyplot() -> Any:
 
 
 def rollout_figure(
-    path: str | Path, t: NDArray, q: NDArray, poses: NDArray, truth: NDArray | None, strain_names: Sequence[str]
+    path: str | Path,
+    t: NDArray,
+    q: NDArray,
+    poses: NDArray,
+    truth: NDArray | None,
+    strain_names: Sequence[str],
+    into: Any = None,
 ) -> Path:
     """Draw a rollout: the tip against the truth when there is one, else the strains over time.
 
@@ -63,6 +70,8 @@ def rollout_figure(
     truth : ndarray, shape (T, N + 1, 3), or None
     strain_names : sequence of str
         Names of the columns of ``q``.
+    into : FileSet, optional
+        The :class:`~pcs_sindy.core.atomic.FileSet` the image joins; default: written atomically on its own.
 
     Returns
     -------
@@ -81,8 +90,13 @@ def rollout_figure(
             ax.set_ylabel(label)
             ax.legend(loc="upper right", fontsize="small")
         axes[-1].set_xlabel("t [s]")
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    try:
+        if into is None:
+            atomic.savefig(fig, path, dpi=100)
+        else:
+            into.savefig(fig, path, dpi=100)
+    finally:
+        plt.close(fig)
     return Path(path)
 
 
@@ -162,8 +176,10 @@ def demo_report(
     files: dict[str, str] = {}
 
     def save(fig: Any, name: str, key: str) -> None:
-        fig.savefig(rep / name, dpi=100)
-        plt.close(fig)
+        try:
+            atomic.savefig(fig, rep / name, dpi=100)
+        finally:
+            plt.close(fig)
         files[key] = name
 
     # kinematic fusion on the training videos against the noise-free simulated poses
@@ -265,7 +281,7 @@ def demo_report(
     files["animation"] = "rollout.mp4"
     tick("report: animation")
     equations = model.equations(precision=4)
-    (rep / "equations.txt").write_text("\n".join(equations) + "\n")
+    atomic.write_text(rep / "equations.txt", "\n".join(equations) + "\n")
     files["equations"] = "equations.txt"
 
     e_p, e_th = end_effector_errors(poses[:, 1:], truth[:, 1:])
@@ -283,7 +299,9 @@ def demo_report(
         "removed_strains": list(model.removed_strains_),
         "sweep": [list(map(float, r)) for r in rows],
     }
-    (rep / "metrics.json").write_text(json.dumps({"this_run": metrics, "seed": SEED_TWO_SEGMENT}, indent=2) + "\n")
+    atomic.write_text(
+        rep / "metrics.json", json.dumps({"this_run": metrics, "seed": SEED_TWO_SEGMENT}, indent=2) + "\n"
+    )
     files["metrics"] = "metrics.json"
     return {
         "dir": rep,
@@ -386,5 +404,5 @@ def write_report_md(
         "",
     ]
     path = Path(report["dir"]) / "report.md"
-    path.write_text("\n".join(lines))
+    atomic.write_text(path, "\n".join(lines))
     return path

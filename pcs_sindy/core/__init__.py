@@ -11,8 +11,9 @@ Takes in nothing of the package and gives every other stage:
 * the simulate contract shared by the ground truth and identified models
   (:mod:`.simulate_contract`: :class:`SimulationError`, the method names);
 * infrastructure with no domain knowledge: a compiled dense LU (:mod:`.linalg`), parameter
-  constraints checked the scikit-learn way (:mod:`.validation`) and the estimators'
-  ``save``/``load`` methods (:mod:`.saving`).
+  constraints checked the scikit-learn way (:mod:`.validation`), the estimators'
+  ``save``/``load`` methods (:mod:`.saving`) and atomic, recoverable file outputs that every
+  writer of the package uses (:mod:`.atomic`: :class:`FileSet`).
 
 Nothing here imports another stage, the file formats, the command line or plotting.
 """
@@ -48,6 +49,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         ],
         "camera": ["Camera", "camera_extras", "read_camera_json"],
         "progress": ["ticking"],
+        "atomic": ["FileSet", "recover"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "recording_list": ["RecordingList"],
         "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"],

@@ -43,6 +43,8 @@ import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from . import atomic
+
 __all__ = ["Camera", "FPS_RANGE", "camera_extras", "camera_json_path", "read_camera_json"]
 
 _JSON_KIND = "pcs_sindy.core.camera"
@@ -476,7 +478,7 @@ class Camera:
             data.update(extra)
         path = Path(path)
         try:
-            path.write_text(json.dumps(data, indent=2) + "\n")
+            atomic.write_text(path, json.dumps(data, indent=2) + "\n")
         except OSError as err:
             raise OSError(f"cannot write camera JSON to path={str(path)!r}: {err}") from err
         return path

@@ -6,6 +6,9 @@ Takes in fitted estimators, trajectories and arrays, and gives files (and back):
   come from a fixed :data:`REGISTRY`;
 * :mod:`.data_files` - recordings, poses, forces, strains and models of ``pcs-sindy``.
 
+Every file is written atomically, and files that belong together as one set
+(:mod:`pcs_sindy.core.atomic`): a failure or crash leaves the old files or the new ones.
+
 Sits on top of the stages: nothing below imports it (the estimators' ``save``/``load`` methods
 reach :func:`save` and :func:`load` through :mod:`pcs_sindy.core.saving`).
 """
@@ -15,7 +18,16 @@ import lazy_loader as _lazy
 __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={
-        "model_files": ["save", "load", "REGISTRY", "FORMAT_NAME", "FORMAT_VERSION"],
+        "model_files": [
+            "save",
+            "load",
+            "REGISTRY",
+            "FORMAT_NAME",
+            "FORMAT_VERSION",
+            "PARAMETER_RANGES",
+            "MAX_SEGMENTS",
+            "MAX_MONOMIAL_SEGMENTS",
+        ],
         "marker_csv": ["MarkerData", "read_marker_csv"],
         "data_files": [
             "DataFileError",

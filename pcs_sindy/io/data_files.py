@@ -9,6 +9,12 @@ its class.
 
 Readers raise :class:`DataFileError` (a ``ValueError``) naming the file and
 what is wrong with it, or ``FileNotFoundError``.
+
+Writers are atomic (:mod:`pcs_sindy.core.atomic`): a file is replaced only by a complete new
+one, and an ``OSError`` (disk full, ``ulimit -f``) names the file and leaves the old one.  Pass
+``into=`` a :class:`~pcs_sindy.core.atomic.FileSet` to write several files as one set (the
+command line does for a segmentation and its strain files); readers first finish a set a
+crash interrupted (:func:`~pcs_sindy.core.atomic.recover`).
 """
 
 from __future__ import annotations
@@ -22,6 +28,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core import atomic
+from ..core.atomic import FileSet
 from ..core.trajectory import StrainTrajectory
 
 __all__ = [
@@ -72,9 +80,7 @@ def output_dir(path: str | Path) -> Path:
     out = Path(path)
     try:
         out.mkdir(parents=True, exist_ok=True)
-        probe = out / ".write_test"
-        probe.write_text("")
-        probe.unlink()
+        atomic.probe_writable(out)  # a fresh, exclusively created probe: never a user's file
     except OSError as err:
         raise DataFileError(f"output directory {str(out)!r} is not writable: {err.strerror or err}") from None
     return out
@@ -105,6 +111,7 @@ def read_arrays(
         If it is not an ``.npz`` of named arrays or lacks a required key.
     """
     src = Path(path)
+    atomic.recover(src.parent)  # finish a set of files a crash interrupted
     if not src.is_file():
         raise FileNotFoundError(f"{what} {str(path)!r} does not exist")
     try:
@@ -147,13 +154,31 @@ def read_poses(path: str | Path, key: str = "poses") -> tuple[NDArray[np.float64
     return (None if t is None else t.astype(float)), poses
 
 
-def write_poses(path: str | Path, t: ArrayLike, poses: ArrayLike, rest_length: float | None = None) -> Path:
-    """Write a pose file (``t``, ``poses`` and, when known, the robot's ``rest_length``); returns its path."""
+def _savez(path: str | Path, arrays: dict[str, Any], into: FileSet | None) -> Path:
+    """``np.savez`` made atomic, alone or as part of the set ``into``."""
+    if into is None:
+        return atomic.savez(path, **arrays)
+    return into.savez(path, **arrays)
+
+
+def write_poses(
+    path: str | Path,
+    t: ArrayLike,
+    poses: ArrayLike,
+    rest_length: float | None = None,
+    *,
+    into: FileSet | None = None,
+) -> Path:
+    """Write a pose file (``t``, ``poses`` and, when known, the robot's ``rest_length``); returns its path.
+
+    ``into``: a :class:`~pcs_sindy.core.atomic.FileSet` the file joins (written when the set
+    commits); default: written atomically on its own.
+    """
     t, poses = np.asarray(t, dtype=float), np.asarray(poses, dtype=float)
     if poses.ndim != 3 or poses.shape[-1] != 3 or t.shape != (poses.shape[0],):
         raise ValueError(f"need t (T,) and poses (T, N + 1, 3); got {t.shape} and {poses.shape}")
     extra = {} if rest_length is None else {"rest_length": np.float64(rest_length)}
-    np.savez(path, t=t, poses=poses, **extra)
+    _savez(path, {"t": t, "poses": poses, **extra}, into)
     return Path(path)
 
 
@@ -200,12 +225,12 @@ def read_layout(path: str | Path) -> dict[str, Any]:
     return layout
 
 
-def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike) -> Path:
-    """Write a tau file (``t``, ``tau``); returns its path."""
+def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet | None = None) -> Path:
+    """Write a tau file (``t``, ``tau``); returns its path (``into`` as in :func:`write_poses`)."""
     t, tau = np.asarray(t, dtype=float), np.asarray(tau, dtype=float)
     if tau.ndim != 2 or t.shape != (tau.shape[0],):
         raise ValueError(f"need t (T,) and tau (T, n); got {t.shape} and {tau.shape}")
-    np.savez(path, t=t, tau=tau)
+    _savez(path, {"t": t, "tau": tau}, into)
     return Path(path)
 
 
@@ -236,8 +261,11 @@ def read_strains(path: str | Path) -> StrainTrajectory:
         raise DataFileError(f"strain file {str(path)!r}: {err}") from None
 
 
-def write_strains(path: str | Path, st: StrainTrajectory) -> Path:
-    """Write a strain trajectory (and its ``base_poses``, ``marker_arc_lengths``, ``boundaries`` metadata)."""
+def write_strains(path: str | Path, st: StrainTrajectory, *, into: FileSet | None = None) -> Path:
+    """Write a strain trajectory (and its ``base_poses``, ``marker_arc_lengths``, ``boundaries`` metadata).
+
+    ``into`` as in :func:`write_poses`.
+    """
     arrays = {
         "t": st.t,
         "q": st.q,
@@ -246,20 +274,20 @@ def write_strains(path: str | Path, st: StrainTrajectory) -> Path:
         "base_pose": np.asarray(st.kinematics.base_pose, dtype=float),
     }
     arrays.update({key: np.asarray(st.metadata[key]) for key in _STRAIN_METADATA if key in st.metadata})
-    np.savez(path, **arrays)
+    _savez(path, arrays, into)
     return Path(path)
 
 
-def write_recording(path: str | Path, rec: Any) -> Path:
+def write_recording(path: str | Path, rec: Any, *, into: FileSet | None = None) -> Path:
     """Write a simulated recording (its ``t``, ``q``, ``qd``, ``tau``, ``poses``, ``poses_true`` that are not None).
 
-    An actuated recording also writes its actuator inputs ``u``.
+    An actuated recording also writes its actuator inputs ``u``.  ``into`` as in :func:`write_poses`.
     """
     arrays = {k: getattr(rec, k) for k in _RECORDING_KEYS if getattr(rec, k, None) is not None}
     u = getattr(rec, "u", None)
     if u is not None and u is not getattr(rec, "tau", None):
         arrays["u"] = u
-    np.savez(path, **arrays)
+    _savez(path, arrays, into)
     return Path(path)
 
 
@@ -352,8 +380,11 @@ def read_model_file(path: str | Path, expected: type, what: str = "model file") 
     return obj
 
 
-def write_model_file(obj: Any, path: str | Path) -> Path:
-    """Save a fitted estimator as JSON + ``.npz`` (:func:`pcs_sindy.io.model_files.save`); returns the JSON path."""
+def write_model_file(obj: Any, path: str | Path, *, into: FileSet | None = None) -> Path:
+    """Save a fitted estimator as JSON + ``.npz`` (:func:`pcs_sindy.io.model_files.save`); returns the JSON path.
+
+    ``into`` as in :func:`write_poses` (the pair always commits together).
+    """
     from .model_files import save
 
-    return Path(save(obj, path))
+    return Path(save(obj, path, into=into))

@@ -39,16 +39,26 @@ import json
 import math
 import os
 import re
-import secrets
+import stat
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .._version import __version__
+from ..core.atomic import FileSet, recover
 from ..core.validation import InvalidParameterError, validate_parameters
 
-__all__ = ["save", "load", "FORMAT_VERSION", "FORMAT_NAME", "REGISTRY"]
+__all__ = [
+    "save",
+    "load",
+    "FORMAT_VERSION",
+    "FORMAT_NAME",
+    "REGISTRY",
+    "PARAMETER_RANGES",
+    "MAX_SEGMENTS",
+    "MAX_MONOMIAL_SEGMENTS",
+]
 
 #: Name written in every model file.
 FORMAT_NAME = "pcs_sindy.model"
@@ -59,6 +69,8 @@ FORMAT_VERSION = 1
 _MAX_JSON_BYTES = 64 * 2**20
 # largest total of array bytes we unpack from the npz (a crafted zip can claim far more than its size)
 _MAX_ARRAY_BYTES = 2**30
+# largest npz file we read (the arrays plus the zip's headers)
+_MAX_NPZ_BYTES = _MAX_ARRAY_BYTES + 64 * 2**20
 _ALLOWED_DTYPE_KINDS = "biufcU"
 _SCALAR_DTYPES = (
     "bool",
@@ -196,6 +208,10 @@ REGISTRY: dict[str, ClassSpec] = {
 }
 
 
+#: constructor fields of an ``"init"`` class that are not attributes of the same name
+_FIELD_GETTERS = {("StrainTrajectory", "base_pose"): lambda obj: tuple(float(v) for v in obj.kinematics.base_pose)}
+
+
 def _resolve(name: str) -> type:
     """The registered class called ``name``."""
     spec = REGISTRY[name]
@@ -216,6 +232,21 @@ def _name_of(obj: Any) -> str | None:
 # --------------------------------------------------------------------------
 # Encoding
 # --------------------------------------------------------------------------
+def _by_value(key: str, value: Any, label: str) -> Any:
+    """The object a path parameter names, read now (a model file never stores a path)."""
+    if key != "camera":
+        raise ValueError(f"cannot store {label}.{key} = {str(value)!r}: model files store no paths")
+    from ..core.camera import Camera
+
+    try:
+        return Camera.from_json(value)
+    except (OSError, ValueError) as err:
+        raise ValueError(
+            f"cannot store {label}.camera = {str(value)!r}: model files store the camera by value, and reading "
+            f"it failed: {err}"
+        ) from None
+
+
 class _Encoder:
     def __init__(self) -> None:
         self.arrays: dict[str, np.ndarray] = {}
@@ -288,10 +319,14 @@ class _Encoder:
             params = {f.name: getattr(obj, f.name) for f in dataclasses.fields(obj) if f.init}
             state: dict[str, Any] = {}
         elif spec.kind == "init":
-            params = {f: getattr(obj, f) for f in spec.fields}
+            params = {f: _FIELD_GETTERS.get((name, f), lambda o, f=f: getattr(o, f))(obj) for f in spec.fields}
             state = {}
         else:
             params = obj.get_params(deep=False)
+            for key, allowed in _NO_PATHS.get(name, {}).items():
+                value = params.get(key)
+                if isinstance(value, (str, os.PathLike)) and value not in allowed:
+                    params[key] = _by_value(key, value, label)
             if name in ("Pipeline", "PCSPipeline"):
                 # a cache of fitted transformers is no part of the model (and a joblib cache holds pickles):
                 # the file stores the pipeline with memory=None
@@ -308,6 +343,163 @@ class _Encoder:
             "params": {k: self.encode(v, f"{label}.{k}") for k, v in params.items()},
             "state": {k: self.encode(v, f"{label}.{k}") for k, v in state.items()},
         }
+
+
+# --------------------------------------------------------------------------
+# Bounds: what a model file may ask of the machine
+# --------------------------------------------------------------------------
+#: Inclusive range of every integer constructor parameter a model file may set (by class); a value
+#: outside it is refused at load (a huge ``n_quadrature`` allocates gigabytes when the model is used).
+PARAMETER_RANGES: dict[str, dict[str, tuple[int, int]]] = {
+    "KinematicFusion": {
+        "min_segment_markers": (1, 10_000),
+        "max_refine_frames": (1, 10_000_000),
+        "n_jobs": (-64, 1024),
+    },
+    "EulerLagrangeRegressor": {
+        "window_length": (1, 100_001),
+        "polyorder": (0, 20),
+        "weak_window": (1, 10_000_000),
+        "weak_stride": (1, 10_000_000),
+    },
+    "StiffnessThresholdOptimizer": {"max_iter": (1, 100_000)},
+    "PhysicalPCSLibrary": {"n_quadrature": (1, 256)},
+    "MarkerPoseExtractor": {
+        "n_markers": (1, 1000),
+        "blur": (0, 1001),
+        "reference_frame": (0, 100_000_000),
+        "n_jobs": (-64, 1024),
+    },
+    "FiniteDifference": {"order": (1, 10), "d": (1, 4), "axis": (-8, 8)},
+}
+#: Most segments of any segmentation in a model file.
+MAX_SEGMENTS = 64
+#: Most segments of a monomial (``PCSLagrangianLibrary(basis="monomial")``) library: its symbolic
+#: derivation grows steeply with the segment count (22 terms for one segment, 252 for two).
+MAX_MONOMIAL_SEGMENTS = 2
+#: Constructor parameters that may hold a path, with the strings a file may store instead (a path in a
+#: model file would make loading read a file the model file chooses: a device, a FIFO).
+_NO_PATHS = {"MarkerPoseExtractor": {"camera": ("auto",)}}
+
+
+def _integer(value: Any) -> bool:
+    return isinstance(value, (int, np.integer)) and not isinstance(value, (bool, np.bool_))
+
+
+def _segments(kin: Any) -> tuple[float, ...]:
+    return tuple(float(v) for v in kin.segment_lengths)
+
+
+def _library_segments(lib: Any) -> Any:
+    """The fitted segmentation of a library (None when unfitted or given by its parameters only)."""
+    return vars(lib).get("segmentation_")
+
+
+def _check_library(lib: Any, fail: Any) -> None:
+    """A fitted library's sizes agree with its segmentation; a monomial one is small enough to derive."""
+    kin = _library_segments(lib)
+    lengths = getattr(lib, "segment_lengths", None)
+    m = kin.n_segments if kin is not None else (None if lengths is None else len(np.atleast_1d(lengths)))
+    if getattr(lib, "basis", None) == "monomial" and m is not None and m > MAX_MONOMIAL_SEGMENTS:
+        fail(
+            f"a monomial library of {m} segments (model files hold monomial libraries of at most "
+            f"{MAX_MONOMIAL_SEGMENTS}; the symbolic derivation of larger ones does not finish in reasonable time)"
+        )
+    if kin is None:
+        return
+    if lengths is not None and not np.array_equal(np.atleast_1d(np.asarray(lengths, dtype=float)), kin.segment_lengths):
+        fail(f"segment_lengths {lengths!r} differ from the fitted segmentation {_segments(kin)}")
+    n_active = int(np.count_nonzero(kin.active_mask))
+    width = vars(lib).get("n_features_in_")
+    if width is not None and width != 2 * n_active:
+        fail(
+            f"n_features_in_ = {width!r}, but the segmentation has {n_active} active strains (expected {2 * n_active})"
+        )
+    n_out = vars(lib).get("n_output_features_")
+    if n_out is not None and not (_integer(n_out) and 0 < n_out <= 1_000_000):
+        fail(f"n_output_features_ = {n_out!r} is not a basis size")
+    if n_out is not None and getattr(lib, "basis", "physical") != "monomial":
+        # the physical layout is cheap to rebuild: its size must be the stored one
+        expected = int(lib.n_coefficients_) - int(np.asarray(lib.damping_index_).size)
+        if n_out != expected:
+            fail(f"n_output_features_ = {n_out} but this library has {expected} basis terms")
+
+
+def _columns(lib: Any, kin: Any) -> int | None:
+    """Columns of a library's ``Psi`` when known without a symbolic derivation (None: not knowable cheaply)."""
+    if getattr(lib, "basis", "physical") != "monomial":
+        return int(lib.n_coefficients_)  # the physical layout is built from tables, in milliseconds
+    n_out = vars(lib).get("n_output_features_")
+    return None if n_out is None else int(n_out) + int(np.count_nonzero(kin.active_mask))
+
+
+def _check_regressor(obj: Any, fail: Any) -> None:
+    """A fitted regressor: one segmentation, coefficients of the libraries' sizes, model_coef_ = coef_[column_map_]."""
+    state = vars(obj)
+    if "coef_" not in state:
+        return
+    needed = ("kinematics_", "library_", "full_library_", "column_map_", "model_coef_", "active_strains_")
+    missing = [k for k in needed if k not in state]
+    if missing:
+        fail(f"a fitted regressor (it has coef_) lacks {missing}")
+    kin = obj.kinematics_
+    if type(kin).__name__ != "PlanarPCS":
+        fail(f"kinematics_ must be a PlanarPCS; got {type(kin).__name__}")
+    lengths, m = _segments(kin), kin.n_segments
+    columns = {}
+    for label in ("library_", "full_library_"):
+        lib = state[label]
+        if not hasattr(lib, "n_coefficients_"):
+            fail(f"{label} must be a Lagrangian library; got {type(lib).__name__}")
+        _check_library(lib, lambda msg, label=label: fail(f"{label}: {msg}"))
+        try:
+            seg = lib.kinematics
+        except (ValueError, TypeError, AttributeError) as err:  # NotFittedError is a ValueError
+            fail(f"{label} has no segmentation: {err}")
+        if _segments(seg) != lengths:
+            fail(f"{label} has segments {_segments(seg)}, kinematics_ {lengths}")
+        columns[label] = _columns(lib, seg)
+    for label, other in (("actuation_", state.get("actuation_")), ("optimizer_", state.get("optimizer_"))):
+        kin_other = vars(other).get("kinematics_") if other is not None and hasattr(other, "__dict__") else None
+        if kin_other is not None and _segments(kin_other) != lengths:
+            fail(f"{label}.kinematics_ has segments {_segments(kin_other)}, kinematics_ {lengths}")
+    for name_ in ("coef_", "model_coef_"):
+        arr = state[name_]
+        if not (isinstance(arr, np.ndarray) and arr.ndim == 1 and arr.dtype.kind == "f"):
+            fail(f"{name_} must be a 1-d float array; got {type(arr).__name__} {getattr(arr, 'shape', '')}")
+    coef, model_coef, cmap = obj.coef_, obj.model_coef_, obj.column_map_
+    for name_, arr, label in (("coef_", coef, "full_library_"), ("model_coef_", model_coef, "library_")):
+        if columns[label] is not None and arr.size != columns[label]:
+            fail(f"{name_} has {arr.size} entries; {label} has {columns[label]} columns")
+    if not (
+        isinstance(cmap, np.ndarray)
+        and cmap.ndim == 1
+        and cmap.dtype.kind in "iu"
+        and cmap.size == model_coef.size
+        and (cmap.size == 0 or (cmap.min() >= 0 and cmap.max() < coef.size and np.all(np.diff(cmap) > 0)))
+    ):
+        fail(f"column_map_ must be {model_coef.size} increasing column indices below {coef.size}")
+    if not np.array_equal(coef[cmap], model_coef, equal_nan=True):
+        fail("model_coef_ differs from coef_[column_map_]: the coefficients were altered")
+    active = obj.active_strains_
+    if not (isinstance(active, np.ndarray) and active.shape == (m, 3) and np.array_equal(active, kin.active_strains)):
+        fail(f"active_strains_ must be the ({m}, 3) active strains of kinematics_")
+    if not np.array_equal(obj.library_.kinematics.active_strains, kin.active_strains):
+        fail("library_'s active strains differ from kinematics_'s")
+    for name_ in ("stiffness_", "damping_", "rest_strain_"):
+        arr = state.get(name_)
+        if arr is not None and np.shape(arr) != (3 * m,):
+            fail(f"{name_} must have shape ({3 * m},); got {np.shape(arr)}")
+    if state.get("n_features_in_", 3 * m) != 3 * m:
+        fail(f"n_features_in_ = {state['n_features_in_']!r}; kinematics_ has {3 * m} strains")
+
+
+#: per-class checks run on a rebuilt object (after its learned state is set)
+_CONSISTENCY = {
+    "EulerLagrangeRegressor": _check_regressor,
+    "PCSLagrangianLibrary": _check_library,
+    "PhysicalPCSLibrary": _check_library,
+}
 
 
 # --------------------------------------------------------------------------
@@ -428,6 +620,7 @@ class _Decoder:
             raise self.error(label, f"unknown constructor parameter(s) {unknown}; {name} takes {sorted(allowed)}")
         kwargs = {k: self.decode(v, f"{label}.{k}") for k, v in params.items()}
         self._check_kinds(cls, kwargs, label)
+        self._check_bounds(name, kwargs, label)
         if "cache_dir" in allowed:
             kwargs["cache_dir"] = self._cache_dir(kwargs.get("cache_dir"), label)
         if spec.kind == "init" and set(kwargs) != set(spec.fields):
@@ -438,7 +631,17 @@ class _Decoder:
                 _check_pipeline(obj)
             elif hasattr(cls, "_parameter_constraints"):
                 validate_parameters(obj)
-        except (ValueError, TypeError, ArithmeticError, KeyError, IndexError, AttributeError, OSError) as err:
+        except (
+            ValueError,
+            TypeError,
+            ArithmeticError,
+            KeyError,
+            IndexError,
+            AttributeError,
+            OSError,
+            MemoryError,
+            RecursionError,
+        ) as err:
             raise self.error(label, f"invalid parameters: {type(err).__name__}: {err}") from None
         if state and (spec.kind != "estimator" or spec.params_only):
             raise self.error(label, f"{name} has no learned state in model files; got {sorted(state)}")
@@ -456,8 +659,38 @@ class _Decoder:
                 setattr(obj, key, value)
             except (AttributeError, TypeError, ValueError) as err:
                 raise self.error(label, f"cannot set {key}: {err}") from None
+        check = _CONSISTENCY.get(name)
+        if check is not None:
+
+            def fail(msg: str) -> None:
+                raise self.error(label, f"inconsistent file: {msg}")
+
+            try:
+                check(obj, fail)
+            except ValueError:
+                raise
+            except (TypeError, ArithmeticError, KeyError, IndexError, AttributeError, MemoryError) as err:
+                raise self.error(label, f"inconsistent file: {type(err).__name__}: {err}") from None
         self.objects[oid] = obj
         return obj
+
+    def _check_bounds(self, name: str, kwargs: dict[str, Any], label: str) -> None:
+        """Integer parameters in :data:`PARAMETER_RANGES`, no paths, at most :data:`MAX_SEGMENTS` segments."""
+        for key, (lo, hi) in PARAMETER_RANGES.get(name, {}).items():
+            value = kwargs.get(key)
+            if _integer(value) and not lo <= value <= hi:
+                raise self.error(label, f"parameter {key} = {value!r} is outside its range [{lo}, {hi}] in model files")
+        for key, allowed in _NO_PATHS.get(name, {}).items():
+            value = kwargs.get(key)
+            if isinstance(value, (str, os.PathLike)) and value not in allowed:
+                raise self.error(
+                    label,
+                    f"parameter {key} = {str(value)!r} is a path; model files store it by value (save the object "
+                    f"with the loaded {key}, e.g. a Camera), never a path to read",
+                )
+        lengths = kwargs.get("segment_lengths")
+        if isinstance(lengths, (tuple, list, np.ndarray)) and np.size(lengths) > MAX_SEGMENTS:
+            raise self.error(label, f"{np.size(lengths)} segments (model files hold at most {MAX_SEGMENTS})")
 
     def _check_kinds(self, cls: type, kwargs: dict[str, Any], label: str) -> None:
         """Numbers where the constructor's default is a number, booleans where it is a boolean.
@@ -525,35 +758,11 @@ def _paths(path: str | os.PathLike) -> tuple[Path, Path]:
     return stem.with_name(stem.name + ".json"), stem.with_name(stem.name + ".npz")
 
 
-def _atomic_write(path: Path, payload: bytes) -> None:
-    """Write ``payload`` to a fresh sibling file, then rename it over ``path`` (readers never see half a file)."""
-    for _ in range(100):
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.tmp")
-        try:
-            # mode 0o666 minus the umask, like a plain open(); O_EXCL never follows a planted link
-            fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        except FileExistsError:
-            continue
-        break
-    else:
-        raise OSError(f"cannot create a temporary file next to {str(path)!r}")
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(payload)
-        os.replace(tmp, path)
-    except BaseException:
-        try:
-            os.unlink(tmp)
-        except OSError:
-            pass
-        raise
-
-
 def _package_version() -> str:
     return __version__
 
 
-def save(obj: Any, path: str | os.PathLike) -> Path:
+def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> Path:
     """Write a fitted estimator (or pipeline) to ``path`` as JSON plus ``.npz``.
 
     Parameters
@@ -566,6 +775,12 @@ def save(obj: Any, path: str | os.PathLike) -> Path:
     path : str or path-like
         ``model``, ``model.json`` or ``model.npz``: writes ``model.json`` and
         ``model.npz`` side by side (replacing existing files).
+    into : FileSet, optional
+        A :class:`~pcs_sindy.core.atomic.FileSet` the pair joins (written when the set
+        commits, with the other files of the set); default: the pair is its own set.
+
+    The pair is written atomically as a set: a failure (disk full, ``ulimit -f``) or a
+    crash leaves the previous pair loadable, never a new ``.npz`` beside an old JSON.
 
     Returns
     -------
@@ -605,12 +820,14 @@ def save(obj: Any, path: str | os.PathLike) -> Path:
     text = _NUMBER_LIST.sub(_one_line, json.dumps(doc, indent=1, allow_nan=False)) + "\n"
     if not json_path.parent.is_dir():
         raise OSError(f"cannot save to path={str(path)!r}: directory {str(json_path.parent)!r} does not exist")
-    try:
-        # npz first: the JSON, written last, names the npz content it belongs to (sha256)
-        _atomic_write(npz_path, npz_bytes)
-        _atomic_write(json_path, text.encode("utf-8"))
-    except OSError as err:
-        raise OSError(f"cannot save model to path={str(path)!r}: {err}") from err
+    # npz first: the JSON, written last, names the npz content it belongs to (sha256)
+    if into is not None:
+        into.write_bytes(npz_path, npz_bytes)
+        into.write_bytes(json_path, text.encode("utf-8"))
+        return json_path
+    with FileSet() as pair:
+        pair.write_bytes(npz_path, npz_bytes)
+        pair.write_bytes(json_path, text.encode("utf-8"))
     return json_path
 
 
@@ -626,13 +843,40 @@ def _reject_constant(name: str) -> Any:
     raise ValueError(f"non-standard JSON constant {name}")
 
 
-def _read_npz_bytes(npz_path: Path, source: str) -> bytes:
+def _read_regular(path: Path, limit: int, source: str, what: str) -> bytes:
+    """The bytes of a regular file of at most ``limit`` bytes, read without blocking on a FIFO or device.
+
+    A symbolic link is followed only to a file in the same folder (or below it).
+    """
+    if path.is_symlink():
+        target = Path(os.path.realpath(path))
+        folder = Path(os.path.realpath(path.parent))
+        if folder != target.parent and folder not in target.parents:
+            raise ValueError(
+                f"model file {source}: {what} {str(path)!r} is a symbolic link out of its folder (to "
+                f"{str(target)!r}); copy the file instead"
+            )
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_NOCTTY", 0)
     try:
-        data = npz_path.read_bytes()
+        fd = os.open(path, flags)
     except FileNotFoundError:
-        raise OSError(f"model file {source}: its array file {str(npz_path)!r} is missing") from None
+        raise OSError(f"model file {source}: {what} {str(path)!r} is missing (does not exist)") from None
+    except IsADirectoryError:
+        raise OSError(f"model file {source}: {what} {str(path)!r} is a directory") from None
     except OSError as err:
-        raise OSError(f"model file {source}: cannot read {str(npz_path)!r}: {err}") from err
+        raise OSError(f"model file {source}: cannot read {what} {str(path)!r}: {err.strerror or err}") from None
+    with os.fdopen(fd, "rb") as fh:
+        info = os.fstat(fh.fileno())
+        if not stat.S_ISREG(info.st_mode):
+            raise ValueError(
+                f"model file {source}: {what} {str(path)!r} is not a regular file (a device, FIFO or socket); "
+                "model files are plain files"
+            )
+        if info.st_size > limit:
+            raise ValueError(f"model file {source}: {what} {str(path)!r} is {info.st_size} bytes (at most {limit})")
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise ValueError(f"model file {source}: {what} {str(path)!r} is over {limit} bytes")
     return data
 
 
@@ -666,15 +910,8 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
     """
     json_path, npz_path = _paths(path)
     source = repr(str(json_path))
-    try:
-        size = json_path.stat().st_size
-        if size > _MAX_JSON_BYTES:
-            raise ValueError(f"model file {source} is {size} bytes; model JSON files are at most {_MAX_JSON_BYTES}")
-        raw = json_path.read_bytes()
-    except FileNotFoundError:
-        raise OSError(f"model file {source} does not exist") from None
-    except IsADirectoryError:
-        raise OSError(f"model file {source} is a directory") from None
+    recover(json_path.parent)  # finish a save a crash interrupted (the pair is then the new one)
+    raw = _read_regular(json_path, _MAX_JSON_BYTES, source, "the JSON file")
     try:
         doc = json.loads(raw.decode("utf-8"), parse_constant=_reject_constant)
     except (UnicodeDecodeError, ValueError, RecursionError) as err:
@@ -701,7 +938,7 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
         or not isinstance(meta.get("sha256"), str)
     ):
         raise ValueError(f"model file {source}: 'arrays' must hold 'sha256' and 'entries'")
-    data = _read_npz_bytes(npz_path, source)
+    data = _read_regular(npz_path, _MAX_NPZ_BYTES, source, "its array file")
     if hashlib.sha256(data).hexdigest() != meta["sha256"]:
         raise ValueError(
             f"model file {source}: {str(npz_path)!r} does not belong to it (sha256 mismatch; "
@@ -715,6 +952,8 @@ def load(path: str | os.PathLike, *, cache_dir: Any = _UNSET) -> Any:
         return _Decoder(arrays, source, cache_dir).decode(root, "")
     except RecursionError:
         raise ValueError(f"model file {source} is nested too deeply") from None
+    except (TypeError, KeyError, IndexError, AttributeError, ArithmeticError, MemoryError) as err:
+        raise ValueError(f"model file {source} is invalid: {type(err).__name__}: {err}") from None
 
 
 def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]:
@@ -747,4 +986,3 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
                 )
             arrays[key] = arr
     return arrays
-

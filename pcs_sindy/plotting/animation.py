@@ -137,21 +137,27 @@ def animate_rollout(
     fig.tight_layout()
 
     indices = range(0, n_frames, stride)
-    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
-    if not writer.isOpened():
-        raise OSError(f"OpenCV cannot open a {codec} video writer for path={str(path)!r}")
-    try:
-        for k in tqdm(indices, desc="animate", unit="frame", disable=not progress):
-            l_true.set_data(true_xy[k, :, 0], true_xy[k, :, 1])
-            l_pred.set_data(pred_xy[k, :, 0], pred_xy[k, :, 1])
-            if l_mark is not None:
-                l_mark.set_data(mark_xy[k, :, 0], mark_xy[k, :, 1])
-            stamp.set_text(f"t = {t[k]:.3f} s")
-            canvas.draw()
-            rgba = np.asarray(canvas.buffer_rgba())
-            if rgba.shape[:2] != (height, width):
-                raise RuntimeError(f"canvas size {rgba.shape[1]}x{rgba.shape[0]} differs from size {width}x{height}")
-            writer.write(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR))
-    finally:
-        writer.release()
+    from ..core.atomic import FileSet
+
+    # written under a temporary name in the same folder and renamed when complete: a failure leaves the old video
+    with FileSet() as outputs, outputs.path_for(path) as tmp:
+        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
+        if not writer.isOpened():
+            raise OSError(f"OpenCV cannot open a {codec} video writer for path={str(path)!r}")
+        try:
+            for k in tqdm(indices, desc="animate", unit="frame", disable=not progress):
+                l_true.set_data(true_xy[k, :, 0], true_xy[k, :, 1])
+                l_pred.set_data(pred_xy[k, :, 0], pred_xy[k, :, 1])
+                if l_mark is not None:
+                    l_mark.set_data(mark_xy[k, :, 0], mark_xy[k, :, 1])
+                stamp.set_text(f"t = {t[k]:.3f} s")
+                canvas.draw()
+                rgba = np.asarray(canvas.buffer_rgba())
+                if rgba.shape[:2] != (height, width):
+                    raise RuntimeError(
+                        f"canvas size {rgba.shape[1]}x{rgba.shape[0]} differs from size {width}x{height}"
+                    )
+                writer.write(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR))
+        finally:
+            writer.release()
     return path

@@ -17,11 +17,21 @@ exact rational factor, length exponents) from which the fast single-sample
 dynamics of :meth:`PCSLagrangianLibrary.compile_dynamics` is assembled.
 
 The cache holds only JSON: the term list, the Psi polynomial data and the
-generated source text, each with its SHA-256.  Source is executed only when
-its hash matches and its syntax tree has exactly the shape we generate
-(arithmetic, indexing, ``np.cos/sin/zeros/empty`` and special-function
-calls); anything else is a cache miss.  No pickle, no ``sympify``/``eval``
-of stored expressions.
+generated source text, each with its SHA-256.  The hashes are stored in the same
+file, so they detect accidental damage (a truncated or partly overwritten file),
+not tampering: anyone who can write the cache directory can write matching
+hashes.  **The cache directory must therefore be trusted** (writable only by
+you; see ``cache_dir`` of :func:`build_basis` and ``$PCS_SINDY_CACHE``).  As a
+defence in depth, cached source is executed only when its syntax tree has
+exactly the form the generator writes (:func:`_check_generated_source`: three
+functions without defaults or decorators, single assignments to local names or
+indexed stores into their result arrays, arithmetic, small literal powers, and
+calls of ``np.cos/sin/zeros/empty``, ``float`` and ``SF['name']``; no attribute
+stores, imports, loops or other names), in a namespace without builtins, and
+must then evaluate one state to arrays of the right shapes.  Cached text that
+fails any of this is a cache miss: a warning, a new derivation, and the file
+is replaced (atomically, :mod:`pcs_sindy.core.atomic`).  No pickle, no
+``sympify``/``eval`` of stored expressions.
 """
 
 from __future__ import annotations
@@ -32,6 +42,7 @@ import json
 import math
 import os
 import re as _re
+import stat
 from collections.abc import Callable
 from fractions import Fraction
 from pathlib import Path
@@ -41,6 +52,7 @@ import numpy as np
 import sympy as sp
 from sympy.printing.pycode import PythonCodePrinter
 
+from ...core import atomic
 from . import special as _special
 from .derivation import LagrangianTerm, atom_names, derive_lagrangian_terms
 
@@ -48,10 +60,16 @@ __all__ = ["CompiledBasis", "build_basis", "default_cache_dir", "atom_expression
 
 #: bump when the derivation or the generated code changes meaning
 FORMAT_VERSION = 5
+# largest cache file read (the m = 3 basis is a few MB)
+_MAX_CACHE_BYTES = 512 * 2**20
 
 
 def default_cache_dir() -> Path:
-    """``$PCS_SINDY_CACHE`` or ``$XDG_CACHE_HOME/pcs_sindy`` or ``~/.cache/pcs_sindy``."""
+    """``$PCS_SINDY_CACHE`` or ``$XDG_CACHE_HOME/pcs_sindy`` or ``~/.cache/pcs_sindy``.
+
+    The directory holds generated code that the libraries execute: point ``PCS_SINDY_CACHE``
+    only at a directory that no one you do not trust can write.
+    """
     env = os.environ.get("PCS_SINDY_CACHE")
     if env:
         return Path(env)
@@ -292,89 +310,240 @@ class CompiledBasis:
         _special.register_backbone_functions()
         _check_generated_source(source)
         names = sorted(set(_SF_CALL.findall(source)))
+        if any(_re.search(r"(_u){5,}$", n) for n in names):  # derivatives are made on demand: bound their order
+            raise _SourceShapeError("cached source calls a special function derivative of order above 4")
+        try:
+            functions = {n: _special.special(n) for n in names}
+        except KeyError as err:
+            raise _SourceShapeError(f"cached source calls an unknown special function: {err}") from None
         # No builtins but float: even text that slipped past the check cannot reach eval/open/__import__.
-        namespace: dict[str, Any] = {
-            "__builtins__": {"float": float},
-            "np": np,
-            "math": math,
-            "SF": {n: _special.special(n) for n in names},
-        }
-        exec(compile(source, f"<pcs_sindy basis m={m}>", "exec"), namespace)  # our own generated, hash-checked text
+        namespace: dict[str, Any] = {"__builtins__": {"float": float}, "np": np, "SF": functions}
+        # text of the generator's form (checked above): defining the three functions runs no other code
+        exec(compile(source, f"<pcs_sindy basis m={m}>", "exec"), namespace)
         self.features: Callable = namespace["features"]
         self.psi: Callable = namespace["psi"]
         self.weak: Callable = namespace["weak"]
+        if from_cache:
+            self._smoke_test()
+
+    def _smoke_test(self) -> None:
+        """Evaluate the three functions on one state: cached text that fails or mis-shapes is refused."""
+        n, n_g = 3 * self.m, len(self.products)
+        z = np.full((1, n), 0.1)
+        lengths = np.full(self.m, 0.1)
+        with np.errstate(all="ignore"):
+            shapes = (
+                np.shape(self.features(z, z, lengths)),
+                np.shape(self.psi(z, z, z, lengths)),
+                *(np.shape(a) for a in self.weak(z, z, lengths)),
+            )
+        if shapes != ((1, n_g), (1, n, n_g), (1, n, n_g), (1, n, n_g)):
+            raise _SourceShapeError(f"cached source returns arrays of shapes {shapes}; expected {n_g} basis columns")
 
 
 _SF_CALL = _re.compile(r"SF\['([A-Za-z0-9_]+)'\]")
 
-_ALLOWED_NODES = (
-    ast.Module,
-    ast.FunctionDef,
-    ast.arguments,
-    ast.arg,
-    ast.Assign,
-    ast.Return,
-    ast.Name,
-    ast.Load,
-    ast.Store,
-    ast.Attribute,
-    ast.Subscript,
-    ast.Slice,
-    ast.Tuple,
-    ast.Constant,
-    ast.BinOp,
-    ast.UnaryOp,
-    ast.Call,
-    ast.Add,
-    ast.Sub,
-    ast.Mult,
-    ast.Div,
-    ast.Pow,
-    ast.USub,
-    ast.UAdd,
-)
-_ALLOWED_CALLS = {"float"}
-_GLOBALS = {"np", "SF", "float", "math"}  # names the generated code reads but must never rebind
+#: the functions the generator writes, with their arguments (positional only, no defaults)
+_SIGNATURES = {"features": ["q", "qd", "L"], "psi": ["q", "qd", "qdd", "L"], "weak": ["q", "qd", "L"]}
+#: the arrays each function fills by indexed assignment and returns
+_RESULTS = {"features": ("out",), "psi": ("out",), "weak": ("mom", "rest")}
+_GLOBALS = {"np", "SF", "float"}  # names the generated code reads but must never rebind
 _ALLOWED_NP = {"cos", "sin", "zeros", "empty"}
+_BINOPS = (ast.Add, ast.Sub, ast.Mult, ast.Div, ast.Pow)
+_UNARYOPS = (ast.USub, ast.UAdd)
+# largest integer literal (rational factors of the derivation stay far below it) and power
+_MAX_LITERAL = 10**15
+_MAX_POWER = 64
+# largest literal dimension of an array the generated code allocates (columns of the basis)
+_MAX_DIMENSION = 10**5
+
+
+class _SourceShapeError(ValueError):
+    """Cached source that is not of the form the generator writes."""
+
+
+def _fail(node: ast.AST | None, what: str) -> _SourceShapeError:
+    line = getattr(node, "lineno", None)
+    return _SourceShapeError(f"cached source{'' if line is None else f' line {line}'}: {what}")
+
+
+def _number(node: ast.AST, limit: float = _MAX_LITERAL) -> bool:
+    """An int or finite float literal of magnitude at most ``limit`` (no bool, str, bytes, complex)."""
+    return (
+        isinstance(node, ast.Constant)
+        and type(node.value) in (int, float)
+        and math.isfinite(node.value)
+        and abs(node.value) <= limit
+    )
+
+
+def _has_name(node: ast.AST) -> bool:
+    return any(isinstance(n, ast.Name) for n in ast.walk(node))
+
+
+class _GeneratedForm:
+    """The statement and expression forms :func:`_generate_source` writes, and nothing else."""
+
+    def __init__(self, local: set[str]) -> None:
+        self.local = local
+
+    # -- expressions ----------------------------------------------------------
+    def expr(self, node: ast.AST) -> None:
+        if _number(node):
+            return
+        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load):
+            if node.id not in self.local and node.id != "float":
+                raise _fail(node, f"reads an unknown name {node.id!r}")
+            return
+        if isinstance(node, ast.BinOp) and isinstance(node.op, _BINOPS):
+            if isinstance(node.op, ast.Pow):
+                # x**k with a literal integer k of a term that holds a variable (never 9**9**9)
+                exponent = node.right
+                if isinstance(exponent, ast.UnaryOp) and isinstance(exponent.op, ast.USub):
+                    exponent = exponent.operand
+                if not (_number(exponent, _MAX_POWER) and type(exponent.value) is int and _has_name(node.left)):
+                    raise _fail(node, "a power must raise an expression of the state to a small literal integer")
+            self.expr(node.left)
+            self.expr(node.right)
+            return
+        if isinstance(node, ast.UnaryOp) and isinstance(node.op, _UNARYOPS):
+            self.expr(node.operand)
+            return
+        if isinstance(node, ast.Subscript) and isinstance(node.ctx, ast.Load):
+            self.subscript(node)
+            return
+        if isinstance(node, ast.Call):
+            self.call(node)
+            return
+        raise _fail(node, f"forbidden expression {ast.unparse(node)[:60]!r}")
+
+    def subscript(self, node: ast.Subscript) -> None:
+        """``x[:, k]``, ``L[k]`` and ``q.shape[0]``: a local array indexed by literals and full slices."""
+        value = node.value
+        if isinstance(value, ast.Attribute):
+            if not (
+                isinstance(value.value, ast.Name) and value.value.id in self.local and value.attr == "shape"
+            ) or not (_number(node.slice) and node.slice.value == 0):
+                raise _fail(node, "only q.shape[0] may be read from an attribute")
+            return
+        if not (isinstance(value, ast.Name) and value.id in self.local):
+            raise _fail(node, "only local arrays may be indexed")
+        self.index(node.slice)
+
+    def index(self, node: ast.AST) -> None:
+        parts = node.elts if isinstance(node, ast.Tuple) else [node]
+        for part in parts:
+            if isinstance(part, ast.Slice):
+                if part.lower is not None or part.upper is not None or part.step is not None:
+                    raise _fail(part, "only full slices ':' are written")
+            elif not (_number(part, _MAX_DIMENSION) and type(part.value) is int and part.value >= 0):
+                raise _fail(part, "indices must be literal non-negative integers")
+
+    def call(self, node: ast.Call) -> None:
+        if node.keywords:
+            raise _fail(node, "calls take no keyword arguments")
+        f = node.func
+        if isinstance(f, ast.Name) and f.id == "float":
+            if len(node.args) != 1:
+                raise _fail(node, "float() takes one argument")
+            self.expr(node.args[0])
+            return
+        if isinstance(f, ast.Subscript) and isinstance(f.value, ast.Name) and f.value.id == "SF":
+            if not (isinstance(f.slice, ast.Constant) and isinstance(f.slice.value, str)):
+                raise _fail(node, "special functions are named by a string literal")
+            if len(node.args) != 1:
+                raise _fail(node, "special functions take one argument")
+            self.expr(node.args[0])
+            return
+        if isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "np":
+            if f.attr in ("cos", "sin") and len(node.args) == 1:
+                self.expr(node.args[0])
+                return
+            if f.attr in ("zeros", "empty") and len(node.args) == 1 and isinstance(node.args[0], ast.Tuple):
+                dims = node.args[0].elts
+                for k, dim in enumerate(dims):
+                    if k == 0 and isinstance(dim, ast.Subscript):
+                        self.subscript(dim)
+                    elif not (_number(dim, _MAX_DIMENSION) and type(dim.value) is int and dim.value >= 0):
+                        raise _fail(node, "array sizes must be q.shape[0] and small literal integers")
+                return
+        allowed = f"np.{sorted(_ALLOWED_NP)}, float, SF"
+        raise _fail(node, f"forbidden call {ast.unparse(node.func)[:40]!r} (allowed: {allowed})")
+
+    # -- statements -----------------------------------------------------------
+    def function(self, fn: ast.stmt, name: str) -> None:
+        if not isinstance(fn, ast.FunctionDef) or fn.name != name:
+            raise _fail(fn, f"expected def {name}(...)")
+        a = fn.args
+        if (
+            fn.decorator_list
+            or fn.returns is not None
+            or getattr(fn, "type_params", None)
+            or a.posonlyargs
+            or a.vararg
+            or a.kwonlyargs
+            or a.kw_defaults
+            or a.kwarg
+            or a.defaults
+            or [x.arg for x in a.args] != _SIGNATURES[name]
+            or any(x.annotation is not None for x in a.args)
+        ):
+            raise _fail(fn, f"{name} must be def {name}({', '.join(_SIGNATURES[name])}) without defaults or decorators")
+        if not fn.body or not isinstance(fn.body[-1], ast.Return):
+            raise _fail(fn, f"{name} must end with its return")
+        results = _RESULTS[name]
+        for stmt in fn.body[:-1]:
+            if not (isinstance(stmt, ast.Assign) and len(stmt.targets) == 1):
+                raise _fail(stmt, f"only single assignments are written, not {type(stmt).__name__}")
+            target = stmt.targets[0]
+            if isinstance(target, ast.Name):
+                if target.id in _GLOBALS or target.id.startswith("__"):
+                    raise _fail(stmt, f"rebinds the reserved name {target.id!r}")
+            elif isinstance(target, ast.Subscript):
+                if not (isinstance(target.value, ast.Name) and target.value.id in results):
+                    raise _fail(stmt, f"only {', '.join(results)} are filled by index")
+                self.index(target.slice)
+            else:  # attribute stores (np.cos = np.sin), tuple unpacking, starred
+                raise _fail(stmt, f"assigns to a {type(target).__name__}")
+            self.expr(stmt.value)
+        ret = fn.body[-1].value
+        names = ret.elts if isinstance(ret, ast.Tuple) else [ret]
+        if [getattr(n, "id", None) for n in names] != list(results):
+            raise _fail(fn.body[-1], f"{name} must return {', '.join(results)}")
 
 
 def _check_generated_source(source: str) -> None:
-    """Refuse cached text that is not of the shape we generate (defence beyond the hash).
+    """Refuse cached text that is not of the form we generate (defence beyond the hash).
 
-    Only the functions ``features``/``psi``/``weak`` made of arithmetic, indexing, and calls
-    of ``np.cos/sin/zeros/empty``, ``float`` and ``SF['name']`` are accepted.
+    Accepted: exactly ``def features(q, qd, L)``, ``def psi(q, qd, qdd, L)`` and
+    ``def weak(q, qd, L)`` (no defaults, annotations or decorators), whose bodies are
+    single assignments to local names or indexed stores into their result arrays, then
+    ``return``; expressions of literal numbers, local names, ``+ - * /``, powers of a state
+    expression by a small literal integer, indexing of local arrays by literals and ``:``,
+    ``q.shape[0]``, and calls of ``np.cos``, ``np.sin``, ``np.zeros``/``np.empty`` (of a
+    literal shape), ``float`` and ``SF['name']``.  No attribute stores, imports, defaults,
+    loops, comprehensions, lambdas or other names.
+
+    Raises
+    ------
+    ValueError
+        Naming the first construct outside this form.
     """
-    tree = ast.parse(source)
-    if [n.name for n in tree.body if isinstance(n, ast.FunctionDef)] != ["features", "psi", "weak"] or len(
-        tree.body
-    ) != 3:
-        raise ValueError("cached source must define exactly features(), psi() and weak()")
-    local = {a.arg for fn in tree.body for a in fn.args.args}
-    local |= {n.id for n in ast.walk(tree) if isinstance(n, ast.Name) and isinstance(n.ctx, ast.Store)}
-    if local & _GLOBALS:
-        raise ValueError(f"cached source rebinds a reserved name: {sorted(local & _GLOBALS)}")
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Name) and isinstance(node.ctx, ast.Load) and node.id not in local | _GLOBALS:
-            raise ValueError(f"cached source reads an unknown name: {node.id}")
-        if not isinstance(node, _ALLOWED_NODES):
-            raise ValueError(f"cached source contains a forbidden construct: {type(node).__name__}")
-        if isinstance(node, ast.Attribute):
-            ok = isinstance(node.value, ast.Name) and (
-                (node.value.id == "np" and node.attr in _ALLOWED_NP) or node.attr == "shape"
-            )
-            if not ok:
-                raise ValueError(f"cached source uses a forbidden attribute: {node.attr}")
-        if isinstance(node, ast.Call):
-            f = node.func
-            ok = (
-                (isinstance(f, ast.Name) and f.id in _ALLOWED_CALLS)
-                or (isinstance(f, ast.Attribute) and isinstance(f.value, ast.Name) and f.value.id == "np")
-                or (isinstance(f, ast.Subscript) and isinstance(f.value, ast.Name) and f.value.id == "SF")
-            )
-            if not ok or node.keywords:
-                raise ValueError("cached source contains a forbidden call")
-        if isinstance(node, ast.Name) and node.id.startswith("__"):
-            raise ValueError(f"cached source uses a forbidden name: {node.id}")
+    try:
+        tree = ast.parse(source)
+    except (SyntaxError, ValueError, RecursionError, MemoryError) as err:
+        raise _SourceShapeError(f"cached source does not parse: {type(err).__name__}: {err}") from None
+    if len(tree.body) != len(_SIGNATURES):
+        raise _SourceShapeError("cached source must define exactly features(), psi() and weak()")
+    for fn, name in zip(tree.body, _SIGNATURES):
+        local = set(_SIGNATURES[name]) | {
+            t.id
+            for stmt in getattr(fn, "body", [])
+            if isinstance(stmt, ast.Assign)
+            for t in stmt.targets
+            if isinstance(t, ast.Name)
+        }
+        _GeneratedForm(local - _GLOBALS).function(fn, name)
 
 
 def _distinct_products(terms: list[LagrangianTerm]) -> list[tuple[tuple[str, int], ...]]:
@@ -388,6 +557,39 @@ def _cache_file(cache_dir: Path, m: int) -> Path:
     return cache_dir / f"pcs_basis_m{m}_v{FORMAT_VERSION}.json"
 
 
+def _read_cache(path: Path, m: int) -> CompiledBasis | None:
+    """The basis stored in ``path``, or None (with a warning when the file is there but unusable)."""
+    import warnings
+
+    try:
+        with open(path, "rb") as fh:
+            if not stat.S_ISREG(os.fstat(fh.fileno()).st_mode):
+                raise ValueError("not a regular file")
+            raw = fh.read(_MAX_CACHE_BYTES + 1)
+        if len(raw) > _MAX_CACHE_BYTES:
+            raise ValueError(f"larger than {_MAX_CACHE_BYTES} bytes")
+        data = json.loads(raw.decode("utf-8"))
+        source = data["source"]
+        ok = (
+            data.get("format") == FORMAT_VERSION
+            and data.get("m") == m
+            and hashlib.sha256(source.encode()).hexdigest() == data.get("sha256")
+            and hashlib.sha256(json.dumps(data["terms"]).encode()).hexdigest() == data.get("terms_sha256")
+            and hashlib.sha256(json.dumps(data["psi"]).encode()).hexdigest() == data.get("psi_sha256")
+        )
+        if not ok:
+            return None  # another version or a damaged file: derive again and overwrite, as for a miss
+        return CompiledBasis(m, _terms_from_json(data["terms"]), source, data["psi"], from_cache=True)
+    except Exception as err:  # noqa: BLE001 - any failure of cached text means: derive again
+        warnings.warn(
+            f"the derivation cache {str(path)!r} is not usable ({type(err).__name__}: {str(err)[:200]}); "
+            "deriving the basis again and replacing it",
+            RuntimeWarning,
+            stacklevel=3,
+        )
+        return None
+
+
 def build_basis(m: int, cache_dir: str | os.PathLike | None | bool = None, progress: bool = False) -> CompiledBasis:
     """Derive (or load from the cache) and compile the basis of an m-segment model.
 
@@ -397,7 +599,9 @@ def build_basis(m: int, cache_dir: str | os.PathLike | None | bool = None, progr
         Number of segments.
     cache_dir : path, None or False
         Cache directory; ``None`` uses :func:`default_cache_dir`, ``False``
-        disables the cache (always derive, never write).
+        disables the cache (always derive, never write).  It holds generated code
+        that is executed: it must be a directory only you (or people you trust)
+        can write; the hashes in its files detect damage, not tampering.
     progress : bool
         tqdm progress bar over the basis functions while deriving.
     """
@@ -407,23 +611,9 @@ def build_basis(m: int, cache_dir: str | os.PathLike | None | bool = None, progr
         directory = default_cache_dir() if cache_dir is None or cache_dir is True else Path(cache_dir)
         path = _cache_file(directory, m)
     if path is not None and path.is_file():
-        try:
-            data = json.loads(path.read_text())
-            source = data["source"]
-            ok = (
-                data.get("format") == FORMAT_VERSION
-                and data.get("m") == m
-                and hashlib.sha256(source.encode()).hexdigest() == data.get("sha256")
-                and hashlib.sha256(json.dumps(data["terms"]).encode()).hexdigest() == data.get("terms_sha256")
-                and hashlib.sha256(json.dumps(data["psi"]).encode()).hexdigest() == data.get("psi_sha256")
-            )
-        except (OSError, ValueError, KeyError, TypeError):
-            ok = False
-        if ok:
-            try:
-                return CompiledBasis(m, _terms_from_json(data["terms"]), source, data["psi"], from_cache=True)
-            except (ValueError, SyntaxError, TypeError, KeyError):
-                pass  # not text we generated: derive again and overwrite
+        cached = _read_cache(path, m)
+        if cached is not None:
+            return cached
     terms = derive_lagrangian_terms(m)
     source, psi_data = _generate_source(_distinct_products(terms), m, progress)
     if path is not None:
@@ -440,9 +630,7 @@ def build_basis(m: int, cache_dir: str | os.PathLike | None | bool = None, progr
         }
         try:
             path.parent.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".tmp{os.getpid()}")
-            tmp.write_text(json.dumps(payload))
-            os.replace(tmp, path)
+            atomic.write_text(path, json.dumps(payload))  # a reader never sees half a file
         except OSError:
             pass  # a read-only cache must not stop the user: we simply re-derive next time
     return CompiledBasis(m, terms, source, psi_data, from_cache=False)

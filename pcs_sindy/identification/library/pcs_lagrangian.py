@@ -67,7 +67,9 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         that become exact multiples of an earlier column are merged into it.
     cache_dir : path, None or False
         Derivation cache (default ``$PCS_SINDY_CACHE`` or ``~/.cache/pcs_sindy``);
-        ``False`` disables it.
+        ``False`` disables it.  The cache holds generated code that is executed: use
+        only a directory that no one you do not trust can write (its hashes detect
+        damage, not tampering; see :mod:`pcs_sindy.identification.library.codegen`).
     basis : {"monomial", "physical"}, default "monomial"
         ``"monomial"``: one basis function per distinct product of atoms
         (strains, rates, special functions of ``kappa_i L_i``, cos/sin of
