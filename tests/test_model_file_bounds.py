@@ -258,7 +258,14 @@ def specimens(regressors, data):
     from pysindy.differentiation import FiniteDifference
     from sklearn.pipeline import Pipeline
 
-    from pcs_sindy.models.actuation import IdentityActuation, LinearActuation, PressureActuation, TendonActuation
+    from pcs_sindy.identification.library.with_gains import WithGains
+    from pcs_sindy.models.actuation import (
+        IdentityActuation,
+        LearnedActuation,
+        LinearActuation,
+        PressureActuation,
+        TendonActuation,
+    )
     from pcs_sindy.pipeline import make_pcs_pipeline
     from pcs_sindy.vision import MarkerPoseExtractor
 
@@ -277,6 +284,9 @@ def specimens(regressors, data):
         "TendonActuation": TendonActuation(end=[0.1], side=[1]),
         "PressureActuation": PressureActuation(start=[0.0], end=[0.1], side=[1]),
         "LinearActuation": LinearActuation(pattern=np.eye(3)),
+        "TendonActuation[servo]": TendonActuation(end=[0.1], side=[1], drive="displacement"),
+        "LearnedActuation": LearnedActuation(n_inputs=2, terms=("u", "u*q"), strains="all"),
+        "WithGains": WithGains(phys.library_, ["g_1", "g_2"], 0.0),
         "MarkerPoseExtractor": MarkerPoseExtractor(camera=Camera(pixels_per_metre=1000.0, origin=(10.0, 5.0))),
         "Camera": Camera(pixels_per_metre=1000.0, origin=(10.0, 5.0), image_size=(640, 480)),
         "PlanarPCS": PlanarPCS((0.05, 0.05)),
