@@ -367,8 +367,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--threshold",
         type=_fusion_threshold,
         help=_later(
-            lambda: f"merge threshold h, or a rule choosing it per robot from a sweep: {', '.join(_FUSION_RULES)} "
-            f"(default {_of(SEGMENTS, 'threshold')})"
+            lambda: (
+                f"merge threshold h, or a rule choosing it per robot from a sweep: {', '.join(_FUSION_RULES)} "
+                f"(default {_of(SEGMENTS, 'threshold')})"
+            )
         ),
     )
     p.add_argument(

@@ -147,8 +147,7 @@ def demo_report(
     """
     from ..core.metrics import distributed_errors, end_effector_errors
     from ..core.trajectory import PoseTrajectory
-    from ..fusion.kinematic_fusion import KinematicFusion
-    from ..fusion.kinematic_fusion import threshold_sweep
+    from ..fusion.kinematic_fusion import KinematicFusion, threshold_sweep
     from ..plotting.animation import animate_rollout
     from ..plotting.fusion import plot_error_vs_segments, plot_strain_distance_profile
     from ..plotting.rollout import plot_end_effector, plot_rollout
