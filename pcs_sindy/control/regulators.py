@@ -45,6 +45,7 @@ from .base import Controller
 from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains, open_loop_decay
 from .models import InputMap, check_strains, linearise, static_forces, strain_scales
 from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
+from .targets import ShapeTarget, shape_strains
 
 __all__ = ["SetpointRegulator", "TipRegulator"]
 
@@ -98,6 +99,10 @@ class SetpointRegulator(Controller):
     poles_ : ndarray (3n,)
         Discrete poles of the model's linearised loop with these gains
         (:func:`~.gains.loop_poles`); a warning is issued if any lies outside the unit circle.
+    shape_fit_ : dict or None
+        For a :class:`~pcs_sindy.control.targets.ShapeTarget` reference, how
+        well the model's shape at the set-point fits it (``tip_error``,
+        ``max_position_error``, ``rms_position_error`` [m]); else None.
     """
 
     def __init__(
@@ -130,9 +135,27 @@ class SetpointRegulator(Controller):
     def start(
         self, reference: ArrayLike, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
     ) -> SetpointRegulator:
-        """Regulate to the strain set-point ``reference`` ((n,) modelled or (3m,) strains) over the times ``t``."""
+        """Regulate to the set-point ``reference`` over the control times ``t``.
+
+        Parameters
+        ----------
+        reference : array_like (n,) or (3m,), or ShapeTarget
+            The model's modelled (or all) strains, or a shape
+            (:class:`~pcs_sindy.control.targets.ShapeTarget`: marker poses, or
+            :meth:`~pcs_sindy.control.targets.ShapeTarget.from_strains` for
+            strains of another segmentation such as the plant's), mapped to
+            the model's strains by :func:`~pcs_sindy.control.targets.shape_strains`
+            (the fit is :attr:`shape_fit_`).  A set-point a little outside the
+            model's strain range is accepted with a warning saying how far;
+            a far one is refused (:func:`~pcs_sindy.control.models.check_strains`).
+        t : array_like (T,)
+        q0, qd0 : ignored
+        """
         self._prepare(t)
         fm = self.forward_model_
+        self.shape_fit_ = None
+        if isinstance(reference, ShapeTarget):
+            reference, self.shape_fit_ = shape_strains(fm, reference)
         n = fm.kinematics.n_active
         rate = check_positive(self.rate, "rate")
         effort = check_positive(self.effort, "effort")
