@@ -78,7 +78,8 @@ class ShapeTarget:
         poses = np.array(self.poses, dtype=float)
         if poses.ndim != 2 or poses.shape[1] != 3 or poses.shape[0] < 1 or not np.all(np.isfinite(poses)):
             raise ValueError(
-                f"ShapeTarget: poses must be finite [x, y, theta] rows of shape (P, 3); got shape {np.shape(self.poses)}"
+                "ShapeTarget: poses must be finite [x, y, theta] rows of shape (P, 3); "
+                f"got shape {np.shape(self.poses)}"
             )
         if self.arc_lengths is None:
             total = 1.0 if self.total_length is None else float(self.total_length)
