@@ -35,6 +35,7 @@ ORDER = [
     "actuation",
     "control",
     "control_actuated",
+    "control_targets",
     "cli_startup",
 ]
 # benchmarks outside make bench (run on their own)
