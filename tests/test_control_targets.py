@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from pcs_sindy.control import SetpointRegulator, ShapeTarget, shape_strains
+from pcs_sindy.control import SetpointRegulator, ShapeTarget, TipRegulator, shape_strains
 from pcs_sindy.core import PlanarPCS, forward_kinematics, se2_compose
 from pcs_sindy.identification import PhysicalPCSLibrary
 from pcs_sindy.simulation import get_scenario
@@ -120,3 +120,26 @@ def test_bad_targets_name_the_argument():
         shape_strains(_Kinematic(PLANT_LENGTHS), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="pose_std must be two finite numbers"):
         shape_strains(_Kinematic(PLANT_LENGTHS), ShapeTarget(np.zeros((3, 3))), pose_std=(0.0, 1.0))
+
+
+def test_tip_regulator_accepts_a_tip_a_little_beyond_the_strain_range():
+    robot = get_scenario("two_segment").robot
+    lib = PhysicalPCSLibrary(robot.segment_lengths, radius=robot.radius, gravity=robot.gravity)
+    fm = lib.forward_model(
+        lib.coefficients_from_parameters(
+            robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
+        )
+    )
+    limits = np.tile([20.0, 0.01, 0.01], 2)
+    t = np.arange(10) * 1e-3
+
+    def tip_of(bending):
+        return robot.kinematics.forward_kinematics(np.array([bending, 0, 0, bending, 0, 0]), [0.17])[0, :2]
+
+    near = tip_of(23.0)  # both segments 15 % of the bound beyond it: ~8 % of the span
+    with pytest.warns(UserWarning, match=r"be_1 = [\d.]+ not in \[-20, 20\] \([\d.]+ % of its span beyond\)"):
+        ctrl = TipRegulator(fm, strain_limits=limits).start(near, t)
+    assert ctrl.equilibrium_.reachable
+    np.testing.assert_allclose(ctrl.target_, near)
+    with pytest.raises(ValueError, match="not reachable"):
+        TipRegulator(fm, strain_limits=limits).start(tip_of(40.0), t)

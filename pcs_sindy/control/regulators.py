@@ -43,7 +43,7 @@ from numpy.typing import ArrayLike, NDArray
 from . import _kinematics
 from .base import Controller
 from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains, open_loop_decay
-from .models import InputMap, check_strains, linearise, static_forces, strain_scales
+from .models import REACH_MARGIN, InputMap, check_strains, linearise, static_forces, strain_scales
 from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
 from .targets import ShapeTarget, shape_strains
 
@@ -253,7 +253,9 @@ class TipRegulator(Controller):
     on_unreachable : {"raise", "nearest"}, default "raise"
         A target the model cannot reach within its input bounds and strain
         range raises ValueError (with the nearest reachable tip), or is
-        replaced by the nearest reachable tip.
+        replaced by the nearest reachable tip.  A target reachable with strains
+        a little outside the strain range (up to 25 % of its span beyond,
+        ``models.REACH_MARGIN``) is accepted with a warning saying how far.
     input_bounds, strain_limits
         See :class:`~pcs_sindy.control.base.Controller` (e.g. ``(0, 16)``
         for tendon tensions).
@@ -319,6 +321,8 @@ class TipRegulator(Controller):
         if self.on_unreachable not in ("raise", "nearest"):
             raise ValueError(f"on_unreachable must be 'raise' or 'nearest'; got {self.on_unreachable!r}")
         eq = equilibrium_inputs(fm, reference, self.input_bounds_, self.strain_limits_)
+        if not eq.reachable:
+            eq = self._a_little_beyond(fm, reference, eq)
         if not eq.reachable and self.on_unreachable == "raise":
             raise ValueError(
                 f"reference tip {eq.target.tolist()} is not reachable by the model within input_bounds and its strain "
@@ -362,6 +366,30 @@ class TipRegulator(Controller):
         self.reference_tip_ = np.broadcast_to(self.target_, (self.t_.size, 2)).copy()
         self.reference_strains_ = np.broadcast_to(eq.q, (self.t_.size, eq.q.size)).copy()
         return self
+
+    def _a_little_beyond(self, fm: Any, reference: ArrayLike, eq: EquilibriumResult) -> EquilibriumResult:
+        """``eq``, or the equilibrium within strain limits widened by ``REACH_MARGIN`` of their span, with a warning."""
+        lim = self.strain_limits_
+        span = lim[1] - lim[0]
+        wide = equilibrium_inputs(
+            fm, reference, self.input_bounds_, lim + REACH_MARGIN * span * np.array([[-1.0], [1.0]])
+        )
+        if not wide.reachable:
+            return eq
+        beyond = np.maximum(lim[0] - wide.q, wide.q - lim[1]) / span
+        names = fm.kinematics.strain_names(active_only=True)
+        out = ", ".join(
+            f"{names[i]} = {wide.q[i]:.4g} not in [{lim[0, i]:.4g}, {lim[1, i]:.4g}] ({100 * beyond[i]:.3g} % of its "
+            "span beyond)"
+            for i in np.flatnonzero(beyond > 0)
+        )
+        warnings.warn(
+            f"reference tip {wide.target.tolist()} needs strains a little outside the model's strain range: {out}; "
+            f"accepted (up to {100 * REACH_MARGIN:g} % beyond), the model extrapolates there",
+            UserWarning,
+            stacklevel=3,
+        )
+        return wide
 
     def _free_gain(self, free: NDArray[np.bool_]) -> NDArray[np.float64]:
         """``S_W^+`` over the inputs ``free`` (zero rows for the others); damped for a subset."""
