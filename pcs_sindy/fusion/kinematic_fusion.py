@@ -279,6 +279,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 rule=rule,
                 min_segment_markers=int(self.min_segment_markers),
                 merge=self.merge,
+                progress=bool(self.progress),
             )
         else:
             h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}

@@ -22,6 +22,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+from tqdm.auto import tqdm
 
 from ..core.kinematics import forward_kinematics
 from ..core.metrics import distributed_errors
@@ -122,6 +123,7 @@ def segmentation_sweep(
     q_max: ArrayLike,
     min_segment_markers: int = 1,
     merge: str = "runs",
+    progress: bool = False,
 ) -> tuple[list[SweepRow], list[NDArray[np.intp]]]:
     """Algorithm 1 (:func:`~pcs_sindy.fusion.merging.fuse_segments`) for each threshold, with its errors.
 
@@ -140,6 +142,8 @@ def segmentation_sweep(
     q_max : array_like, shape (3,)
     min_segment_markers : int
     merge : {"runs", "closest_pair"}
+    progress : bool, default False
+        Show a tqdm progress bar over the thresholds.
 
     Returns
     -------
@@ -155,7 +159,7 @@ def segmentation_sweep(
     truth = np.concatenate([np.asarray(c, dtype=float)[:, 1:, :] for c in chains], axis=0)
     cache: dict[tuple[int, ...], tuple[float, float]] = {}
     rows, bounds = [], []
-    for h in hs:
+    for h in tqdm(hs, desc="threshold sweep", disable=not progress, leave=False):
         b, _ = fuse_segments(chains, s, float(h), q_max, min_segment_markers, merge)
         key = tuple(int(v) for v in b)
         if key not in cache:
@@ -179,6 +183,7 @@ def choose_threshold(
     min_segment_markers: int = 1,
     merge: str = "runs",
     error: str = "e_p_dist",
+    progress: bool = False,
 ) -> tuple[float, dict[str, Any]]:
     """The merge threshold by a rule over a sweep: what ``KinematicFusion(threshold="auto")`` runs.
 
@@ -190,7 +195,7 @@ def choose_threshold(
 
     Parameters
     ----------
-    chains, arc_lengths, q_max, min_segment_markers, merge
+    chains, arc_lengths, q_max, min_segment_markers, merge, progress
         As for :func:`segmentation_sweep`.
     rule : {"relative_drop", "largest_drop"}, default "relative_drop"
     thresholds : array_like of float, optional
@@ -206,7 +211,7 @@ def choose_threshold(
         segment count, the lowest error of each) and ``reason`` (a sentence).
     """
     hs = AUTO_THRESHOLDS if thresholds is None else np.sort(np.atleast_1d(np.asarray(thresholds, dtype=float)))
-    rows, bounds = segmentation_sweep(chains, arc_lengths, hs, q_max, min_segment_markers, merge)
+    rows, bounds = segmentation_sweep(chains, arc_lengths, hs, q_max, min_segment_markers, merge, progress)
     chosen = select_threshold(rows, error=error, rule=rule)
     key = bounds[rows.index(chosen)]
     same = [r.h for r, b in zip(rows, bounds) if np.array_equal(b, key)]
