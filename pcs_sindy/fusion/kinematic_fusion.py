@@ -287,7 +287,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         if choice["rule"] != "given" and boundaries.size != choice["n_segments"]:
             choice["reason"] += (
                 f"; on all frames h = {h:.4g} gives {boundaries.size} segment(s) "
-                f"(the sweep used {int(self.max_refine_frames)} of them)"
+                f"(the sweep used at most max_refine_frames = {int(self.max_refine_frames)} of them)"
             )
         self.threshold_ = h
         self.threshold_choice_ = choice
