@@ -39,6 +39,7 @@ ORDER = [
     "control_actuated",
     "servo_tendon",
     "static_holds",
+    "control_targets",
     "cli_startup",
     "atomic_writes",
 ]

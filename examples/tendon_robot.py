@@ -10,11 +10,12 @@ offsets.  The example
 1. simulates 8 training recordings of 0.5 s (tensions held 10 ms) and a 7 s
    validation recording under slow sinusoidal tensions, with the seed's
    two-segment pose noise (0.1 mm, 0.5°) on the 20 tracked cross-sections;
-2. fuses the poses with ``KinematicFusion`` at the default threshold 0.2,
-   which merges this robot into one segment, and at 0.1, which finds the two:
-   tendons drive both segments' strains together, so the scaled distance of
-   their strain trajectories (0.18) is far below that of the same robot under
-   independent generalised forces (0.57, ``two_segment``);
+2. fuses the poses with ``KinematicFusion`` at the former default threshold
+   0.2, which merges this robot into one segment, and at the default
+   ``threshold="auto"``, which chooses h for this robot from a sweep and finds
+   the two: tendons drive both segments' strains together, so the scaled
+   distance of their strain trajectories (0.18) is far below that of the same
+   robot under independent generalised forces (0.57, ``two_segment``);
 3. fits ``EulerLagrangeRegressor(actuation=TendonActuation(end, side, ...))``
    (``A(q) = -dl/dq``, the Lagrangian by least squares for given offsets and
    the offsets by ``scipy.optimize.least_squares`` around it) with one shared
@@ -59,14 +60,14 @@ def validate(model, fusion):
 
 
 fits = []
-for threshold in (0.2, 0.1):
+for threshold in (0.2, "auto"):
     fusion = KinematicFusion(threshold=threshold, total_length=total_length, pose_std=data.noise).fit(poses)
     print(
-        f"KinematicFusion(threshold={threshold}): {fusion.n_segments_} segment(s), "
+        f"KinematicFusion(threshold={threshold!r}): h = {fusion.threshold_:.3g}, {fusion.n_segments_} segment(s), "
         f"lengths {np.round(1e3 * fusion.segment_lengths_, 1)} mm"
     )
     if fusion.n_segments_ == 2:
-        # the distance of the two segments' scaled strain trajectories, below the default threshold 0.2
+        # the distance of the two segments' scaled strain trajectories, below the former default 0.2
         print(f"  distance between the two segments: {fusion.history_[-1]['distances'][0]:.3f}")
     strains = fusion.transform(poses)
     models = {"one shared offset identified": TendonActuation(layout["end"], layout["side"], shared=True)}

@@ -437,7 +437,8 @@ def test_help_prints_the_estimators_defaults(capsys):
     with pytest.raises(SystemExit):
         main(["fuse", "--help"])
     out = " ".join(capsys.readouterr().out.split())
-    assert f"merge threshold h (default {KinematicFusion().threshold:g})" in out
+    assert "merge threshold h, or a rule choosing it per robot" in out
+    assert f"largest_drop (default {KinematicFusion().threshold})" in out
     assert f"(default {KinematicFusion().shape_fit})" in out
 
 

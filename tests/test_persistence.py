@@ -434,7 +434,7 @@ def test_wrong_format_missing_and_truncated_files(saved, tmp_path):
 @pytest.mark.parametrize(
     "field, value, match",
     [
-        ("threshold", "abc", "parameter threshold must be a number"),
+        ("threshold", "abc", "threshold must be a finite number > 0 or one of .auto."),
         ("fixed_base", 1, "parameter fixed_base must be a boolean"),
         ("threshold", -1.0, "invalid parameters.*threshold"),
         ("q_max", {"$tuple": ["a", 1, 2]}, "invalid parameters"),

@@ -22,6 +22,7 @@ from pcs_sindy.fusion import (
     fuse_segments,
     merge_runs,
     segment_strains,
+    segmentation_sweep,
     select_threshold,
     strain_distances,
     threshold_sweep,
@@ -293,6 +294,65 @@ def test_select_threshold_largest_decrease_per_added_segment():
         select_threshold(rows, error="e_x")
     with pytest.raises(ValueError, match="non-finite"):
         select_threshold([SweepRow(0.1, 2, float("nan"), 0.1)])
+
+
+def test_select_threshold_relative_drop_per_added_segment():
+    # the errors of three_segment's candidates (docs/results.md): 1: 17.4 mm, 2: 6.8 mm, 3: 0.26 mm
+    rows = [SweepRow(0.05, 3, 0.26e-3, 0.01), SweepRow(1.0, 2, 6.8e-3, 0.2), SweepRow(2.0, 1, 17.4e-3, 0.4)]
+    # absolute drops: 10.6 mm for the first split, 6.54 mm for the second -> the seed's rule stops at 2
+    assert select_threshold(rows, rule="largest_drop") == rows[1]
+    # factors: 17.4 / 6.8 = 2.6 and 6.8 / 0.26 = 26 -> 3
+    assert select_threshold(rows, rule="relative_drop") == rows[0]
+    # per added segment: 1 -> 3 cuts by 17.4 / 3.2 = 5.4 (2.3 per segment), 3 -> 5 by 3.2 / 0.24 = 13 (3.7 per segment)
+    five = [SweepRow(0.05, 5, 0.24e-3, 0.01), SweepRow(0.5, 3, 3.2e-3, 0.2), SweepRow(1.0, 1, 18e-3, 0.4)]
+    assert select_threshold(five, rule="relative_drop") == five[0]
+    assert select_threshold(five, rule="largest_drop") == five[1]
+    # an exact model (zero error) stays finite and wins
+    exact = [SweepRow(0.05, 2, 0.0, 0.0), SweepRow(1.0, 1, 1e-3, 0.1)]
+    assert select_threshold(exact, rule="relative_drop") == exact[0]
+    with pytest.raises(ValueError, match="rule must be one of"):
+        select_threshold(rows, rule="elbow")
+
+
+@pytest.mark.parametrize(
+    "lengths", [[0.07, 0.1], [0.05, 0.09, 0.06], [0.04, 0.06, 0.05, 0.07, 0.05]], ids=["two", "three", "five"]
+)
+def test_auto_threshold_recovers_the_true_segment_count(lengths):
+    # marker spacing 8.5 / 10 / 13.5 mm: boundaries on or between markers
+    _, poses = pcs_poses(lengths, n_frames=120, seed=len(lengths))
+    total = sum(lengths)
+    fusion = KinematicFusion(total_length=total, shape_fit="end_pose").fit(poses)  # threshold="auto"
+    assert fusion.n_segments_ == len(lengths)
+    np.testing.assert_allclose(np.cumsum(fusion.segment_lengths_), np.cumsum(lengths), atol=total / N_MARKERS)
+    choice = fusion.threshold_choice_
+    assert choice["rule"] == "relative_drop" and choice["n_segments"] == len(lengths)
+    assert choice["h"] == fusion.threshold_ and str(len(lengths)) in choice["reason"]
+    counts = [c[0] for c in choice["candidates"]]
+    assert counts == sorted(counts) and counts[0] == 1 and len(lengths) in counts
+    # the simplest candidate (one segment) is far off; the chosen one is close (a boundary between
+    # markers leaves a straddling piece the end-pose model cannot bend exactly)
+    errors = {c[0]: c[1] for c in choice["candidates"]}
+    assert errors[len(lengths)] < 0.1 * errors[1]
+    # the chosen h, given as a number, gives the same segmentation
+    fixed = KinematicFusion(threshold=fusion.threshold_, total_length=total, shape_fit="end_pose").fit(poses)
+    np.testing.assert_array_equal(fixed.boundaries_, fusion.boundaries_)
+    assert fixed.threshold_choice_ == {"rule": "given", "h": fusion.threshold_}
+
+
+def test_segmentation_sweep_errors_match_the_estimator():
+    _, poses = pcs_poses([0.07, 0.1], n_frames=60, seed=2)
+    chain, _ = chain_poses(poses)
+    s = np.linspace(0.0, 0.17, N_MARKERS + 1)
+    hs = [0.01, 0.1, 5.0]
+    rows, bounds = segmentation_sweep([chain], s, hs, (60.0, 0.3, 0.3), min_segment_markers=2)
+    template = KinematicFusion(total_length=0.17, shape_fit="end_pose")
+    for row, b, ref in zip(rows, bounds, threshold_sweep(poses, hs, fusion=template), strict=True):
+        assert row.n_segments == ref.n_segments == b.size
+        assert row.e_p_dist == pytest.approx(ref.e_p_dist, rel=1e-9, abs=1e-15)
+        assert row.e_theta_dist == pytest.approx(ref.e_theta_dist, rel=1e-9, abs=1e-15)
+    assert rows[-1].n_segments == 1 and rows[-1].e_p_dist > 1e-3  # one segment cannot bend twice
+    with pytest.raises(ValueError, match="thresholds"):
+        segmentation_sweep([chain], s, [0.1, -1.0], (60.0, 0.3, 0.3))
 
 
 # --------------------------------------------------------------------------

@@ -469,7 +469,8 @@ def _tampered(path, name, field, value):
             "KinematicFusion",
             "threshold",
             -1.0,
-            "KinematicFusion: threshold must be a finite number > 0; got -1.0",
+            "KinematicFusion: threshold must be a finite number > 0 or one of 'auto', 'relative_drop', "
+            "'largest_drop'; got -1.0",
         ),
         (
             lambda: EulerLagrangeRegressor(actuation=TendonActuation(end=[0.1], side=[1])),

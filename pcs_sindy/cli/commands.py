@@ -486,7 +486,7 @@ def fuse(
     poses: Sequence[str | Path],
     out: str | Path,
     *,
-    threshold: float | None = None,
+    threshold: float | str | None = None,
     total_length: float | None = None,
     shape_fit: str | None = None,
     n_jobs: int | None = None,
@@ -563,7 +563,8 @@ def fuse(
     say(
         quiet,
         f"{fusion.n_segments_} segment(s), lengths [{lengths}] m (total {fusion.total_length_:.4f} m), "
-        f"threshold h = {fusion.threshold:g}",
+        f"threshold h = {fusion.threshold_:.3g}"
+        + ("" if fusion.threshold_choice_["rule"] == "given" else f" ({fusion.threshold_choice_['reason']})"),
     )
     if fusion.total_length_source_.startswith("estimated"):  # a hanging robot reads long by its gravity stretch
         say(

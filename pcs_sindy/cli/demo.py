@@ -35,7 +35,7 @@ def demo(
     out: str | Path = "out/demo",
     *,
     seed: int = 0,
-    threshold: float | None = None,
+    threshold: float | str | None = None,
     quick: bool = False,
     n_jobs: int = 2,
     quiet: bool = False,

@@ -183,6 +183,19 @@ def _pattern(text: str) -> tuple[int, int]:
 _n_jobs = _number(int, lambda v: v >= 1 or v == -1, "a positive integer or -1 (all cores)")
 _positive_float = _number(float, lambda v: math.isfinite(v) and v > 0, "a finite number > 0")
 _threshold = _number(float, lambda v: v > 0, "a number > 0 or inf")
+_FUSION_RULES = ("auto", "relative_drop", "largest_drop")  # KinematicFusion's threshold rules
+
+
+def _fusion_threshold(text: str) -> float | str:
+    """A merge threshold h: a finite number > 0 or a rule that chooses it (``auto``)."""
+    if text in _FUSION_RULES:
+        return text
+    try:
+        return _positive_float(text)
+    except argparse.ArgumentTypeError:
+        raise argparse.ArgumentTypeError(
+            f"expected a finite number > 0 or one of {', '.join(_FUSION_RULES)}; got {text!r}"
+        ) from None
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -492,8 +505,13 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--threshold",
-        type=_positive_float,
-        help=_later(lambda: f"merge threshold h (default {_of(SEGMENTS, 'threshold'):g})"),
+        type=_fusion_threshold,
+        help=_later(
+            lambda: (
+                f"merge threshold h, or a rule choosing it per robot from a sweep: {', '.join(_FUSION_RULES)} "
+                f"(default {_of(SEGMENTS, 'threshold')})"
+            )
+        ),
     )
     p.add_argument(
         "--total-length",
@@ -659,8 +677,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seed", type=int, default=_default(demo, "seed"), help="random seed (default %(default)s)")
     p.add_argument(
         "--threshold",
-        type=_positive_float,
-        help=_later(lambda: f"fusion threshold h (default {_of(SEGMENTS, 'threshold'):g})"),
+        type=_fusion_threshold,
+        help=_later(lambda: f"fusion threshold h or auto (default {_of(SEGMENTS, 'threshold')})"),
     )
     p.add_argument("--quick", action="store_true", help="2 short recordings and a 1 s validation (a smoke test)")
     return parser

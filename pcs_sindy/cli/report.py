@@ -161,8 +161,7 @@ def demo_report(
     """
     from ..core.metrics import distributed_errors, end_effector_errors
     from ..core.trajectory import PoseTrajectory
-    from ..fusion.kinematic_fusion import KinematicFusion
-    from ..fusion.threshold_selection import threshold_sweep
+    from ..fusion.kinematic_fusion import KinematicFusion, threshold_sweep
     from ..plotting.animation import animate_rollout
     from ..plotting.fusion import plot_error_vs_segments, plot_strain_distance_profile
     from ..plotting.rollout import plot_end_effector, plot_rollout
@@ -188,7 +187,7 @@ def demo_report(
     fd_p, fd_th = distributed_errors(
         np.concatenate([r.poses[:, 1:] for r in rec]), np.concatenate([p[:, 1:] for p in truths])
     )
-    h = fusion.threshold
+    h = fusion.threshold_
     save(
         plot_strain_distance_profile(
             fusion.distance_profile_,

@@ -6,7 +6,9 @@ model's strains:
 
 * :class:`SetpointRegulator` — P-satI-D with the model's static forces as feed-forward;
 * :class:`ComputedTorqueController` — tracking of strain or tip trajectories;
-* :class:`TipRegulator` — equilibrium inputs for a tip target, then feedback, within input bounds.
+* :class:`TipRegulator` — equilibrium inputs for a tip target, then feedback, within input bounds;
+* :class:`ShapeTarget` — a set-point stated as a shape (marker poses, or strains of another
+  segmentation such as the plant's), mapped to the model's strains by :func:`shape_strains`.
 
 :func:`closed_loop` runs one against a plant (the ground-truth simulator), observing
 its state or its noisy marker poses at a camera rate; :mod:`.plots` draws the results.
@@ -26,5 +28,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "tracking": ["ComputedTorqueController", "StrainReference", "TipReference", "tip_circle"],
         "closed_loop": ["closed_loop", "ClosedLoopResult"],
         "statics": ["equilibrium_inputs", "tip_inverse_kinematics"],
+        "targets": ["ShapeTarget", "shape_strains"],
     },
 )

@@ -12,6 +12,7 @@ with identified actuators (tendons, chambers).
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,6 +38,8 @@ __all__ = [
 
 #: fraction of the training strains' span by which a model's default strain limits extend beyond them
 STRAIN_RANGE_MARGIN = 0.1
+#: fraction of the strain limits' span beyond them within which a reference is accepted with a warning
+REACH_MARGIN = 0.25
 
 
 def as_forward_model(model: Any) -> Any:
@@ -111,8 +114,24 @@ def check_strains(value: ArrayLike, fm: Any, limits: NDArray[np.float64], name: 
     out = np.flatnonzero((q < limits[0]) | (q > limits[1]))
     if out.size:
         names = kin.strain_names(active_only=True)
-        bad = ", ".join(f"{names[i]} = {q[i]:.4g} not in [{limits[0, i]:.4g}, {limits[1, i]:.4g}]" for i in out)
-        raise ValueError(f"{name} lies outside the model's strain range: {bad} (pass strain_limits to widen it)")
+        span = limits[1] - limits[0]
+        beyond = np.maximum(limits[0] - q, q - limits[1]) / span  # fraction of the range's span
+        bad = ", ".join(
+            f"{names[i]} = {q[i]:.4g} not in [{limits[0, i]:.4g}, {limits[1, i]:.4g}] "
+            f"({100 * beyond[i]:.3g} % of its span beyond)"
+            for i in out
+        )
+        if np.max(beyond) > REACH_MARGIN:
+            raise ValueError(
+                f"{name} lies outside the model's strain range: {bad}; more than {100 * REACH_MARGIN:g} % beyond "
+                "is refused (pass strain_limits to widen it)"
+            )
+        warnings.warn(
+            f"{name} lies a little outside the model's strain range: {bad}; accepted (up to "
+            f"{100 * REACH_MARGIN:g} % beyond), the model extrapolates there",
+            UserWarning,
+            stacklevel=3,
+        )
     return q
 
 

@@ -43,8 +43,9 @@ from numpy.typing import ArrayLike, NDArray
 from . import _kinematics
 from .base import Controller
 from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains, open_loop_decay
-from .models import InputMap, check_strains, linearise, static_forces, strain_scales
+from .models import REACH_MARGIN, InputMap, check_strains, linearise, static_forces, strain_scales
 from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
+from .targets import ShapeTarget, shape_strains
 
 __all__ = ["SetpointRegulator", "TipRegulator"]
 
@@ -98,6 +99,10 @@ class SetpointRegulator(Controller):
     poles_ : ndarray (3n,)
         Discrete poles of the model's linearised loop with these gains
         (:func:`~.gains.loop_poles`); a warning is issued if any lies outside the unit circle.
+    shape_fit_ : dict or None
+        For a :class:`~pcs_sindy.control.targets.ShapeTarget` reference, how
+        well the model's shape at the set-point fits it (``tip_error``,
+        ``max_position_error``, ``rms_position_error`` [m]); else None.
     """
 
     def __init__(
@@ -130,9 +135,27 @@ class SetpointRegulator(Controller):
     def start(
         self, reference: ArrayLike, t: ArrayLike, q0: ArrayLike | None = None, qd0: ArrayLike | None = None
     ) -> SetpointRegulator:
-        """Regulate to the strain set-point ``reference`` ((n,) modelled or (3m,) strains) over the times ``t``."""
+        """Regulate to the set-point ``reference`` over the control times ``t``.
+
+        Parameters
+        ----------
+        reference : array_like (n,) or (3m,), or ShapeTarget
+            The model's modelled (or all) strains, or a shape
+            (:class:`~pcs_sindy.control.targets.ShapeTarget`: marker poses, or
+            :meth:`~pcs_sindy.control.targets.ShapeTarget.from_strains` for
+            strains of another segmentation such as the plant's), mapped to
+            the model's strains by :func:`~pcs_sindy.control.targets.shape_strains`
+            (the fit is :attr:`shape_fit_`).  A set-point a little outside the
+            model's strain range is accepted with a warning saying how far;
+            a far one is refused (:func:`~pcs_sindy.control.models.check_strains`).
+        t : array_like (T,)
+        q0, qd0 : ignored
+        """
         self._prepare(t)
         fm = self.forward_model_
+        self.shape_fit_ = None
+        if isinstance(reference, ShapeTarget):
+            reference, self.shape_fit_ = shape_strains(fm, reference)
         n = fm.kinematics.n_active
         rate = check_positive(self.rate, "rate")
         effort = check_positive(self.effort, "effort")
@@ -230,7 +253,9 @@ class TipRegulator(Controller):
     on_unreachable : {"raise", "nearest"}, default "raise"
         A target the model cannot reach within its input bounds and strain
         range raises ValueError (with the nearest reachable tip), or is
-        replaced by the nearest reachable tip.
+        replaced by the nearest reachable tip.  A target reachable with strains
+        a little outside the strain range (up to 25 % of its span beyond,
+        ``models.REACH_MARGIN``) is accepted with a warning saying how far.
     input_bounds, strain_limits
         See :class:`~pcs_sindy.control.base.Controller` (e.g. ``(0, 16)``
         for tendon tensions).
@@ -296,6 +321,8 @@ class TipRegulator(Controller):
         if self.on_unreachable not in ("raise", "nearest"):
             raise ValueError(f"on_unreachable must be 'raise' or 'nearest'; got {self.on_unreachable!r}")
         eq = equilibrium_inputs(fm, reference, self.input_bounds_, self.strain_limits_)
+        if not eq.reachable:
+            eq = self._a_little_beyond(fm, reference, eq)
         if not eq.reachable and self.on_unreachable == "raise":
             raise ValueError(
                 f"reference tip {eq.target.tolist()} is not reachable by the model within input_bounds and its strain "
@@ -339,6 +366,30 @@ class TipRegulator(Controller):
         self.reference_tip_ = np.broadcast_to(self.target_, (self.t_.size, 2)).copy()
         self.reference_strains_ = np.broadcast_to(eq.q, (self.t_.size, eq.q.size)).copy()
         return self
+
+    def _a_little_beyond(self, fm: Any, reference: ArrayLike, eq: EquilibriumResult) -> EquilibriumResult:
+        """``eq``, or the equilibrium within strain limits widened by ``REACH_MARGIN`` of their span, with a warning."""
+        lim = self.strain_limits_
+        span = lim[1] - lim[0]
+        wide = equilibrium_inputs(
+            fm, reference, self.input_bounds_, lim + REACH_MARGIN * span * np.array([[-1.0], [1.0]])
+        )
+        if not wide.reachable:
+            return eq
+        beyond = np.maximum(lim[0] - wide.q, wide.q - lim[1]) / span
+        names = fm.kinematics.strain_names(active_only=True)
+        out = ", ".join(
+            f"{names[i]} = {wide.q[i]:.4g} not in [{lim[0, i]:.4g}, {lim[1, i]:.4g}] ({100 * beyond[i]:.3g} % of its "
+            "span beyond)"
+            for i in np.flatnonzero(beyond > 0)
+        )
+        warnings.warn(
+            f"reference tip {wide.target.tolist()} needs strains a little outside the model's strain range: {out}; "
+            f"accepted (up to {100 * REACH_MARGIN:g} % beyond), the model extrapolates there",
+            UserWarning,
+            stacklevel=3,
+        )
+        return wide
 
     def _free_gain(self, free: NDArray[np.bool_]) -> NDArray[np.float64]:
         """``S_W^+`` over the inputs ``free`` (zero rows for the others); damped for a subset."""

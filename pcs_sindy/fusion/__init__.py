@@ -4,10 +4,11 @@ Takes in :class:`~pcs_sindy.core.PoseTrajectory` objects (base + N markers) and 
 fused segmentation (``KinematicFusion.segment_lengths_``) and
 :class:`~pcs_sindy.core.StrainTrajectory` objects that carry it downstream.
 
-* :mod:`.kinematic_fusion` - :class:`KinematicFusion`, the scikit-learn transformer;
+* :mod:`.kinematic_fusion` - :class:`KinematicFusion`, the scikit-learn transformer, and the
+  threshold sweep (seed Fig. 8);
 * :mod:`.chain_geometry` - the marker chain in the base frame, rest length, segment strains;
 * :mod:`.merging` - the seed's Algorithm 1 (strain distances, merging runs of segments);
-* :mod:`.threshold_selection` - the seed's Fig. 8 trade-off and its selection rule;
+* :mod:`.threshold_selection` - the rules that choose the merge threshold (``threshold="auto"``);
 * :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries;
 * :mod:`.position_fit`, :mod:`.position_fusion` - positions-only markers (motion capture): base pose,
   marker arc lengths, bending strains and Algorithm 1 on them.
@@ -20,8 +21,15 @@ import lazy_loader as _lazy
 __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={
-        "kinematic_fusion": ["KinematicFusion"],
-        "threshold_selection": ["SweepRow", "threshold_sweep", "select_threshold"],
+        "kinematic_fusion": ["KinematicFusion", "threshold_sweep"],
+        "threshold_selection": [
+            "SweepRow",
+            "SELECTION_RULES",
+            "AUTO_THRESHOLDS",
+            "select_threshold",
+            "segmentation_sweep",
+            "choose_threshold",
+        ],
         "merging": ["MERGE_RULES", "fuse_segments", "merge_runs", "strain_distances", "data_q_max", "check_q_max"],
         "chain_geometry": [
             "chain_poses",

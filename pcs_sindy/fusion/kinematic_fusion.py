@@ -16,9 +16,12 @@ plain functions on numpy arrays in the modules named after what they hold:
   (:func:`fit_strains_least_squares`) and boundaries (:func:`refine_boundaries`);
 * :mod:`pcs_sindy.fusion.position_fusion`, :mod:`pcs_sindy.fusion.position_fit` - recordings of
   marker positions only (:meth:`PoseTrajectory.from_positions`): base pose, arc lengths, bending strains;
-* :mod:`pcs_sindy.fusion.threshold_selection` - the seed's Fig. 8 trade-off
-  (:func:`threshold_sweep`) and its selection rule (:func:`select_threshold`), which run this
-  estimator for several thresholds.
+* :mod:`pcs_sindy.fusion.threshold_selection` - the rules that choose the merge
+  threshold from a sweep (:func:`select_threshold`, :func:`choose_threshold`, used by
+  ``threshold="auto"``).
+
+This module also holds :func:`threshold_sweep`, the seed's Fig. 8 trade-off, which runs
+this estimator for several thresholds.
 
 Every public name of those modules is importable from :mod:`pcs_sindy.fusion`.
 """
@@ -32,7 +35,7 @@ from typing import Any
 import numpy as np
 from joblib import Parallel, delayed
 from numpy.typing import ArrayLike, NDArray
-from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.base import BaseEstimator, TransformerMixin, clone
 from sklearn.utils.validation import check_is_fitted
 from tqdm.auto import tqdm
 
@@ -51,8 +54,9 @@ from .chain_geometry import (
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import fuse_position_segments, position_strain_trajectories, positions_in_user_frame
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
+from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
 
-__all__ = ["KinematicFusion"]
+__all__ = ["KinematicFusion", "threshold_sweep"]
 
 _SHAPE_FITS = ("end_pose", "least_squares")
 _SCALINGS = ("q_max", "data")
@@ -80,8 +84,21 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
     Parameters
     ----------
-    threshold : float, default 0.2
+    threshold : float or {"auto", "relative_drop", "largest_drop"}, default "auto"
         Merge threshold ``h`` on the average scaled strain distance (seed eq. 11).
+        A float fixes it.  A rule name chooses it per robot in :meth:`fit`:
+        Algorithm 1 is run for the thresholds of
+        :data:`~pcs_sindy.fusion.threshold_selection.AUTO_THRESHOLDS` (on at most
+        ``max_refine_frames`` frames), each segmentation scored by the
+        distributed position error of its end-pose model, and the rule picks
+        one (:func:`~pcs_sindy.fusion.threshold_selection.select_threshold`):
+        ``"largest_drop"`` is the seed's (largest error decrease per added
+        segment), ``"relative_drop"`` the largest *factor* of decrease per added
+        segment.  ``"auto"`` is ``"relative_drop"``, the rule that fuses every
+        scenario of :mod:`pcs_sindy.simulation` into its true segment count
+        (docs/results.md, "Kinematic fusion"); the seed's rule splits three- and
+        five-segment robots into two and three.  The chosen value is
+        :attr:`threshold_`, the reason :attr:`threshold_choice_`.
     q_max : sequence of 3 floats, default (60, 0.3, 0.3)
         Strain scales [1/m, -, -] used when ``scaling="q_max"`` (the seed's).
     scaling : {"q_max", "data"}, default "q_max"
@@ -118,7 +135,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         reference frame instead of each frame's measured base pose.
     max_refine_frames : int, default 500
         Frames (evenly subsampled over all recordings) used by the boundary
-        search; the final strains use every frame.
+        search and by the threshold sweep of ``threshold="auto"``; the final
+        segmentation and strains use every frame.
     n_jobs : int, optional
         Recordings whose strains :meth:`transform` fits in parallel (joblib;
         ``None`` or 1: sequentially).  Under ``joblib.parallel_backend(...)``
@@ -128,6 +146,13 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
     Attributes
     ----------
+    threshold_ : float
+        The merge threshold used: ``threshold`` when it is a number, else the chosen one.
+    threshold_choice_ : dict
+        Why: ``{"rule": "given"}`` for a number; for a rule the record of
+        :func:`~pcs_sindy.fusion.threshold_selection.choose_threshold`
+        (``h``, ``rule``, ``n_segments``, ``candidates`` as
+        ``(n_segments, e_p_dist, e_theta_dist, h_min, h_max)``, ``reason``).
     total_length_ : float
     total_length_source_ : str
         Where the rest length came from (given, carried by the poses, estimated, corrected).
@@ -169,13 +194,14 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
     Examples
     --------
-    >>> fusion = KinematicFusion(threshold=0.2).fit(poses)        # doctest: +SKIP
+    >>> fusion = KinematicFusion().fit(poses)                      # doctest: +SKIP
+    >>> fusion.threshold_, fusion.threshold_choice_["reason"]       # doctest: +SKIP
     >>> strains = fusion.transform(poses)                          # doctest: +SKIP
     """
 
     def __init__(
         self,
-        threshold: float = 0.2,
+        threshold: float | str = "auto",
         q_max: Sequence[float] = SEED_Q_MAX,
         scaling: str = "q_max",
         total_length: float | None = None,
@@ -205,7 +231,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
     # -- validation: the table read by validate_parameters in fit and transform, and by model files
     _parameter_constraints: dict = {
-        "threshold": [Interval(Real, 0, None, closed="neither")],
+        "threshold": [Interval(Real, 0, None, closed="neither"), Options(("auto", *SELECTION_RULES))],
         "q_max": [Check(_three_scales, "three finite numbers > 0 (bending [1/m], shear and axial scales)")],
         "scaling": [Options(_SCALINGS)],
         "total_length": [None, Interval(Real, 0, None, closed="neither")],
@@ -284,9 +310,27 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         else:
             q_max = check_q_max(self.q_max)
 
-        boundaries, history = fuse_segments(
-            chains, s, float(self.threshold), q_max, int(self.min_segment_markers), self.merge
-        )
+        if isinstance(self.threshold, str):
+            rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
+            h, choice = choose_threshold(
+                self._subsample(chains),
+                s,
+                q_max,
+                rule=rule,
+                min_segment_markers=int(self.min_segment_markers),
+                merge=self.merge,
+                progress=bool(self.progress),
+            )
+        else:
+            h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
+        boundaries, history = fuse_segments(chains, s, h, q_max, int(self.min_segment_markers), self.merge)
+        if choice["rule"] != "given" and boundaries.size != choice["n_segments"]:
+            choice["reason"] += (
+                f"; on all frames h = {h:.4g} gives {boundaries.size} segment(s) "
+                f"(the sweep used at most max_refine_frames = {int(self.max_refine_frames)} of them)"
+            )
+        self.threshold_ = h
+        self.threshold_choice_ = choice
         self.total_length_ = total
         self.total_length_source_ = source
         self.total_length_std_ = std
@@ -354,6 +398,13 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.position_rms_ = fit["rms"]
         self.positions_only_ = True
         return self
+
+    def _subsample(self, chains: list[NDArray]) -> list[NDArray]:
+        """At most ``max_refine_frames`` frames, evenly over all recordings, as one chain."""
+        frames = np.concatenate(chains, axis=0)
+        if frames.shape[0] > self.max_refine_frames:
+            frames = frames[np.linspace(0, frames.shape[0] - 1, int(self.max_refine_frames)).round().astype(int)]
+        return [frames]
 
     def _rest_length(self, X: Any, chains: list[NDArray]) -> tuple[float, str, float]:
         """(total rest length, where it comes from, its standard error) for :meth:`fit`."""
@@ -549,3 +600,60 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         tru = np.concatenate([tr.poses[:, 1:, :] for tr in trajs], axis=0)
         e_p, _ = distributed_errors(est, tru)
         return -e_p
+
+
+def threshold_sweep(
+    X: Any,
+    thresholds: ArrayLike,
+    *,
+    fusion: KinematicFusion | None = None,
+    truth: Any = None,
+    progress: bool = False,
+) -> list[SweepRow]:
+    """Fused segmentation and pose errors for several thresholds (seed Fig. 8).
+
+    Parameters
+    ----------
+    X : pose recordings (see :meth:`KinematicFusion.fit`)
+    thresholds : array_like of float
+        Values of ``h`` (each > 0).
+    fusion : KinematicFusion, optional
+        Template whose other parameters are used (default ``KinematicFusion()``).
+
+    See Also
+    --------
+    pcs_sindy.fusion.threshold_selection.select_threshold : a rule that picks a row.
+    truth : pose recordings, optional
+        Poses to measure the errors against (default ``X`` itself), markers
+        only; must match ``X`` recording by recording.
+
+    Returns
+    -------
+    list of SweepRow
+        ``(h, n_segments, e_p_dist, e_theta_dist)`` in the order of ``thresholds``.
+    """
+    hs = np.atleast_1d(np.asarray(thresholds, dtype=float))
+    if hs.ndim != 1 or hs.size == 0 or not np.all(np.isfinite(hs)) or np.any(hs <= 0):
+        raise ValueError(f"thresholds must be a non-empty 1-D array of finite values > 0; got {thresholds!r}")
+    if fusion is None:
+        fusion = KinematicFusion()
+    template = fusion
+    trajs = as_pose_trajectories(X)
+    truths = trajs if truth is None else as_pose_trajectories(truth, name="truth")
+    if len(truths) != len(trajs) or any(a.poses.shape != b.poses.shape for a, b in zip(trajs, truths)):
+        raise ValueError("truth must hold one recording of the same shape per recording of X")
+    tru = np.concatenate([tr.poses[:, 1:, :] for tr in truths], axis=0)
+    cache: dict[tuple[int, ...], tuple[int, float, float]] = {}
+    rows = []
+    for h in tqdm(hs, desc="threshold sweep", disable=not progress):
+        # Algorithm 1 alone is cheap; the shape fit is done once per distinct segmentation
+        probe = clone(template).set_params(threshold=float(h), shape_fit="end_pose").fit(trajs)
+        key = tuple(int(b) for b in probe.boundaries_)
+        if key not in cache:
+            est = clone(template).set_params(threshold=float(h)).fit(trajs)
+            rec = est.reconstruct(trajs)
+            e_p, e_th = distributed_errors(np.concatenate([r.poses[:, 1:, :] for r in rec], axis=0), tru)
+            cache[key] = (est.n_segments_, e_p, e_th)
+        n, e_p, e_th = cache[key]
+        rows.append(SweepRow(float(h), int(n), float(e_p), float(e_th)))
+    return rows
