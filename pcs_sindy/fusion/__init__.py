@@ -29,6 +29,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "select_threshold",
             "segmentation_sweep",
             "choose_threshold",
+            "choice_from_sweep",
         ],
         "merging": ["MERGE_RULES", "fuse_segments", "merge_runs", "strain_distances", "data_q_max", "check_q_max"],
         "chain_geometry": [
@@ -45,6 +46,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
         "position_fusion": [
             "fuse_position_segments",
+            "choose_position_threshold",
             "position_strain_trajectories",
             "positions_in_user_frame",
             "tendon_sides",

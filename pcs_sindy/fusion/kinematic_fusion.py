@@ -52,7 +52,12 @@ from .chain_geometry import (
     segment_strains,
 )
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
-from .position_fusion import fuse_position_segments, position_strain_trajectories, positions_in_user_frame
+from .position_fusion import (
+    choose_position_threshold,
+    fuse_position_segments,
+    position_strain_trajectories,
+    positions_in_user_frame,
+)
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
 from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
 
@@ -376,7 +381,14 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
         q_max = check_q_max(self.q_max)
         bend = None if self.scaling == "data" else float(q_max[0])
-        fit = fuse_position_segments(trajs, float(self.threshold), bend, int(self.max_refine_frames))
+        if isinstance(self.threshold, str):
+            rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
+            h, choice = choose_position_threshold(trajs, bend, int(self.max_refine_frames), rule=rule)
+        else:
+            h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
+        fit = fuse_position_segments(trajs, h, bend, int(self.max_refine_frames))
+        self.threshold_ = h
+        self.threshold_choice_ = choice
         s = fit["arc_lengths"]
         self.total_length_ = float(s[-1])
         known = "marker_arc_lengths" in trajs[0].metadata

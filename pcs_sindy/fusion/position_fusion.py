@@ -23,14 +23,16 @@ from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..core.trajectory import PoseTrajectory, StrainTrajectory
 from .merging import merge_runs
 from .position_fit import fit_marker_geometry, fit_position_strains
+from .threshold_selection import AUTO_THRESHOLDS, SweepRow, choice_from_sweep
 
 __all__ = [
     "fuse_position_segments",
+    "choose_position_threshold",
     "position_strain_trajectories",
     "positions_in_user_frame",
     "tendon_sides",
@@ -81,6 +83,45 @@ def fuse_position_segments(
         ``base_pose_std`` (3,), ``rms`` [m], ``boundaries`` (m,) marker index of each segment's
         end, ``segment_lengths`` (m,), ``history`` (per merge iteration).
     """
+    geometry = _marker_geometry(trajs, max_frames)
+    boundaries, history, bend_scale = _merge(trajs, geometry, threshold, bend_scale)
+    return _fused(trajs, geometry, boundaries, history, bend_scale, max_frames, refit_base)
+
+
+def choose_position_threshold(
+    trajs: Sequence[PoseTrajectory],
+    bend_scale: float | None,
+    max_frames: int = 300,
+    *,
+    rule: str = "relative_drop",
+    thresholds: ArrayLike | None = None,
+) -> tuple[float, dict[str, Any]]:
+    """The merge threshold of positions-only recordings by a rule over a sweep (``threshold="auto"``).
+
+    The marker geometry is fitted once; Algorithm 1 runs for every threshold, and each
+    distinct segmentation is scored by the RMS marker position error of its own fit (constant
+    curvature per fused segment, base pose refitted), the positions' analogue of ``e_p_dist``.
+    The rule and the record are those of :func:`~pcs_sindy.fusion.threshold_selection.choose_threshold`.
+    """
+    hs = AUTO_THRESHOLDS if thresholds is None else np.sort(np.atleast_1d(np.asarray(thresholds, dtype=float)))
+    geometry = _marker_geometry(trajs, max_frames)
+    planar = [tr.plane_positions for tr in trajs]
+    scores: dict[tuple[int, ...], float] = {}
+    rows, bounds = [], []
+    for h in hs:
+        boundaries, _, bend_scale = _merge(trajs, geometry, float(h), bend_scale)
+        key = tuple(int(b) for b in boundaries)
+        if key not in scores:
+            group = np.searchsorted(boundaries, np.arange(1, geometry["s"].size))
+            fit = fit_marker_geometry(planar, geometry["s"][1:], max_frames=max_frames, curvatures=group)
+            scores[key] = float(fit["rms"])
+        rows.append(SweepRow(float(h), len(key), scores[key], scores[key]))
+        bounds.append(np.asarray(key))
+    return choice_from_sweep(rows, bounds, rule=rule, error="e_p_dist")
+
+
+def _marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[str, Any]:
+    """Marker arc lengths (given or fitted) and the base pose with a curvature per marker spacing."""
     known = _known_arc_lengths(trajs)
     given = known is not None
     planar = [tr.plane_positions for tr in trajs]
@@ -91,8 +132,15 @@ def fuse_position_segments(
     # the base pose for those arc lengths with a curvature per marker spacing (no uniform-bending bias)
     geo = fit_marker_geometry(planar, known, max_frames=max_frames, curvatures="per_segment")
     s = np.concatenate([[0.0], geo["arc_lengths"]])
+    return {"geo": geo, "s": s, "given": given, "arc_std": arc_std}
+
+
+def _merge(
+    trajs: Sequence[PoseTrajectory], geometry: dict[str, Any], threshold: float, bend_scale: float | None
+) -> tuple[NDArray[np.intp], list[dict[str, Any]], float]:
+    """Algorithm 1 on the bending strains between markers: segment end markers, history, curvature scale."""
+    geo, s = geometry["geo"], geometry["s"]
     N = s.size - 1
-    std = np.asarray(geo["std"])
     boundaries = np.arange(1, N + 1)
     history: list[dict[str, Any]] = []
     P = [tr.plane_positions for tr in trajs]
@@ -109,7 +157,23 @@ def fuse_position_segments(
         if len(groups) == boundaries.size:
             break
         boundaries = np.array([boundaries[g[-1]] for g in groups])
+    return boundaries, history, (1.0 if bend_scale is None else bend_scale)
+
+
+def _fused(
+    trajs: Sequence[PoseTrajectory],
+    geometry: dict[str, Any],
+    boundaries: NDArray[np.intp],
+    history: list[dict[str, Any]],
+    bend_scale: float,
+    max_frames: int,
+    refit_base: bool,
+) -> dict[str, Any]:
+    geo, s = geometry["geo"], geometry["s"]
+    N = s.size - 1
+    std = np.asarray(geo["std"])
     if refit_base:  # the base pose of the fused model itself: its curvature is constant over each segment
+        planar = [tr.plane_positions for tr in trajs]
         group = np.searchsorted(boundaries, np.arange(1, N + 1))
         geo = fit_marker_geometry(planar, s[1:], max_frames=max_frames, base_pose=None, curvatures=group)
         std = np.asarray(geo["std"])
@@ -117,7 +181,7 @@ def fuse_position_segments(
         "base_pose": np.asarray(geo["base_pose"], dtype=float),
         "arc_lengths": s,
         "base_pose_std": std[:3],
-        "arc_lengths_std": np.zeros(N) if given else arc_std,
+        "arc_lengths_std": np.zeros(N) if geometry["given"] else geometry["arc_std"],
         "rms": float(geo["rms"]),
         "boundaries": boundaries,
         "segment_lengths": np.diff(s[np.concatenate([[0], boundaries])]),

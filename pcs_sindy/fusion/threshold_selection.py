@@ -36,6 +36,7 @@ __all__ = [
     "select_threshold",
     "segmentation_sweep",
     "choose_threshold",
+    "choice_from_sweep",
 ]
 
 #: the rules of :func:`select_threshold` (the first is ``KinematicFusion(threshold="auto")``'s)
@@ -212,6 +213,19 @@ def choose_threshold(
     """
     hs = AUTO_THRESHOLDS if thresholds is None else np.sort(np.atleast_1d(np.asarray(thresholds, dtype=float)))
     rows, bounds = segmentation_sweep(chains, arc_lengths, hs, q_max, min_segment_markers, merge, progress)
+    return choice_from_sweep(rows, bounds, rule=rule, error=error)
+
+
+def choice_from_sweep(
+    rows: Sequence[SweepRow], bounds: Sequence[NDArray], *, rule: str = "relative_drop", error: str = "e_p_dist"
+) -> tuple[float, dict[str, Any]]:
+    """The threshold and its record (see :func:`choose_threshold`) from a sweep's rows and segmentations.
+
+    ``bounds[i]`` is the segmentation (segment end markers) that ``rows[i]`` scores;
+    rows with the same segmentation form the range of ``h`` whose geometric middle is returned.
+    """
+    if len(rows) != len(bounds):
+        raise ValueError(f"rows and bounds must pair up; got {len(rows)} rows and {len(bounds)} segmentations")
     chosen = select_threshold(rows, error=error, rule=rule)
     key = bounds[rows.index(chosen)]
     same = [r.h for r, b in zip(rows, bounds) if np.array_equal(b, key)]
