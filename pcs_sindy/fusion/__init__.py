@@ -8,6 +8,7 @@ fused segmentation (``KinematicFusion.segment_lengths_``) and
 * :mod:`.chain_geometry` - the marker chain in the base frame, rest length, segment strains;
 * :mod:`.merging` - the seed's Algorithm 1 (strain distances, merging runs of segments);
 * :mod:`.threshold_selection` - the seed's Fig. 8 trade-off and its selection rule;
+* :mod:`.input_checks` - marker order, duplicates and angle units checked before fusion;
 * :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries.
 
 Fusion knows no images and no dynamics.
@@ -31,6 +32,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "jackknife_std",
             "rest_length_factor",
         ],
+        "input_checks": ["check_marker_chain"],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
     },
 )

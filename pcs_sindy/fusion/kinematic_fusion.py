@@ -46,6 +46,7 @@ from .chain_geometry import (
     rest_length_factor,
     segment_strains,
 )
+from .input_checks import check_marker_chain
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
 
@@ -211,6 +212,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 c, b = chain_poses(tr.poses, fixed_base=self.fixed_base)
             except ValueError as err:
                 raise ValueError(f"{name}[{k}]: {err}") from None
+            check_marker_chain(tr.poses, name=f"{name}[{k}]")
             chains.append(c)
             bases.append(b)
         n = {c.shape[1] for c in chains}

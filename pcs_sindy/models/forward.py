@@ -156,7 +156,14 @@ class ForwardModel(ABC):
                     ]
 
                 return checked
-            return np.ascontiguousarray(act.check_inputs(u, "u", t))
+            arr = np.asarray(u, dtype=float)
+            if arr.ndim != 2 or arr.shape[0] != t.size:
+                # the compiled loops read row k on [t[k], t[k+1]): a short table would be read past its end
+                raise ValueError(
+                    f"u must have shape ({t.size}, {self.n_inputs}) (one row per time in t, one column per "
+                    f"actuator input); got shape {arr.shape}: give one row of inputs for each of the {t.size} times"
+                )
+            return np.ascontiguousarray(act.check_inputs(arr, "u", t))
         if callable(u):
             fn = u
 
@@ -166,6 +173,8 @@ class ForwardModel(ABC):
                     raise ValueError(
                         f"u(t) must return {mask.size} (or {self.n}) forces; got {val.size} at t = {time!r}"
                     )
+                if not np.all(np.isfinite(val)):
+                    raise ValueError(f"u(t) returned NaN or inf at t = {time!r}: {val.tolist()}")
                 return val[mask] if val.size == mask.size and mask.size != self.n else val
 
             return reduced
