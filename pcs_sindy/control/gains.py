@@ -206,10 +206,10 @@ def check_gain(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
         if given.ndim < 2:
             raise ValueError(
                 f"{name} must be >= 0 (a negative gain pushes the strain away from its reference); got "
-                f"{given.tolist()} (strain {i}: {diag[i]!r}); give gains >= 0, or None for the rule's"
+                f"{given.tolist()} (strain {i}: {float(diag[i])!r}); give gains >= 0, or None for the rule's"
             )
         warnings.warn(
-            f"{name}[{i}, {i}] = {diag[i]!r} < 0: a negative gain pushes strain {i} away from its reference",
+            f"{name}[{i}, {i}] = {float(diag[i])!r} < 0: a negative gain pushes strain {i} away from its reference",
             UserWarning,
             stacklevel=3,
         )
