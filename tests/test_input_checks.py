@@ -146,6 +146,7 @@ def test_plausible_chains_pass_even_noisy_ones():
         ("reversed", "from the tip to the base"),
         ("milliradians", r"look like milliradians \(times 0.001"),
         ("degrees", "look like degrees"),
+        ("millimetres", r"positions look like millimetres"),
     ],
 )
 def test_implausible_chains_are_refused_quickly(case, match):
@@ -159,12 +160,13 @@ def test_implausible_chains_are_refused_quickly(case, match):
         "reversed": lambda P: P[:, ::-1],
         "milliradians": lambda P: np.concatenate([P[..., :2], 1e3 * P[..., 2:]], axis=-1),
         "degrees": lambda P: np.concatenate([P[..., :2], np.rad2deg(P[..., 2:])], axis=-1),
+        "millimetres": lambda P: np.concatenate([1e3 * P[..., :2], P[..., 2:]], axis=-1),
     }[case](poses)
     start = time.perf_counter()
     with pytest.raises(ValueError, match=r"X\[0\]: .*" + match):
-        KinematicFusion(total_length=0.1).fit(bad)
+        KinematicFusion(total_length=None if case == "millimetres" else 0.1).fit(bad)
     assert time.perf_counter() - start < 5.0
-    if case in ("shuffled", "swapped", "duplicated"):
+    if case in ("shuffled", "swapped", "duplicated", "millimetres"):
         with pytest.raises(ValueError, match=match):
             check_marker_chain(bad[..., :2], name="positions")
 
@@ -223,3 +225,11 @@ def test_a_diverging_closed_loop_stops_within_its_budget():
         closed_loop(plant, ctrl, [12.0], t, q0=np.zeros(3), qd0=np.zeros(3), max_wall_time=1e-9)
     with pytest.raises(ValueError, match="divergence_limit must be"):
         closed_loop(plant, ctrl, [12.0], t, q0=np.zeros(3), qd0=np.zeros(3), divergence_limit=-1)
+
+
+def test_a_lost_marker_in_one_frame_is_named():
+    fusion = KinematicFusion(total_length=0.1).fit(_chain())
+    frame = _chain(n_frames=2)[1]
+    frame[7, 1] = np.nan
+    with pytest.raises(ValueError, match=r"poses\[7, 1\] = nan \(marker 7"):
+        fusion.transform_frame(frame)

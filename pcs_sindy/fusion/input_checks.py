@@ -6,6 +6,7 @@ Algorithm 1 turns it into many short segments after a long fit.  These checks
 look at a subsample of frames, take medians over them (a few bad frames pass)
 and say what is wrong in a fraction of a second:
 
+* the chain is at most :data:`MAX_CHAIN_LENGTH` long (positions in metres, not millimetres);
 * no two markers coincide (a duplicated marker);
 * the chain does not turn back on itself between neighbouring markers (the
   arc length grows monotonically from the base, index 0, to the tip);
@@ -25,10 +26,12 @@ from numpy.typing import ArrayLike
 
 from ..core.kinematics import forward_kinematics, wrap_angle
 
-__all__ = ["check_marker_chain", "MAX_CHECK_FRAMES"]
+__all__ = ["check_marker_chain", "MAX_CHECK_FRAMES", "MAX_CHAIN_LENGTH"]
 
 #: frames (evenly subsampled) the checks look at
 MAX_CHECK_FRAMES = 256
+#: longest plausible marker chain [m]; longer ones are taken for positions in millimetres
+MAX_CHAIN_LENGTH = 20.0
 # a marker pair closer than this fraction of the median marker spacing (median over frames) is a duplicate
 _DUPLICATE_FRACTION = 0.2
 # neighbouring chords turning by more than 120 degrees (median over frames) mean the chain runs back
@@ -109,6 +112,13 @@ def check_marker_chain(poses: ArrayLike, name: str = "poses") -> None:
         raise ValueError(
             f"{name}: the markers do not move apart (median distance between neighbours {spacing:g} m); "
             "give the base and the markers at their measured positions"
+        )
+    chain_length = float(np.sum(np.median(length, axis=0)))
+    if chain_length > MAX_CHAIN_LENGTH:
+        raise ValueError(
+            f"{name}: the marker chain is {chain_length:.4g} m long (median over frames), more than "
+            f"{MAX_CHAIN_LENGTH:g} m: the positions look like millimetres (times 0.001: {1e-3 * chain_length:.4g} m); "
+            "give positions in metres"
         )
     # 1. duplicates: any two markers at (almost) the same place in most frames
     close = np.argwhere(np.triu(dist < _DUPLICATE_FRACTION * spacing, k=1))

@@ -390,8 +390,17 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         """
         check_is_fitted(self, "segment_lengths_")
         P = np.array(poses, dtype=float)
-        if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
-            raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
+        if P.shape != (self.n_markers_ + 1, 3):
+            raise ValueError(
+                f"poses must have shape ({self.n_markers_ + 1}, 3) (the base and {self.n_markers_} markers); "
+                f"got {np.shape(poses)}"
+            )
+        if not np.all(np.isfinite(P)):
+            i, j = (int(v) for v in np.argwhere(~np.isfinite(P))[0])
+            raise ValueError(
+                f"poses must be finite; poses[{i}, {j}] = {float(P[i, j])!r} (marker {i}, 0 = the base): "
+                "a lost marker cannot be fused"
+            )
         rel = frame_chain(P, self.base_pose_ if self.fixed_base else None)
         if q0 is not None:
             start = np.asarray(q0, dtype=float).reshape(-1)

@@ -325,6 +325,11 @@ def pair_files(
         if len(set(skeys)) == len(skeys) and len(set(tkeys)) == len(tkeys) and set(skeys) == set(tkeys):
             by_key = dict(zip(tkeys, tau_files))
             return [(s, by_key[k]) for s, k in zip(strain_files, skeys)]
+    if len(tau_files) != len(strain_files):
+        raise DataFileError(
+            f"got {len(strain_files)} strain file(s) but {len(tau_files)} {what} file(s), and their names (stems) "
+            f"do not match; give one {what} file per strain file, named like it (same stem)"
+        )
     raise DataFileError(
         f"the names of the {len(tau_files)} {what} file(s) do not match those of the {len(strain_files)} strain "
         f"file(s), so which forces belong to which recording is not known (by order it would be: {shown}); "

@@ -39,11 +39,11 @@ def reduce_strains(kinematics: PlanarPCS, value: ArrayLike, name: str = "q") -> 
     mask = kinematics.active_mask
     n = int(mask.sum())
     if v.ndim == 0 or v.shape[-1] not in (mask.size, n):
-        raise ValueError(
-            f"{name} must have a last axis of {mask.size} (all strains) or {n} (modelled strains); got shape {v.shape}"
-        )
+        sizes = f"{n} (the strains)" if n == mask.size else f"{mask.size} (all strains) or {n} (modelled strains)"
+        raise ValueError(f"{name} must have a last axis of {sizes}; got shape {v.shape}")
     if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} contains NaN or inf")
+        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(v))[0])
+        raise ValueError(f"{name} contains NaN or inf ({name}[{', '.join(map(str, idx))}] = {float(v[idx])!r})")
     return v[..., mask] if v.shape[-1] == mask.size and mask.size != n else v
 
 
