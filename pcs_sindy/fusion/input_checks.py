@@ -77,7 +77,7 @@ def _pairs(pairs: list[tuple[int, int]], limit: int = 5) -> str:
 
 
 def check_marker_chain(poses: ArrayLike, name: str = "poses") -> None:
-    """Refuse marker chains in the wrong order, with a marker twice or with angles not in radians.
+    """Refuse marker chains in the wrong order, with a marker twice or in the wrong units.
 
     Parameters
     ----------
@@ -90,7 +90,8 @@ def check_marker_chain(poses: ArrayLike, name: str = "poses") -> None:
     Raises
     ------
     ValueError
-        Naming the markers concerned and the fix: markers that coincide
+        Naming the markers concerned and the fix: a chain longer than
+        :data:`MAX_CHAIN_LENGTH` (positions in millimetres), markers that coincide
         (duplicated), a chain that turns back between neighbours (shuffled),
         angles that do not match the marker directions (with the unit that
         would fit, milliradians or degrees, when one does), or a chain given
