@@ -77,6 +77,19 @@ def test_a_callable_force_returning_nan_is_named():
         model.simulate(np.zeros(3), np.zeros(3), np.linspace(0, 0.1, 5), lambda s: [np.nan, 0.0, 0.0], method="radau")
 
 
+def test_forward_dynamics_name_a_bad_force():
+    model = _actuated_model()
+    q = np.zeros((2, 3))
+    with pytest.raises(ValueError, match=r"tau must hold one force per modelled strain and state, shape \(2, 3\)"):
+        model.accelerations(q, q, np.zeros(5))  # before: numpy's "cannot reshape array of size 5"
+    with pytest.raises(ValueError, match="tau contains NaN"):
+        model.accelerations(q, q, np.full((2, 3), np.nan))  # before: NaN accelerations
+    # the check keeps the answer: at rest, straight, qdd = M^-1 (tau - G)
+    tau = np.array([[1e-4, 0.0, 0.0], [0.0, 0.0, 1e-3]])
+    M, bias = model.mass_and_bias(q, q)
+    np.testing.assert_allclose(model.accelerations(q, q, tau), np.linalg.solve(M, (tau - bias)[..., None])[..., 0])
+
+
 # --------------------------------------------------------------------------- 3. force files and strain files
 def _strains(n_frames=20):
     t = 1e-2 * np.arange(n_frames)

@@ -136,7 +136,16 @@ class ForwardModel(ABC):
     def accelerations(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
         """Forward dynamics ``qdd = M^-1 (tau - bias)`` of states and forces (B, n)."""
         M, bias = self.mass_and_bias(q, qd)
-        tau = np.asarray(tau, dtype=float).reshape(bias.shape)
+        tau = np.asarray(tau, dtype=float)
+        if tau.size != bias.size:
+            raise ValueError(
+                f"tau must hold one force per modelled strain and state, shape {bias.shape}; got shape {tau.shape}"
+            )
+        tau = tau.reshape(bias.shape)
+        if not np.all(np.isfinite(tau)):
+            raise ValueError(
+                f"tau contains NaN or inf (first at {tuple(int(i) for i in np.argwhere(~np.isfinite(tau))[0])})"
+            )
         return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
 
     # ------------------------------------------------------------------ input checks
