@@ -10,6 +10,7 @@ drives a controller against a plant; on hardware the same two calls run the loop
 
 from __future__ import annotations
 
+import math
 from abc import ABC, abstractmethod
 from typing import Any
 
@@ -89,6 +90,7 @@ class Controller(ABC):
             raise ValueError(f"on_nan must be one of {ON_NAN}; got {self.on_nan!r}")
         self._last_command: NDArray[np.float64] | None = None
         fm = as_forward_model(self.model)
+        self._n_strains = int(fm.kinematics.n_active)
         self.forward_model_ = fm
         self.n_inputs_ = int(fm.n_inputs)
         bounds = self.input_bounds if self.input_bounds is not None else getattr(fm, "input_bounds", None)
@@ -138,34 +140,39 @@ class Controller(ABC):
             raise ValueError(f"{type(self).__name__}.command: call start(reference, t) first")
         if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < self.t_.size:
             raise ValueError(f"k must be a control step index in [0, {self.t_.size - 1}]; got {k!r}")
-        n = int(self.forward_model_.kinematics.n_active)
-        q = np.asarray(q, dtype=float)
-        qd = np.asarray(qd, dtype=float)
+        n = self._n_strains
+        if type(q) is not np.ndarray or q.dtype != np.float64:
+            q = np.asarray(q, dtype=float)
+        if type(qd) is not np.ndarray or qd.dtype != np.float64:
+            qd = np.asarray(qd, dtype=float)
         if q.shape != (n,) or qd.shape != (n,):
             raise ValueError(
                 f"q and qd must be the {n} modelled strains and rates, shape ({n},); got {q.shape} and {qd.shape}"
             )
+        total = q.sum() + qd.sum()
         if tip is not None:
-            tip = np.asarray(tip, dtype=float)
+            if type(tip) is not np.ndarray or tip.dtype != np.float64:
+                tip = np.asarray(tip, dtype=float)
             if tip.shape != (2,):
                 raise ValueError(f"tip must be a position (2,); got shape {tip.shape}")
-        finite = bool(np.all(np.isfinite(q)) and np.all(np.isfinite(qd)) and (tip is None or np.all(np.isfinite(tip))))
-        if not finite:
-            what = ", ".join(
-                nm for nm, v in (("q", q), ("qd", qd), ("tip", tip)) if v is not None and not np.all(np.isfinite(v))
-            )
-            if self.on_nan == "hold" and self._last_command is not None:
-                return self._last_command.copy()
-            raise ValueError(
-                f"the measurement at control step {k} (t = {self.t_[k]:.6g} s) holds NaN or inf in {what}"
-                + (
-                    "; with on_nan='hold' there is no earlier command to hold yet"
-                    if self.on_nan == "hold"
-                    else "; pass on_nan='hold' to hold the last command over lost measurements"
+            total += tip.sum()
+        # one sum for the hot path; the element-wise look only when it is not finite (or overflowed)
+        if not math.isfinite(total):
+            bad = [nm for nm, v in (("q", q), ("qd", qd), ("tip", tip)) if v is not None and not np.isfinite(v).all()]
+            if bad:
+                if self.on_nan == "hold" and self._last_command is not None:
+                    return self._last_command.copy()
+                raise ValueError(
+                    f"the measurement at control step {k} (t = {self.t_[k]:.6g} s) holds NaN or inf in "
+                    f"{', '.join(bad)}"
+                    + (
+                        "; with on_nan='hold' there is no earlier command to hold yet"
+                        if self.on_nan == "hold"
+                        else "; pass on_nan='hold' to hold the last command over lost measurements"
+                    )
                 )
-            )
         u = self.step(k, q, qd, tip)
-        self._last_command = np.array(u, dtype=float)
+        self._last_command = u
         return u
 
     @abstractmethod
