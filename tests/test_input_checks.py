@@ -147,6 +147,10 @@ def test_plausible_chains_pass_even_noisy_ones():
     check_marker_chain(_chain())
     check_marker_chain(_chain(noise=(1.5e-3, np.deg2rad(5.0))))  # 1.5 mm noise on a 5 mm spacing
     check_marker_chain(_chain()[..., :2])  # positions only
+    # three markers on a robot bent to the seed's largest curvature (60 1/m): chords turn by 115 degrees
+    bent = forward_kinematics(np.tile([60.0, 0.0, 0.0], (5, 1)), [0.1], np.linspace(0.0, 0.1, 4))
+    check_marker_chain(bent)
+    check_marker_chain(bent[..., :2])
     assert KinematicFusion(total_length=0.1).fit(_chain()).n_segments_ == 1
 
 

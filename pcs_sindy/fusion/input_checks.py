@@ -34,8 +34,8 @@ MAX_CHECK_FRAMES = 256
 MAX_CHAIN_LENGTH = 20.0
 # a marker pair closer than this fraction of the median marker spacing (median over frames) is a duplicate
 _DUPLICATE_FRACTION = 0.2
-# neighbouring chords turning by more than 120 degrees (median over frames) mean the chain runs back
-_BACKTRACK_COS = -0.5
+# neighbouring chords turning by more than 135 degrees (median over frames) mean the chain runs back
+_BACKTRACK_COS = -0.7
 # circular-mean mismatch [rad] (median over neighbours) between a marker's angle and the direction to the next
 _ANGLE_TOLERANCE = 0.5
 _UNITS = ((1e-3, "milliradians"), (np.pi / 180.0, "degrees"))
