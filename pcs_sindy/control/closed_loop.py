@@ -27,10 +27,19 @@ from . import _kinematics
 from .base import check_time_grid
 from .estimation import PoseEstimator, StateMap
 
-__all__ = ["ClosedLoopResult", "closed_loop", "plant_equilibrium", "check_actuation", "DIVERGENCE_LIMIT"]
+__all__ = [
+    "ClosedLoopResult",
+    "closed_loop",
+    "plant_equilibrium",
+    "check_actuation",
+    "DIVERGENCE_LIMIT",
+    "MAX_PLANT_STEPS",
+]
 
 #: default ``divergence_limit`` of :func:`closed_loop`: multiples of the typical strain magnitudes
 DIVERGENCE_LIMIT = 20.0
+#: default ``max_plant_steps`` of :func:`closed_loop`: integration steps of the plant per control period
+MAX_PLANT_STEPS = 10_000
 
 
 @dataclass
@@ -224,6 +233,7 @@ def closed_loop(
     plant_step: float | None = 5e-4,
     seed: int | None = 0,
     divergence_limit: float = DIVERGENCE_LIMIT,
+    max_plant_steps: int | None = MAX_PLANT_STEPS,
     max_wall_time: float | None = None,
     progress: bool = False,
 ) -> ClosedLoopResult:
@@ -273,6 +283,10 @@ def closed_loop(
         bending, 0.3 shear and axial: 1200 1/m and 6 by default), or is not
         finite.  An unstable loop (e.g. negative gains) otherwise drives the
         plant's integration into ever smaller steps for minutes.
+    max_plant_steps : int or None, default 10000
+        Most integration steps of the plant in one control period
+        (``plant.advance(..., max_steps=)``; 2 with the default fixed step);
+        exceeded: a SimulationError.  None: no bound.
     max_wall_time : float, optional
         Budget [s] of wall time for the whole loop, checked after every
         control period; exceeded: a SimulationError naming the control time
@@ -303,6 +317,10 @@ def closed_loop(
         or not max_wall_time > 0
     ):
         raise ValueError(f"max_wall_time must be a number of seconds > 0, or None; got {max_wall_time!r}")
+    if max_plant_steps is not None and (
+        isinstance(max_plant_steps, bool) or not isinstance(max_plant_steps, (int, np.integer)) or max_plant_steps < 1
+    ):
+        raise ValueError(f"max_plant_steps must be an integer >= 1 or None; got {max_plant_steps!r}")
     if observe not in ("state", "poses"):
         raise ValueError(f"observe must be 'state' or 'poses'; got {observe!r}")
     for attr in ("advance", "kinematics", "n_inputs", "actuation"):
@@ -368,6 +386,8 @@ def closed_loop(
         state_map = StateMap(kin, plant.kinematics, s_model, s_plant)
 
     advance_kw = {"step": plant_step} if plant_step is not None else {"step": None, "rtol": 1e-9, "atol": 1e-12}
+    if max_plant_steps is not None:
+        advance_kw["max_steps"] = int(max_plant_steps)
     T = t.size
     Q, QD = np.empty((T, plant.n_q)), np.empty((T, plant.n_q))
     U = np.empty((T, controller.n_inputs_))
