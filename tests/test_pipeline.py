@@ -248,3 +248,11 @@ def test_pipeline_fits_actuator_inputs_from_poses() -> None:
         make_pcs_pipeline(regressor=EulerLagrangeRegressor(), actuation=scenario.actuation)
     default = make_pcs_pipeline(start="poses", actuation=scenario.actuation)
     assert default.named_steps["dynamics"].actuation == scenario.actuation
+
+
+def test_initial_state_indices_must_be_integers(pose_fit) -> None:
+    pipe, X, _, _ = pose_fit
+    with pytest.raises(ValueError, match=r"sample must be an integer index; got 1.5"):
+        pipe.initial_state(X, recording=1, sample=1.5)  # before: numpy's IndexError on st.q[1.5]
+    with pytest.raises(ValueError, match=r"recording must be an integer index; got True"):
+        pipe.initial_state(X, recording=True)

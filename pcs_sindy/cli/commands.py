@@ -721,6 +721,7 @@ def fit(
     rest_strain: bool | None = None,
     rotary_inertia: str | None = None,
     stiffness_threshold: float | None = None,
+    pair_by: str = "name",
     quiet: bool = False,
 ) -> Any:
     """Identify the dynamics from strain files and tau files; write the model file ``out`` (JSON + .npz).
@@ -730,7 +731,7 @@ def fit(
     strains : sequence of path
         Strain files (written by :func:`fuse`).
     tau : sequence of path or None
-        Tau files (recordings qualify), matched to the strain files by name (stem), else by order.
+        Tau files (recordings qualify), matched to the strain files by name (see ``pair_by``).
     out : path
         Model file (``model.json`` + ``model.npz``).
     inputs : sequence of path, optional
@@ -740,8 +741,11 @@ def fit(
     library, formulation, window_length, polyorder, exclude_force_jumps : optional
     weak_window, weak_stride, rest_strain, rotary_inertia, stiffness_threshold : optional
         As :func:`build_regressor`; None: the default of :class:`~pcs_sindy.identification.EulerLagrangeRegressor`.
+    pair_by : {"name", "order"}
+        Tau files belong to strain files by name (or are refused, showing the pairing), or by order
+        (:func:`pcs_sindy.io.data_files.pair_files`).
     quiet : bool
-        Print nothing (else the equations, stiffness and damping).
+        Print nothing (else the pairing, the equations, stiffness and damping).
 
     Returns
     -------
@@ -755,9 +759,11 @@ def fit(
     if inputs is not None and actuation is None:
         raise CLIError("--inputs needs --actuation (the layout the inputs act through)")
     layout = files.read_layout(actuation) if isinstance(actuation, (str, Path)) else actuation
-    data, taus = files.read_training_files(
-        strains, tau if tau is not None else inputs, key="tau" if tau is not None else "u"
-    )
+    forces = tau if tau is not None else inputs
+    pairs = files.pair_files(strains, forces, pair_by, "tau" if tau is not None else "input")
+    data, taus = files.read_training_files(strains, forces, key="tau" if tau is not None else "u", pairing=pair_by)
+    if not quiet and len(pairs) > 1:
+        print("pairing: " + "; ".join(f"{Path(a).name} <- {b}" for a, b in pairs))
     model = build_regressor(
         library=library,
         formulation=formulation,

@@ -535,13 +535,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--tau",
         nargs="+",
-        help="tau files (.npz with t, tau), matched to the strain files by name (stem) or else by order",
+        help="tau files (.npz with t, tau), matched to the strain files by name (stem); see --pair-by",
     )
     p.add_argument(
         "--inputs",
         nargs="+",
         help="instead of --tau: actuator input files (.npz with t, u; actuated recordings qualify), "
         "matched like --tau; needs --actuation",
+    )
+    p.add_argument(
+        "--pair-by",
+        choices=["name", "order"],
+        default="name",
+        help="how tau (or input) files belong to strain files: by name (same stem, or the same name after a "
+        "prefix/suffix shared by all files of a side; refused otherwise, the default) or by order",
     )
     p.add_argument(
         "--actuation",

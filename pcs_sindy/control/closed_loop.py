@@ -21,11 +21,25 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from ..core.kinematics import SEED_Q_MAX
+from ..core.simulate_contract import SimulationError
 from . import _kinematics
 from .base import check_time_grid
 from .estimation import PoseEstimator, StateMap
 
-__all__ = ["ClosedLoopResult", "closed_loop", "plant_equilibrium", "check_actuation"]
+__all__ = [
+    "ClosedLoopResult",
+    "closed_loop",
+    "plant_equilibrium",
+    "check_actuation",
+    "DIVERGENCE_LIMIT",
+    "MAX_PLANT_STEPS",
+]
+
+#: default ``divergence_limit`` of :func:`closed_loop`: multiples of the typical strain magnitudes
+DIVERGENCE_LIMIT = 20.0
+#: default ``max_plant_steps`` of :func:`closed_loop`: integration steps of the plant per control period
+MAX_PLANT_STEPS = 10_000
 
 
 @dataclass
@@ -111,6 +125,33 @@ class ClosedLoopResult:
         return float(np.sqrt(np.mean(e**2)))
 
 
+def _check_budget(
+    q: NDArray[np.float64],
+    qd: NDArray[np.float64],
+    bound: NDArray[np.float64],
+    now: float,
+    start_time: float,
+    max_wall_time: float | None,
+    divergence_limit: float,
+) -> None:
+    """SimulationError when the plant's strains left ``bound`` or the loop overran its wall-time budget."""
+    if not (np.all(np.isfinite(q)) and np.all(np.isfinite(qd)) and np.all(np.abs(q) <= bound)):
+        i = int(np.argmax(~np.isfinite(q) | (np.abs(q) > bound)))
+        raise SimulationError(
+            f"closed loop diverged at t = {now:.6g} s: plant strain {i} = {q[i]:.6g} beyond "
+            f"{bound[i]:.6g} (divergence_limit = {divergence_limit:g} times its typical magnitude); the "
+            "gains or the model do not stabilise the plant",
+            now,
+            np.concatenate([q, qd]),
+        )
+    if max_wall_time is not None and time.perf_counter() - start_time > max_wall_time:
+        raise SimulationError(
+            f"closed loop overran max_wall_time = {max_wall_time:g} s at t = {now:.6g} s of the control times",
+            now,
+            np.concatenate([q, qd]),
+        )
+
+
 def _fd_jacobian(fun: Any, q: NDArray[np.float64], h: float = 1e-7) -> NDArray[np.float64]:
     return np.stack([(fun(q + h * e) - fun(q - h * e)) / (2 * h) for e in np.eye(q.size)], axis=1)
 
@@ -191,6 +232,9 @@ def closed_loop(
     velocity_cutoff: float = 15.0,
     plant_step: float | None = 5e-4,
     seed: int | None = 0,
+    divergence_limit: float = DIVERGENCE_LIMIT,
+    max_plant_steps: int | None = MAX_PLANT_STEPS,
+    max_wall_time: float | None = None,
     progress: bool = False,
 ) -> ClosedLoopResult:
     """Run ``controller`` on ``plant`` for the task ``reference`` over the control times ``t``.
@@ -233,6 +277,20 @@ def closed_loop(
         for error control (tolerances 1e-9 / 1e-12: the integration error out of the way).
     seed : int, optional
         Of the pose noise.
+    divergence_limit : float, default 20
+        The loop counts as diverged, and stops with a SimulationError, when a
+        plant strain exceeds this many times its typical magnitude (60 1/m
+        bending, 0.3 shear and axial: 1200 1/m and 6 by default), or is not
+        finite.  An unstable loop (e.g. negative gains) otherwise drives the
+        plant's integration into ever smaller steps for minutes.
+    max_plant_steps : int or None, default 10000
+        Most integration steps of the plant in one control period
+        (``plant.advance(..., max_steps=)``; 2 with the default fixed step);
+        exceeded: a SimulationError.  None: no bound.
+    max_wall_time : float, optional
+        Budget [s] of wall time for the whole loop, checked after every
+        control period; exceeded: a SimulationError naming the control time
+        reached.  Default: none.
     progress : bool
         tqdm progress bar over the control steps.
 
@@ -245,9 +303,24 @@ def closed_loop(
     ValueError
         Bad arguments (naming them), or a plant whose actuation does not match the controller's model.
     SimulationError
-        If the plant's integration fails (the loop went unstable).
+        If the plant's integration fails, the plant's strains leave
+        ``divergence_limit`` (the loop went unstable) or the loop overruns ``max_wall_time``.
     """
     t, dt = check_time_grid(t)
+    if isinstance(divergence_limit, bool) or not (
+        isinstance(divergence_limit, (int, float, np.integer, np.floating)) and divergence_limit > 0
+    ):
+        raise ValueError(f"divergence_limit must be a number > 0 (np.inf: no limit); got {divergence_limit!r}")
+    if max_wall_time is not None and (
+        isinstance(max_wall_time, bool)
+        or not isinstance(max_wall_time, (int, float, np.integer, np.floating))
+        or not max_wall_time > 0
+    ):
+        raise ValueError(f"max_wall_time must be a number of seconds > 0, or None; got {max_wall_time!r}")
+    if max_plant_steps is not None and (
+        isinstance(max_plant_steps, bool) or not isinstance(max_plant_steps, (int, np.integer)) or max_plant_steps < 1
+    ):
+        raise ValueError(f"max_plant_steps must be an integer >= 1 or None; got {max_plant_steps!r}")
     if observe not in ("state", "poses"):
         raise ValueError(f"observe must be 'state' or 'poses'; got {observe!r}")
     for attr in ("advance", "kinematics", "n_inputs", "actuation"):
@@ -313,6 +386,8 @@ def closed_loop(
         state_map = StateMap(kin, plant.kinematics, s_model, s_plant)
 
     advance_kw = {"step": plant_step} if plant_step is not None else {"step": None, "rtol": 1e-9, "atol": 1e-12}
+    if max_plant_steps is not None:
+        advance_kw["max_steps"] = int(max_plant_steps)
     T = t.size
     Q, QD = np.empty((T, plant.n_q)), np.empty((T, plant.n_q))
     U = np.empty((T, controller.n_inputs_))
@@ -327,6 +402,8 @@ def closed_loop(
     )
     last_marker = np.empty((1, 3))
     tip_seen = np.empty(2)
+    bound = float(divergence_limit) * np.tile(np.asarray(SEED_Q_MAX, dtype=float), plant.n_segments)
+    start_time = time.perf_counter()
     for k in tqdm(range(T), desc="closed loop", disable=not progress, leave=False):
         Q[k], QD[k] = q, qd
         if observe == "poses":
@@ -343,11 +420,12 @@ def closed_loop(
             tip_seen[:] = last_marker[0, :2]
         QM[k], QDM[k] = qm, qdm
         tic = time.perf_counter()
-        u = controller.step(k, qm, qdm, tip_seen)
+        u = controller.command(k, qm, qdm, tip_seen)
         spent += time.perf_counter() - tic
         U[k] = u
         if k < T - 1:
             q, qd = plant.advance(q, qd, u, dt, **advance_kw)
+            _check_budget(q, qd, bound, float(t[k + 1]), start_time, max_wall_time, divergence_limit)
     poses = plant.kinematics.forward_kinematics(Q, s_plant)
     tip = plant.kinematics.forward_kinematics(Q, [plant.kinematics.total_length])[:, 0, :2]
     return ClosedLoopResult(

@@ -27,6 +27,7 @@ of any gains, so given gains can be checked the same way.
 
 from __future__ import annotations
 
+import warnings
 from typing import Any
 
 import numpy as np
@@ -40,6 +41,8 @@ __all__ = [
     "integral_gain",
     "loop_poles",
     "as_gain_matrix",
+    "check_gain",
+    "warn_if_cannot_regulate",
     "check_positive",
     "discretise",
 ]
@@ -185,3 +188,46 @@ def as_gain_matrix(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
     if not np.all(np.isfinite(arr)):
         raise ValueError(f"{name} contains NaN or inf")
     return arr
+
+
+def check_gain(value: ArrayLike, n: int, name: str) -> NDArray[np.float64]:
+    """A user's gain as an (n, n) matrix (:func:`as_gain_matrix`), checked for its sign.
+
+    A scalar or diagonal gain must be >= 0 (a negative one pushes each
+    strain away from its reference): ValueError naming the entry.  A full
+    matrix with a negative diagonal entry gets a UserWarning (coupling may
+    make up for it, but rarely does).
+    """
+    arr = as_gain_matrix(value, n, name)
+    given = np.asarray(value, dtype=float)
+    diag = np.diag(arr)
+    if np.any(diag < 0):
+        i = int(np.flatnonzero(diag < 0)[0])
+        if given.ndim < 2:
+            raise ValueError(
+                f"{name} must be >= 0 (a negative gain pushes the strain away from its reference); got "
+                f"{given.tolist()} (strain {i}: {float(diag[i])!r}); give gains >= 0, or None for the rule's"
+            )
+        warnings.warn(
+            f"{name}[{i}, {i}] = {float(diag[i])!r} < 0: a negative gain pushes strain {i} away from its reference",
+            UserWarning,
+            stacklevel=3,
+        )
+    return arr
+
+
+def warn_if_cannot_regulate(kp: NDArray[np.float64], ki: NDArray[np.float64] | None, owner: str) -> None:
+    """UserWarning when gains cannot correct a strain error: no proportional and no integral action on a strain."""
+    acts = np.any(kp != 0, axis=0)
+    if ki is not None:
+        acts |= np.any(ki != 0, axis=0)
+    if not np.all(acts):
+        idle = np.flatnonzero(~acts).tolist()
+        which = "any strain" if len(idle) == acts.size else f"strain(s) {idle}"
+        warnings.warn(
+            f"{owner}: the gains cannot regulate {which}: no proportional"
+            + (" or integral" if ki is not None else "")
+            + " gain acts on the error (all zero), so an error there is never corrected",
+            UserWarning,
+            stacklevel=3,
+        )

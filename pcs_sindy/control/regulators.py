@@ -42,7 +42,17 @@ from numpy.typing import ArrayLike, NDArray
 
 from . import _kinematics
 from .base import Controller
-from .gains import as_gain_matrix, check_positive, force_scales, integral_gain, loop_poles, lqr_gains, open_loop_decay
+from .gains import (
+    as_gain_matrix,
+    check_gain,
+    check_positive,
+    force_scales,
+    integral_gain,
+    loop_poles,
+    lqr_gains,
+    open_loop_decay,
+    warn_if_cannot_regulate,
+)
 from .models import REACH_MARGIN, InputMap, check_strains, linearise, static_forces, strain_scales
 from .statics import EquilibriumResult, equilibrium_inputs, input_scales, tip_jacobian
 from .targets import ShapeTarget, shape_strains
@@ -84,7 +94,7 @@ class SetpointRegulator(Controller):
         winds up nothing the integral then has to unwind.  ``np.inf``: always.
     feedforward : bool, default True
         Add ``G(q*) + K q* - f0`` of the model.  False: PID on the strains.
-    input_bounds, strain_limits
+    input_bounds, strain_limits, on_nan
         See :class:`~pcs_sindy.control.base.Controller`.
 
     Attributes
@@ -120,8 +130,9 @@ class SetpointRegulator(Controller):
         feedforward: bool = True,
         input_bounds: Any = None,
         strain_limits: ArrayLike | None = None,
+        on_nan: str = "raise",
     ) -> None:
-        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
+        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits, on_nan=on_nan)
         self.kp = kp
         self.ki = ki
         self.kd = kd
@@ -170,9 +181,14 @@ class SetpointRegulator(Controller):
         scales = strain_scales(fm.kinematics)
         if self.kp is None or self.kd is None:
             kp, kd = lqr_gains(lin, self.dt_, rate, effort, scales)
-        self.kp_ = as_gain_matrix(kp if self.kp is None else self.kp, n, "kp")
-        self.kd_ = as_gain_matrix(kd if self.kd is None else self.kd, n, "kd")
-        self.ki_ = as_gain_matrix(integral_gain(lin, self.kp_, i_rate) if self.ki is None else self.ki, n, "ki")
+        self.kp_ = as_gain_matrix(kp, n, "kp") if self.kp is None else check_gain(self.kp, n, "kp")
+        self.kd_ = as_gain_matrix(kd, n, "kd") if self.kd is None else check_gain(self.kd, n, "kd")
+        self.ki_ = (
+            as_gain_matrix(integral_gain(lin, self.kp_, i_rate), n, "ki")
+            if self.ki is None
+            else check_gain(self.ki, n, "ki")
+        )
+        warn_if_cannot_regulate(self.kp_, self.ki_, "SetpointRegulator")
         if self.integral_limit is None:
             limit = 0.1 * force_scales(lin, scales)
         else:
@@ -256,7 +272,7 @@ class TipRegulator(Controller):
         replaced by the nearest reachable tip.  A target reachable with strains
         a little outside the strain range (up to 25 % of its span beyond,
         ``models.REACH_MARGIN``) is accepted with a warning saying how far.
-    input_bounds, strain_limits
+    input_bounds, strain_limits, on_nan
         See :class:`~pcs_sindy.control.base.Controller` (e.g. ``(0, 16)``
         for tendon tensions).
 
@@ -294,8 +310,9 @@ class TipRegulator(Controller):
         on_unreachable: str = "raise",
         input_bounds: Any = None,
         strain_limits: ArrayLike | None = None,
+        on_nan: str = "raise",
     ) -> None:
-        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
+        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits, on_nan=on_nan)
         self.kp = kp
         self.ki = ki
         self.integral_limit = integral_limit
@@ -313,6 +330,13 @@ class TipRegulator(Controller):
         fm = self.forward_model_
         kp = check_positive(self.kp, "kp", allow_zero=True)
         ki = check_positive(self.ki, "ki", allow_zero=True)
+        if kp == 0 and ki == 0:
+            warnings.warn(
+                "TipRegulator: kp = ki = 0: the tip error is not fed back (only the model's equilibrium inputs "
+                "and the strain feedback act), so a model error leaves a tip error; give ki > 0",
+                UserWarning,
+                stacklevel=2,
+            )
         i_lim = check_positive(self.integral_limit, "integral_limit", allow_zero=True, allow_inf=True)
         band = check_positive(self.integral_band, "integral_band", allow_inf=True)
         speed = check_positive(self.integral_speed, "integral_speed", allow_zero=True, allow_inf=True)

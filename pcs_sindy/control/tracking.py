@@ -31,7 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.interpolate import make_interp_spline
 
 from .base import Controller
-from .gains import as_gain_matrix, check_positive, integral_gain, lqr_gains
+from .gains import as_gain_matrix, check_gain, check_positive, integral_gain, lqr_gains, warn_if_cannot_regulate
 from .models import InputMap, check_strains, linearise, strain_scales
 from .statics import tip_inverse_kinematics
 
@@ -195,7 +195,7 @@ class ComputedTorqueController(Controller):
         Rule parameters for ``pd_plus`` and ``pid``.
     integral_rate : float, optional
         ``pid``: ``Ki = integral_rate (K + Kp)``; default ``rate / 3``.
-    input_bounds, strain_limits
+    input_bounds, strain_limits, on_nan
         See :class:`~pcs_sindy.control.base.Controller`.
     progress : bool
         Progress bar over the inverse kinematics of a tip reference.
@@ -222,8 +222,9 @@ class ComputedTorqueController(Controller):
         input_bounds: Any = None,
         strain_limits: ArrayLike | None = None,
         progress: bool = False,
+        on_nan: str = "raise",
     ) -> None:
-        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits)
+        super().__init__(model, input_bounds=input_bounds, strain_limits=strain_limits, on_nan=on_nan)
         self.law = law
         self.bandwidth = bandwidth
         self.damping_ratio = damping_ratio
@@ -265,8 +266,8 @@ class ComputedTorqueController(Controller):
                 kp, kd = lqr_gains(
                     lin, self.dt_, rate, check_positive(self.effort, "effort"), strain_scales(fm.kinematics)
                 )
-        self.kp_ = as_gain_matrix(kp if self.kp is None else self.kp, n, "kp")
-        self.kd_ = as_gain_matrix(kd if self.kd is None else self.kd, n, "kd")
+        self.kp_ = as_gain_matrix(kp, n, "kp") if self.kp is None else check_gain(self.kp, n, "kp")
+        self.kd_ = as_gain_matrix(kd, n, "kd") if self.kd is None else check_gain(self.kd, n, "kd")
         self.ki_ = np.zeros((n, n))
         if self.law == "pid":
             i_rate = (
@@ -275,6 +276,7 @@ class ComputedTorqueController(Controller):
                 else check_positive(self.integral_rate, "integral_rate", allow_zero=True)
             )
             self.ki_ = integral_gain(lin, self.kp_, i_rate)
+        warn_if_cannot_regulate(self.kp_, self.ki_ if self.law == "pid" else None, "ComputedTorqueController")
         self._law = _LAWS.index(self.law)
         self._z = np.zeros(n)
         return self

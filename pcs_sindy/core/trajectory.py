@@ -59,11 +59,13 @@ def check_time(t: ArrayLike | None, n_samples: int, *, dt: float | None = None, 
     if t.ndim != 1 or t.shape[0] != n_samples:
         raise ValueError(f"{name} must have shape ({n_samples},); got {t.shape}")
     if not np.all(np.isfinite(t)):
-        raise ValueError(f"{name} contains NaN or inf")
+        k = int(np.argmax(~np.isfinite(t)))
+        raise ValueError(f"{name} contains NaN or inf ({name}[{k}] = {float(t[k])!r}); time stamps must be finite")
     if n_samples > 1 and np.any(np.diff(t) <= 0):
         k = int(np.argmax(np.diff(t) <= 0))
         raise ValueError(
-            f"{name} must be strictly increasing; {name}[{k + 1}] = {t[k + 1]!r} <= {name}[{k}] = {t[k]!r}"
+            f"{name} must be strictly increasing; {name}[{k + 1}] = {float(t[k + 1])!r} <= "
+            f"{name}[{k}] = {float(t[k])!r}"
         )
     return t
 

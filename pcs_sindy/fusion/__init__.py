@@ -9,6 +9,7 @@ fused segmentation (``KinematicFusion.segment_lengths_``) and
 * :mod:`.chain_geometry` - the marker chain in the base frame, rest length, segment strains;
 * :mod:`.merging` - the seed's Algorithm 1 (strain distances, merging runs of segments);
 * :mod:`.threshold_selection` - the rules that choose the merge threshold (``threshold="auto"``);
+* :mod:`.input_checks` - marker order, duplicates and angle units checked before fusion;
 * :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries;
 * :mod:`.position_fit`, :mod:`.position_fusion` - positions-only markers (motion capture): base pose,
   marker arc lengths, bending strains and Algorithm 1 on them.
@@ -42,6 +43,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "jackknife_std",
             "rest_length_factor",
         ],
+        "input_checks": ["check_marker_chain"],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
         "position_fusion": [

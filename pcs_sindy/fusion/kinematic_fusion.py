@@ -51,6 +51,7 @@ from .chain_geometry import (
     rest_length_factor,
     segment_strains,
 )
+from .input_checks import check_marker_chain
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
     choose_position_threshold,
@@ -260,6 +261,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 c, b = chain_poses(tr.poses, fixed_base=self.fixed_base)
             except ValueError as err:
                 raise ValueError(f"{name}[{k}]: {err}") from None
+            check_marker_chain(tr.poses, name=f"{name}[{k}]")
             chains.append(c)
             bases.append(b)
         n = {c.shape[1] for c in chains}
@@ -549,8 +551,17 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         if getattr(self, "positions_only_", False):
             raise ValueError("transform_frame needs marker poses; this fusion was fitted on positions only")
         P = np.array(poses, dtype=float)
-        if P.shape != (self.n_markers_ + 1, 3) or not np.all(np.isfinite(P)):
-            raise ValueError(f"poses must be finite with shape ({self.n_markers_ + 1}, 3); got {np.shape(poses)}")
+        if P.shape != (self.n_markers_ + 1, 3):
+            raise ValueError(
+                f"poses must have shape ({self.n_markers_ + 1}, 3) (the base and {self.n_markers_} markers); "
+                f"got {np.shape(poses)}"
+            )
+        if not np.all(np.isfinite(P)):
+            i, j = (int(v) for v in np.argwhere(~np.isfinite(P))[0])
+            raise ValueError(
+                f"poses must be finite; poses[{i}, {j}] = {float(P[i, j])!r} (marker {i}, 0 = the base): "
+                "a lost marker cannot be fused"
+            )
         rel = frame_chain(P, self.base_pose_ if self.fixed_base else None)
         if q0 is not None:
             start = np.asarray(q0, dtype=float).reshape(-1)

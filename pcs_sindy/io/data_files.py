@@ -20,6 +20,7 @@ crash interrupted (:func:`~pcs_sindy.core.atomic.recover`).
 from __future__ import annotations
 
 import json
+import os
 import zipfile
 from collections.abc import Sequence
 from pathlib import Path
@@ -45,6 +46,7 @@ __all__ = [
     "write_strains",
     "write_recording",
     "read_training_files",
+    "pair_files",
     "read_model_file",
     "write_model_file",
 ]
@@ -291,21 +293,81 @@ def write_recording(path: str | Path, rec: Any, *, into: FileSet | None = None) 
     return Path(path)
 
 
-def _match_by_stem(strain_files: Sequence[str | Path], tau_files: Sequence[str | Path]) -> list[str | Path]:
-    """Tau file of each strain file: by stem when every stem has one, else by order."""
+def _keys(stems: list[str]) -> list[str]:
+    """Stems without the prefix and suffix they all share (``strain_a``, ``strain_b`` -> ``a``, ``b``)."""
+    if len(stems) < 2:
+        return list(stems)
+    prefix = os.path.commonprefix(stems)
+    suffix = os.path.commonprefix([st[::-1] for st in stems])[::-1]
+    cut = [st[len(prefix) :] for st in stems]
+    return [c[: len(c) - len(suffix)] if suffix and len(c) >= len(suffix) else c for c in cut]
+
+
+def pair_files(
+    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path], pairing: str = "name", what: str = "tau"
+) -> list[tuple[str | Path, str | Path]]:
+    """The (strain file, tau file) pairs: matched by name, or refused showing the pairing.
+
+    Parameters
+    ----------
+    strain_files, tau_files : sequence of path
+    pairing : {"name", "order"}
+        ``"name"``: every strain file takes the tau file of the same stem
+        (``strains/rec_a.npz`` - ``taus/rec_a.npz``), or, when the stems differ
+        only by a prefix or suffix all files of a side share, of the same
+        remaining part (``strain_a`` - ``tau_a``); one file on each side pair
+        up whatever their names.  ``"order"``: the k-th strain file takes the
+        k-th tau file.
+    what : str
+        The kind of the second list in messages (``"tau"`` or ``"input"``).
+
+    Returns
+    -------
+    list of (strain file, tau file)
+
+    Raises
+    ------
+    DataFileError
+        When the names do not match (with ``pairing="name"``) or the counts
+        differ (with ``pairing="order"``); the message shows the pairing by
+        order and how to choose it.
+    """
+    if pairing not in ("name", "order"):
+        raise ValueError(f"pairing must be 'name' or 'order'; got {pairing!r}")
+    strain_files, tau_files = list(strain_files), list(tau_files)
+    by_order = list(zip(strain_files, tau_files))
+    shown = "; ".join(f"{str(a)!r} <- {str(b)!r}" for a, b in by_order[:6]) + ("; ..." if len(by_order) > 6 else "")
+    if pairing == "order" or (len(strain_files) == 1 and len(tau_files) == 1):
+        if len(tau_files) != len(strain_files):
+            raise DataFileError(
+                f"got {len(strain_files)} strain file(s) but {len(tau_files)} {what} file(s); pairing by order "
+                f"needs one {what} file per strain file"
+            )
+        return by_order
     by_stem = {Path(p).stem: p for p in tau_files}
     if len(by_stem) == len(tau_files) and all(Path(s).stem in by_stem for s in strain_files):
-        return [by_stem[Path(s).stem] for s in strain_files]
+        return [(s, by_stem[Path(s).stem]) for s in strain_files]
+    if len(tau_files) == len(strain_files):
+        skeys = _keys([Path(p).stem for p in strain_files])
+        tkeys = _keys([Path(p).stem for p in tau_files])
+        if len(set(skeys)) == len(skeys) and len(set(tkeys)) == len(tkeys) and set(skeys) == set(tkeys):
+            by_key = dict(zip(tkeys, tau_files))
+            return [(s, by_key[k]) for s, k in zip(strain_files, skeys)]
     if len(tau_files) != len(strain_files):
         raise DataFileError(
-            f"got {len(strain_files)} strain file(s) but {len(tau_files)} tau file(s), and their names (stems) "
-            "do not match; give one tau file per strain file, in the same order or with the same names"
+            f"got {len(strain_files)} strain file(s) but {len(tau_files)} {what} file(s), and their names (stems) "
+            f"do not match; give one {what} file per strain file, named like it (same stem)"
         )
-    return list(tau_files)
+    raise DataFileError(
+        f"the names of the {len(tau_files)} {what} file(s) do not match those of the {len(strain_files)} strain "
+        f"file(s), so which forces belong to which recording is not known (by order it would be: {shown}); "
+        f"name each {what} file like its strain file (same stem), or, if that order is right, pair by order "
+        "(pairing='order', on the command line --pair-by order)"
+    )
 
 
 def read_training_files(
-    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path], key: str = "tau"
+    strain_files: Sequence[str | Path], tau_files: Sequence[str | Path], key: str = "tau", pairing: str = "name"
 ) -> tuple[list[StrainTrajectory], list[NDArray[np.float64]]]:
     """Strain trajectories and their forces, checked to belong together.
 
@@ -314,10 +376,12 @@ def read_training_files(
     strain_files : sequence of path
         Strain files (written by ``pcs-sindy fuse``).
     tau_files : sequence of path
-        Tau files, matched to the strain files by name (stem) when every strain
-        file has one of the same stem, else by order.
+        Tau files, matched to the strain files by name (see :func:`pair_files`).
     key : {"tau", "u"}
         ``"u"``: the files hold actuator inputs (any width), not generalised forces.
+    pairing : {"name", "order"}
+        ``"name"``: match by name or refuse (showing the pairing by order);
+        ``"order"``: the k-th tau file belongs to the k-th strain file.
 
     Returns
     -------
@@ -327,12 +391,13 @@ def read_training_files(
     Raises
     ------
     DataFileError
-        If the files do not pair up, a tau file's width differs from the
+        If the files do not pair up (names, counts), a tau file's width differs from the
         strains' or its time stamps from the strain file's by more than half a sample.
     """
+    pairs = pair_files(strain_files, tau_files, pairing, "tau" if key == "tau" else "input")
     strains = [read_strains(p) for p in strain_files]
     taus = []
-    for sfile, tfile, st in zip(strain_files, _match_by_stem(strain_files, tau_files), strains):
+    for (sfile, tfile), st in zip(pairs, strains):
         t, tau = read_tau(tfile, key)
         n = st.kinematics.n_q
         if key == "tau" and tau.shape[1] != n:

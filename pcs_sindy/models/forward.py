@@ -39,11 +39,11 @@ def reduce_strains(kinematics: PlanarPCS, value: ArrayLike, name: str = "q") -> 
     mask = kinematics.active_mask
     n = int(mask.sum())
     if v.ndim == 0 or v.shape[-1] not in (mask.size, n):
-        raise ValueError(
-            f"{name} must have a last axis of {mask.size} (all strains) or {n} (modelled strains); got shape {v.shape}"
-        )
+        sizes = f"{n} (the strains)" if n == mask.size else f"{mask.size} (all strains) or {n} (modelled strains)"
+        raise ValueError(f"{name} must have a last axis of {sizes}; got shape {v.shape}")
     if not np.all(np.isfinite(v)):
-        raise ValueError(f"{name} contains NaN or inf")
+        idx = tuple(int(i) for i in np.argwhere(~np.isfinite(v))[0])
+        raise ValueError(f"{name} contains NaN or inf ({name}[{', '.join(map(str, idx))}] = {float(v[idx])!r})")
     return v[..., mask] if v.shape[-1] == mask.size and mask.size != n else v
 
 
@@ -142,7 +142,16 @@ class ForwardModel(ABC):
     def accelerations(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
         """Forward dynamics ``qdd = M^-1 (tau - bias)`` of states and forces (B, n)."""
         M, bias = self.mass_and_bias(q, qd)
-        tau = np.asarray(tau, dtype=float).reshape(bias.shape)
+        tau = np.asarray(tau, dtype=float)
+        if tau.size != bias.size:
+            raise ValueError(
+                f"tau must hold one force per modelled strain and state, shape {bias.shape}; got shape {tau.shape}"
+            )
+        tau = tau.reshape(bias.shape)
+        if not np.all(np.isfinite(tau)):
+            raise ValueError(
+                f"tau contains NaN or inf (first at {tuple(int(i) for i in np.argwhere(~np.isfinite(tau))[0])})"
+            )
         return np.linalg.solve(M, (tau - bias)[..., None])[..., 0]
 
     # ------------------------------------------------------------------ input checks
@@ -162,7 +171,14 @@ class ForwardModel(ABC):
                     ]
 
                 return checked
-            return np.ascontiguousarray(act.check_inputs(u, "u", t))
+            arr = np.asarray(u, dtype=float)
+            if arr.ndim != 2 or arr.shape[0] != t.size:
+                # the compiled loops read row k on [t[k], t[k+1]): a short table would be read past its end
+                raise ValueError(
+                    f"u must have shape ({t.size}, {self.n_inputs}) (one row per time in t, one column per "
+                    f"actuator input); got shape {arr.shape}: give one row of inputs for each of the {t.size} times"
+                )
+            return np.ascontiguousarray(act.check_inputs(arr, "u", t))
         if callable(u):
             fn = u
 
@@ -172,6 +188,8 @@ class ForwardModel(ABC):
                     raise ValueError(
                         f"u(t) must return {mask.size} (or {self.n}) forces; got {val.size} at t = {time!r}"
                     )
+                if not np.all(np.isfinite(val)):
+                    raise ValueError(f"u(t) returned NaN or inf at t = {time!r}: {val.tolist()}")
                 return val[mask] if val.size == mask.size and mask.size != self.n else val
 
             return reduced

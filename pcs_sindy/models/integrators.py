@@ -175,6 +175,9 @@ def solve_held(
 
     Raises
     ------
+    ValueError
+        When ``y0``, ``t`` or a tabulated ``u`` is non-finite or ill-shaped
+        (``u`` needs one row per time).
     SimulationError
         When solve_ivp fails, the state becomes non-finite or exceeds
         ``max_abs_state``, or ``fun`` raises ``LinAlgError``.
@@ -184,6 +187,22 @@ def solve_held(
     scipy_method = SCIPY_METHODS[method]
     y = np.array(y0, dtype=float).reshape(-1)
     t = np.asarray(t, dtype=float)
+    if not np.all(np.isfinite(y)):
+        raise ValueError(f"y0 must be finite; got {y.tolist()}")
+    if t.ndim != 1 or t.size < 2 or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+        raise ValueError(
+            f"t must be a 1-D array of at least 2 finite, strictly increasing times; got shape {t.shape}"
+            + ("" if t.ndim != 1 or t.size < 2 else f" with values from {t.min()!r} to {t.max()!r}")
+        )
+    if not callable(u):
+        u_check = np.asarray(u, dtype=float)
+        if u_check.ndim != 2 or u_check.shape[0] != t.size:
+            raise ValueError(
+                f"u must have shape ({t.size}, p) (one row of inputs per time in t, held until the next); "
+                f"got shape {u_check.shape}"
+            )
+        if not np.all(np.isfinite(u_check)):
+            raise ValueError(f"u contains NaN or inf (first at sample {int(np.argwhere(~np.isfinite(u_check))[0][0])})")
     opts: dict[str, Any] = {"rtol": rtol, "atol": atol}
     if max_step is not None:
         opts["max_step"] = max_step

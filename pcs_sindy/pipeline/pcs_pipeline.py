@@ -187,6 +187,9 @@ class PCSPipeline(PersistenceMixin, Pipeline):
         q0, qd0 : ndarray, shape (3m,)
         """
         check_is_fitted(self)
+        for name, val in (("recording", recording), ("sample", sample)):
+            if isinstance(val, bool) or not isinstance(val, (int, np.integer)):
+                raise ValueError(f"{name} must be an integer index; got {val!r}")
         if isinstance(X, (list, tuple)):
             if not -len(X) <= recording < len(X):
                 raise ValueError(f"recording must index one of the {len(X)} recordings of X; got {recording!r}")

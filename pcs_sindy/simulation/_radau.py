@@ -38,7 +38,7 @@ NEWTON_MAXITER = 7
 JAC_REFRESH_RATE = 1e-3
 
 # integrator status codes returned by radau_run
-OK, NONFINITE, COLLAPSE = 0, 1, 2
+OK, NONFINITE, COLLAPSE, BUDGET = 0, 1, 2, 3
 
 
 @njit(cache=True)
@@ -195,6 +195,7 @@ def radau_run(
     mu,
     refresh_rate,
     stats,
+    max_steps,
 ):
     """Advance every robot from sample ``k0`` to ``k1`` with Radau IIA (order 5), in place.
 
@@ -207,9 +208,11 @@ def radau_run(
     so that a run split in chunks gives exactly the same numbers.  ``fixed``: steps of
     ``max_step`` without error control.  ``stats`` (4,) counts accepted steps,
     Newton iterations, Jacobian evaluations and rejected or repeated steps.
+    ``max_steps`` > 0 bounds the steps attempted (accepted or not) in this call.
     Returns ``(status, time, robot)``; status 0 = ok, 1 = non-finite
-    derivative, 2 = step size collapsed.
+    derivative, 2 = step size collapsed, 3 = ``max_steps`` exhausted.
     """
+    attempts = 0
     B = out.shape[1]
     N = out.shape[2]
     n = N // 2
@@ -250,6 +253,9 @@ def radau_run(
             u = u_rows[k, b]
             t_next = t[k + 1]
             while time < t_next:
+                if max_steps > 0 and attempts >= max_steps:
+                    return BUDGET, time, b
+                attempts += 1
                 span = t_next - time
                 step = step_to_sample(h, time, t_next, max_step)
                 if step < 0.0:

@@ -517,6 +517,7 @@ class PCSRobot:
         step: float | None = DEFAULT_STEP,
         rtol: float | None = None,
         atol: float | None = None,
+        max_steps: int | None = None,
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Advance the state by ``dt`` under inputs ``u`` held constant: one control period of a closed loop.
 
@@ -542,6 +543,10 @@ class PCSRobot:
             Fixed Radau step, or None for error control with ``rtol``/``atol``.
         rtol, atol : float, optional
             Tolerances (defaults 1e-6 and 1e-8).
+        max_steps : int, optional
+            Most integration steps (accepted or rejected) this call may take;
+            exceeded: SimulationError.  Default: no bound (a diverging state can
+            take ever smaller steps for minutes).
 
         Returns
         -------
@@ -552,7 +557,7 @@ class PCSRobot:
         SimulationError, ValueError
             As :meth:`simulate`.
         """
-        return advance(self, q, qd, u, dt, step=step, rtol=rtol, atol=atol)
+        return advance(self, q, qd, u, dt, step=step, rtol=rtol, atol=atol, max_steps=max_steps)
 
     def __repr__(self) -> str:
         act = "" if self.actuation is None else f", actuation={self.actuation!r}"

@@ -165,8 +165,13 @@ def advance(
     step: float | None,
     rtol: float | None,
     atol: float | None,
+    max_steps: int | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """:meth:`PCSRobot.advance` (documented there)."""
+    if max_steps is not None and (
+        isinstance(max_steps, bool) or not isinstance(max_steps, (int, np.integer)) or max_steps < 1
+    ):
+        raise ValueError(f"max_steps must be an integer >= 1 or None; got {max_steps!r}")
     q = robot._check("q", q)
     qd = robot._check("qd", qd, q)
     if q.ndim > 2:
@@ -200,18 +205,23 @@ def advance(
         stepper = cached[1]
     out = np.empty((2, B, 2 * robot.n_q))
     out[0] = y
-    stepper.run(
-        0,
-        1,
-        np.array([0.0, float(dt)]),
-        u_rows,
-        out,
-        robot._jit_geometry(),
-        rtol,
-        atol,
-        np.inf if step is None else step,
-        step is not None,
-    )
+    try:
+        stepper.run(
+            0,
+            1,
+            np.array([0.0, float(dt)]),
+            u_rows,
+            out,
+            robot._jit_geometry(),
+            rtol,
+            atol,
+            np.inf if step is None else step,
+            step is not None,
+            0 if max_steps is None else int(max_steps),
+        )
+    except SimulationError:
+        robot._advance_cache = None  # a failed call leaves the integrator state half-way: start afresh
+        raise
     robot._advance_cache = (key, stepper, out[1].copy())
     return out[1, :, : robot.n_q].reshape(q.shape), out[1, :, robot.n_q :].reshape(q.shape)
 
@@ -308,8 +318,12 @@ class RadauStepper:
         atol: float,
         max_step: float,
         fixed: bool,
+        max_steps: int = 0,
     ) -> None:
-        """Advance ``out[k0]`` to ``out[k1]`` in place; raise SimulationError on failure."""
+        """Advance ``out[k0]`` to ``out[k1]`` in place; raise SimulationError on failure.
+
+        ``max_steps`` > 0: at most that many steps attempted in this call.
+        """
         status, when, robot = _radau.radau_run(
             k0,
             k1,
@@ -339,9 +353,14 @@ class RadauStepper:
             _radau.RADAU_MU,
             _radau.JAC_REFRESH_RATE,
             self.stats,
+            int(max_steps),
         )
         if status != _radau.OK:
-            what = "the state derivative is not finite" if status == _radau.NONFINITE else "step size collapsed"
+            what = {
+                _radau.NONFINITE: "the state derivative is not finite",
+                _radau.COLLAPSE: "step size collapsed",
+                _radau.BUDGET: f"the step budget (max_steps = {int(max_steps)}) ran out",
+            }[int(status)]
             which = f" (robot {robot} of the batch)" if out.shape[1] > 1 else ""
             raise SimulationError(f"radau: {what} at t = {when:.6g} s{which}", t=when)
 
