@@ -131,7 +131,7 @@ def run(seed: int, duration: float):
     for label, arc in (("arc lengths given", scenario.marker_arc_lengths), ("arc lengths estimated", None)):
         t0 = time.perf_counter()
         traj = PoseTrajectory.from_positions(data.positions[train], dt=dt, arc_lengths=arc)
-        fusion = KinematicFusion().fit(traj)
+        fusion = KinematicFusion(threshold=0.2).fit(traj)  # auto: 2-3 segments, worse open loop (docs/mocap.md)
         strains = fusion.transform(traj)
         # which side each tendon runs on in the model's plane: a tendon at a positive offset bends the robot
         # towards negative curvature (the plane's orientation in the capture frame is the data's choice)

@@ -51,7 +51,10 @@ print(
     f"{train.metadata['frozen_samples']} frozen and {train.metadata['jump_samples']} jump samples set missing"
 )
 
-fusion = KinematicFusion().fit(train)
+# threshold=0.2 (one segment here): threshold='auto' fuses these captures into 2-3 segments (the
+# kinematic error drops from 0.36 to 0.19 mm), but a 3-segment model is poorly determined from 3 markers
+# and predicts worse open loop (10.96 vs 5.35 mm tip RMSE on this capture); choose by prediction.
+fusion = KinematicFusion(threshold=0.2).fit(train)
 print(
     f"{fusion.n_segments_} segment(s); disks at {np.round(1e3 * fusion.marker_arc_lengths_[1:], 1)} mm "
     f"(+- {np.round(1e3 * fusion.marker_arc_lengths_std_[1:], 1)} mm) from the fitted base"
