@@ -33,9 +33,14 @@ def expected():
         return dict(data)
 
 
-def _same(actual, wanted):
+def _same(actual, wanted, rtol=1e-9):
     # identical up to round-off: the same code paths, possibly another BLAS or numba build
-    np.testing.assert_allclose(actual, wanted, rtol=1e-9, atol=1e-12 * np.abs(wanted).max())
+    np.testing.assert_allclose(actual, wanted, rtol=rtol, atol=1e-12 * np.abs(wanted).max())
+
+
+# A rollout integrates round-off: the monomial model's adaptive steps amplify a last-bit change of a
+# BLAS sum (e.g. OMP_NUM_THREADS=1 against the threaded default) to 1.5e-8 relative over 150 samples.
+ROLLOUT_RTOL = 1e-7
 
 
 def test_the_fixtures_were_written_by_the_earlier_release():
@@ -51,7 +56,7 @@ def test_generalised_force_models_roll_out_and_predict_the_same(name, truth_tol,
     assert isinstance(model, EulerLagrangeRegressor)
     t, tau = expected["one_segment_t"], expected["one_segment_tau"]
     sim = model.simulate(expected["one_segment_q0"], expected["one_segment_qd0"], t, tau)
-    _same(sim.q, expected[f"{name}_rollout_q"])
+    _same(sim.q, expected[f"{name}_rollout_q"], ROLLOUT_RTOL)
     # independent truth: the simulator's recording the fixtures were cut from
     rec = get_scenario("one_segment").generate(seed=0, n_train=3, validation=False).train[0]
     np.testing.assert_array_equal(rec.t[: t.size], t)
@@ -66,7 +71,7 @@ def test_tendon_model_rolls_out_the_same(expected):
     model = load(FIXTURES / "regressor_tendon")
     assert type(model.actuation_).__name__ == "TendonActuation"
     sim = model.simulate(expected["tendon_q0"], expected["tendon_qd0"], expected["tendon_t"], expected["tendon_u"])
-    _same(sim.q, expected["regressor_tendon_rollout_q"])
+    _same(sim.q, expected["regressor_tendon_rollout_q"], ROLLOUT_RTOL)
 
 
 def test_fusion_and_pipeline_transform_and_predict_the_same(expected):
