@@ -144,6 +144,7 @@ def chain_from_base(
     first_dir: NDArray[np.float64] | None = None,
     n_target: int | None = None,
     allow_gaps: bool = True,
+    px_scale: float = 1.0,
 ) -> tuple[list[int | None], str | None]:
     """Order markers base -> tip by chaining; returns (order, error message or None).
 
@@ -161,7 +162,9 @@ def chain_from_base(
     almost as well, are refused, so a missing, merged or crossing marker is
     reported rather than silently skipped or swapped.  Chaining stops after
     ``n_target`` markers (gaps included) when given, else when no candidate
-    is left.
+    is left.  Distances in the messages are multiplied by ``px_scale`` (the
+    footage's pixels when the points come from frames decoded at a reduced
+    resolution).
     """
     n = len(points)
     order: list[int | None] = [base]
@@ -200,7 +203,8 @@ def chain_from_base(
             if dist[srt[0]] > 2.5 * spacing:
                 return (
                     order,
-                    f"chaining broke at the base (nearest marker {dist[srt[0]]:.1f} px away, spacing {spacing:.1f} px)",
+                    f"chaining broke at the base (nearest marker {dist[srt[0]] * px_scale:.1f} px away, spacing "
+                    f"{spacing * px_scale:.1f} px)",
                 )
             if srt.size > 1 and dist[srt[1]] < 1.4 * dist[srt[0]]:
                 return order, "chaining is ambiguous at the base (two markers equally near)"
@@ -266,8 +270,8 @@ def chain_from_base(
                 clear = by_near.size == 1 or near[by_near[1]] >= 1.4 * near[j]
                 if not (clear and near[j] <= 3.0 * step and dist[j] <= 1.5 * step):
                     return broken(
-                        f"chaining broke after {len(order)} markers (nearest candidate {best:.1f} px from the "
-                        f"predicted position, spacing {step:.1f} px, no unambiguous marker ahead)"
+                        f"chaining broke after {len(order)} markers (nearest candidate {best * px_scale:.1f} px from "
+                        f"the predicted position, spacing {step * px_scale:.1f} px, no unambiguous marker ahead)"
                     )
                 nxt = int(idx[j])
         order.append(nxt)

@@ -53,7 +53,9 @@ from .tracker import Detector, FrameResult, FrameTracker
 
 __all__ = ["extract_recording", "MarkerStream"]
 
-_N_BASE_SAMPLES = 8
+_N_BASE_SAMPLES = 16
+_N_REFERENCE_SAMPLES = 12  # frames tried as the reference with reference_frame="auto"
+_BUFFER_BYTES = 512 * 2**20  # decoded frames before the reference kept in memory for the pass back to frame 0
 _HINTS = (
     "check that the robot is in view and its markers contrast with their surroundings; give n_markers=N; exclude "
     "clutter with roi=(x, y, width, height); try threshold='local' (uneven light), threshold='colour' (coloured "
@@ -130,8 +132,14 @@ def _reference(p: dict[str, Any], segs: list[Thresholder], ref_img: NDArray[np.u
 
 def _find_base(
     src: FrameSource, det: Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool, reduce: int
-) -> int:
-    """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording."""
+) -> tuple[int, str]:
+    """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording, and why.
+
+    The clamped base moves by detection noise only, the tip somewhere by far
+    more: for each end, the largest distance over the sampled frames from its
+    place in the reference frame to the nearest marker-shaped component
+    (pixels reported at the footage's full resolution).
+    """
     name = src.name
     picks = [k for k in np.linspace(0, src.n_frames - 1, _N_BASE_SAMPLES + 1).round().astype(int) if k != ref]
     picks = sorted(set(picks))
@@ -140,6 +148,7 @@ def _find_base(
             f"recording {name!r}: cannot tell the base marker from a single frame; give base_position or a camera"
         )
     worst = np.zeros(2)
+    used = 0
     for k in picks:
         try:
             cands = det.accept(det(src.frame(int(k), grey=grey, reduce=reduce)))
@@ -147,16 +156,37 @@ def _find_base(
             continue  # a frame the container cannot seek to: the pass over all frames will report it
         if len(cands) == 0:
             continue
+        used += 1
         d = np.linalg.norm(ends[:, None] - cands[None, :, :2], axis=-1).min(axis=1)
         worst = np.maximum(worst, d)
     b = int(np.argmin(worst))
+    full = [((ends[e] + 0.5 * (reduce - 1) / reduce) * reduce).round(1).tolist() for e in (0, 1)]
+    evidence = (
+        f"motion over {used} frames sampled across the recording: the chain end at {full[b]} px (frame {ref}) moved "
+        f"at most {worst[b] * reduce:.1f} px, the other end at {full[1 - b]} px up to {worst[1 - b] * reduce:.1f} px; "
+        "the clamped base is the end that moves least"
+    )
     # the base moves by detection noise only; the tip must move clearly more somewhere
     if worst[1 - b] < max(4.0 * worst[b], 1.0, 0.1 * spacing):
         raise ValueError(
             f"recording {name!r}: both ends of the marker chain stay put (the robot hardly moves), so the base "
-            "marker is ambiguous; give base_position or a camera"
+            f"marker is ambiguous ({evidence}); give base_position=(u, v) or a camera"
         )
-    return b
+    return b, evidence
+
+
+def _is_straight(pts: NDArray[np.float64]) -> bool:
+    """Whether the chain's centres lie on one line (within half a pixel, or 2 % of their spacing for large markers)."""
+    centred = pts - pts.mean(axis=0)
+    dvec = np.linalg.svd(centred, full_matrices=False)[2][0]
+    off = np.abs(centred @ np.array([-dvec[1], dvec[0]]))
+    spacing = float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return bool(off.max() <= max(0.5, 0.02 * spacing))
+
+
+def _base_axis_angle(phi: NDArray[np.float64]) -> float:
+    """Circular mean of the base marker's angle over frames: its tangent is the rest direction (clamped base)."""
+    return float(np.arctan2(np.mean(np.sin(phi)), np.mean(np.cos(phi))))
 
 
 def _rest_direction(pts: NDArray[np.float64]) -> float:
@@ -213,20 +243,28 @@ def _complete_camera(
     calibration: str | None,
     what: str,
     ref: int,
+    base_phi: NDArray[np.float64] | None = None,
 ) -> tuple[Camera, str]:
     """The camera with its base frame: origin, angle and scale from the parameters or the reference frame.
 
     ``rect_ref`` are the reference frame's markers in rectified pixels, ``origin``
-    the base marker's rectified position (used unless the camera or ``base_position`` gives one).
+    the base marker's rectified position (used unless the camera or ``base_position`` gives one),
+    ``base_phi`` the base marker's rectified angles over the recording (the rest direction when the
+    reference frame is not straight).
     """
     if camera is not None and camera.origin is not None:
         origin = np.asarray(camera.origin)
     elif p["base_position"] is not None:
         origin = lens.rectify(np.asarray(p["base_position"], dtype=float))
+    bent = ""
     if camera is not None and camera.angle is not None:
         angle = camera.angle
     elif p["rest_direction"] is not None and (camera is None or not camera.has_lens):
         angle = float(p["rest_direction"]) - 0.5 * np.pi
+    elif base_phi is not None and not _is_straight(rect_ref[:, :2]):
+        # no straight frame to read the rest direction from: the clamped base marker's axis gives it
+        angle = _base_axis_angle(base_phi)
+        bent = f", rest direction from the base marker's axis (frame {ref} is not straight)"
     else:
         angle = _rest_direction(rect_ref[:, :2]) - 0.5 * np.pi
     if camera is not None:
@@ -236,11 +274,13 @@ def _complete_camera(
     elif p["robot_length"] is not None:
         ppm = float(np.sum(np.linalg.norm(np.diff(rect_ref[:, :2], axis=0), axis=1))) / float(p["robot_length"])
         calibration = f"straight reference frame {ref} with robot_length={p['robot_length']!r}"
+        if not _is_straight(rect_ref[:, :2]):
+            calibration = f"reference frame {ref} (the straightest found) with robot_length={p['robot_length']!r}"
     else:
         raise ValueError(
             f"{what}: no calibration; give camera, pixels_per_metre, or robot_length (with a straight reference frame)"
         )
-    return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration
+    return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration + bent
 
 
 def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:
@@ -262,6 +302,49 @@ def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int)
     for f in fallbacks:
         f.typical = det.typical
     return det, fallbacks, members, spacing, choice
+
+
+def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
+    """The frame to start from: (index, its analysis, its image, why).
+
+    Of frames sampled evenly over the recording (frame 0 included), those
+    whose chain of markers is the longest found (all markers in view and
+    linked; with ``n_markers``, of that length) compete; the straightest
+    (end-to-end distance over chain length) wins, the earliest among equals,
+    so a recording that starts straight starts at frame 0 and one whose
+    first frames are curled starts where the robot is plain.
+    """
+    T = src.n_frames
+    picks = sorted(set(np.linspace(0, T - 1, min(T, _N_REFERENCE_SAMPLES)).round().astype(int).tolist()))
+    usable, failed = [], {}
+    for k in picks:
+        try:
+            img = src.frame(k)
+            analysis = _analyse(p, img, name, k)
+        except (OSError, ValueError) as err:
+            failed[k] = str(err)
+            continue
+        pts = analysis[2][:, :2]
+        arc = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        usable.append((k, analysis, img, float(np.linalg.norm(pts[-1] - pts[0])) / max(arc, 1e-9)))
+    if not usable:
+        k0 = picks[0]
+        raise ValueError(
+            f"recording {name!r}: none of the {len(picks)} frames sampled across it ({picks}) shows a chain of "
+            f"markers to start from; in frame {k0}: {failed[k0]}"
+        )
+    longest = max(len(u[1][2]) for u in usable)
+    whole = [u for u in usable if len(u[1][2]) == longest]
+    top = max(u[3] for u in whole)
+    k, analysis, img, straight = next(u for u in whole if u[3] >= top - 0.002)
+    why = (
+        f"frame {k}: the straightest (end-to-end / chain length {straight:.3f}) of {len(whole)} frames showing a "
+        f"chain of {longest} markers among {len(picks)} sampled"
+    )
+    if failed:
+        k1 = min(failed)
+        why += f"; no usable chain in frame(s) {sorted(failed)} (frame {k1}: {failed[k1].split(': ', 1)[-1][:160]})"
+    return k, analysis, img, why
 
 
 def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
@@ -289,10 +372,15 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         dt = 1.0 / float(json_fps)
     else:
         raise ValueError(f"recording {name!r}: the frame rate is unknown; give fps or dt")
-    ref = p["reference_frame"]
-    if ref >= src.n_frames:
-        raise ValueError(f"reference_frame={ref} but recording {name!r} has only {src.n_frames} frames")
-    ref_img = src.frame(ref)
+    analysis = None
+    if isinstance(p["reference_frame"], str):  # "auto"
+        ref, analysis, ref_img, ref_reason = _choose_reference(src, p, name)
+    else:
+        ref = int(p["reference_frame"])
+        if ref >= src.n_frames:
+            raise ValueError(f"reference_frame={ref} but recording {name!r} has only {src.n_frames} frames")
+        ref_img = src.frame(ref)
+        ref_reason = f"frame {ref}: given (reference_frame={ref})"
     size = (int(ref_img.shape[1]), int(ref_img.shape[0]))
     if camera is not None and tuple(camera.image_size) != size:
         raise ValueError(
@@ -301,7 +389,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         )
 
     # 1. the reference frame chooses the thresholder and fixes the markers
-    det, fallbacks, members, spacing, choice = _analyse(p, ref_img, name, ref)
+    det, fallbacks, members, spacing, choice = analysis if analysis is not None else _analyse(p, ref_img, name, ref)
     grey = not det.seg.needs_colour
     n = len(members)
     # large markers in JPEG data: decode at a fraction of the resolution (the decoder skips the fine
@@ -331,50 +419,84 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     ends = members[[0, -1], :2]
     if p["base_position"] is not None:
         base_px, base_source = to_red(p["base_position"]), "given"
+        evidence = f"given: base_position={tuple(float(v) for v in p['base_position'])}"
     elif camera is not None and camera.origin is not None:
         base_px, base_source = to_red(camera.unrectify(np.asarray(camera.origin))), "camera origin"
+        evidence = f"the camera's origin ({calibration})"
     else:
-        base_px, base_source = ends[_find_base(src, det, ends, spacing, ref, grey, red)], "stays put"
+        b, evidence = _find_base(src, det, ends, spacing, ref, grey, red)
+        base_px, base_source = ends[b], "stays put"
     gap = np.linalg.norm(ends - base_px, axis=1)
     if gap.min() > 0.5 * spacing:
+        full_ends = (ends * red + 0.5 * (red - 1)).round(1).tolist()
         raise ValueError(
-            f"recording {name!r}, frame {ref} (reference frame): neither end of the marker chain lies within "
-            f"{0.5 * spacing:.1f} px of the base position {base_px.round(1).tolist()} ({base_source})"
+            f"recording {name!r}, frame {ref} (reference frame): neither end of the marker chain ({full_ends} px) lies "
+            f"within {0.5 * spacing * red:.1f} px of the base position "
+            f"{(base_px * red + 0.5 * (red - 1)).round(1).tolist()} ({base_source})"
         )
     if np.argmin(gap) == 1:
         members = members[::-1]
     first_dir = _first_direction(camera, p, members)
 
-    # 3. every frame
-    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"]}
+    # 3. every frame: on from the reference frame, then back from it to frame 0 (a robot that starts curled
+    # is followed back into its curl from a frame where its chain is plain)
+    st = {
+        "n": n,
+        "base_px": base_px,
+        "spacing": spacing,
+        "first_dir": first_dir,
+        "fill": p["fill_missing"],
+        "px_scale": red,
+    }
     tracker = FrameTracker([det] + fallbacks, st)
-    outcomes: list[FrameResult | None] = []
+    results: dict[int, FrameResult | None] = {}
     problems: dict[int, str] = {}
-    found = []
+    counts: dict[int, int] = {}
     expected = (-(-size[0] // red), -(-size[1] // red))
-    for k, frame in enumerate(
-        tqdm(
-            src.frames(grey=grey, reduce=red),
-            total=src.n_frames,
-            desc=f"extract {Path(name).name}",
-            unit="frame",
-            disable=not p["progress"],
-        )
-    ):
+    bar = tqdm(total=src.n_frames, desc=f"extract {Path(name).name}", unit="frame", disable=not p["progress"])
+
+    def run(k: int, frame: NDArray[np.uint8]) -> None:
         if (frame.shape[1], frame.shape[0]) != expected:
             raise ValueError(
                 f"recording {name!r}, frame {k}: size {frame.shape[1] * red}x{frame.shape[0] * red} differs from frame "
                 f"{ref} ({size[0]}x{size[1]})"
             )
         out, n_found, err = tracker.step(frame)
-        found.append(n_found)
+        counts[k] = n_found
+        bar.update(1)
         if out is None:
             what = "no markers found" if n_found == 0 else f"found {n_found} marker-shaped components"
             msg = f"{what}, expected {n} (base + {n - 1} markers): {err}"
             if p["on_missing"] == "raise":
+                bar.close()
                 raise ValueError(f"recording {name!r}, frame {k}: {msg}")
             problems[k] = msg
-        outcomes.append(out)
+        results[k] = out
+
+    # frames before the reference are kept in memory when they fit, else read again one by one
+    frame_bytes = expected[0] * expected[1] * (1 if grey else 3)
+    keep = ref * frame_bytes <= _BUFFER_BYTES
+    before: list[NDArray[np.uint8]] = []
+    for k, frame in enumerate(src.frames(grey=grey, reduce=red)):
+        if k < ref:
+            if keep:
+                before.append(frame)
+            continue
+        run(k, frame)
+    if ref not in results:
+        bar.close()
+        raise ValueError(
+            f"recording {name!r}: decoding stopped after {len(results) + ref} frames, before the reference frame {ref}"
+        )
+    start = results[ref]
+    if start is not None and ref > 0:
+        nxt = results.get(ref + 1)
+        tracker.resume(start.pix, None if nxt is None else nxt.pix)
+        for k in range(ref - 1, -1, -1):
+            run(k, before[k] if keep else src.frame(k, grey=grey, reduce=red))
+    bar.close()
+    outcomes = [results.get(k) for k in range(max(results) + 1)]
+    found = [counts.get(k, 0) for k in range(len(outcomes))]
     T = len(outcomes)
     if T == 0:
         raise ValueError(f"recording {name!r}: no frames")
@@ -393,7 +515,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     if camera is None or camera.origin is None or camera.angle is None:
         origin = np.median(rect[valid, 0, :2], axis=0)
         camera, calibration = _complete_camera(
-            camera, lens, p, rect[ref], origin, calibration, f"recording {name!r}", ref
+            camera, lens, p, rect[ref], origin, calibration, f"recording {name!r}", ref, rect[valid, 0, 2]
         )
     poses = camera.from_rectified(rect)
     # the base is clamped: pick the 2pi branch that puts its first valid angle nearest 0
@@ -426,6 +548,9 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "marker_aspect": det.typical["aspect"],
         "marker_spacing_px": spacing * red,
         "base_marker": base_source,
+        "base_evidence": evidence,
+        "reference_frame": ref,
+        "reference_reason": ref_reason,
         "calibration": calibration,
         "camera": camera.to_dict(),
     }
