@@ -302,6 +302,8 @@ def track(
     candidates in reach, or one candidate claimed twice, make the frame
     ambiguous (None): the caller then chains it from the base.
     """
+    if len(points) == 0:  # nothing in view (a blank frame): every marker lost, none ambiguous
+        return np.full(len(previous), -1, dtype=np.intp)
     gaps = np.linalg.norm(np.diff(previous, axis=0), axis=1)
     reach = 0.45 * np.minimum(np.concatenate([gaps[:1], gaps]), np.concatenate([gaps, gaps[-1:]]))
     d = np.linalg.norm(predicted[:, None, :] - points[None, :, :], axis=-1)

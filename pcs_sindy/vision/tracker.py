@@ -37,6 +37,7 @@ from .thresholding import Thresholder
 __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
 
 _OPEN = np.ones((3, 3), np.uint8)
+_LINK_RATIO = 1.6  # most a link between neighbouring markers may differ from the chain's median link
 
 
 class FrameProblem(ValueError):
@@ -307,6 +308,17 @@ def _finish(
     rescued: list[int] = []
     if missing.any() and raw is not None:
         pix, missing, rescued = _rescue(raw, pix, missing, ref, st["spacing"])
+    links = np.linalg.norm(np.diff(pix[:, :2], axis=0), axis=1)
+    typical = float(np.median(links))
+    jump = np.flatnonzero((links > _LINK_RATIO * typical) | (links < typical / _LINK_RATIO))
+    if jump.size:
+        # markers are evenly spaced in arc length: a link twice as long skips a marker (a chain tracked off by one)
+        i = int(jump[0])
+        scale = st.get("px_scale", 1)
+        raise FrameProblem(
+            f"the marker spacing jumps between markers {i} and {i + 1} ({links[i] * scale:.1f} px against "
+            f"{typical * scale:.1f} px typical): a marker skipped or taken twice (ordering not trustworthy)"
+        )
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
     if zigzags(pix[:, 2]) >= 3:
