@@ -37,7 +37,7 @@ from .thresholding import Thresholder
 __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
 
 _OPEN = np.ones((3, 3), np.uint8)
-_LINK_RATIO = 1.6  # most a link between neighbouring markers may differ from the chain's median link
+_LINK_RATIO = 1.6  # most a link between neighbouring markers may exceed both links beside it
 
 
 class FrameProblem(ValueError):
@@ -309,15 +309,16 @@ def _finish(
     if missing.any() and raw is not None:
         pix, missing, rescued = _rescue(raw, pix, missing, ref, st["spacing"])
     links = np.linalg.norm(np.diff(pix[:, :2], axis=0), axis=1)
-    typical = float(np.median(links))
-    jump = np.flatnonzero((links > _LINK_RATIO * typical) | (links < typical / _LINK_RATIO))
+    # markers are evenly spaced in arc length: one link much longer than the links on both sides of it skips a
+    # marker (a chain tracked off by one); the spacing may change at a segment boundary, but for good
+    nb = np.maximum(np.concatenate([links[1:2], links[:-1]]), np.concatenate([links[1:], links[-2:-1]]))
+    jump = np.flatnonzero(links > _LINK_RATIO * nb) if links.size >= 3 else np.zeros(0, int)
     if jump.size:
-        # markers are evenly spaced in arc length: a link twice as long skips a marker (a chain tracked off by one)
         i = int(jump[0])
         scale = st.get("px_scale", 1)
         raise FrameProblem(
             f"the marker spacing jumps between markers {i} and {i + 1} ({links[i] * scale:.1f} px against "
-            f"{typical * scale:.1f} px typical): a marker skipped or taken twice (ordering not trustworthy)"
+            f"{nb[i] * scale:.1f} px on either side): a marker skipped (ordering not trustworthy)"
         )
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
