@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from ..core.kinematics import se2_compose, se2_relative, segment_inverse_kinematics, segment_pose
 from .markers import AREA, AXIS, LONG, SHORT
@@ -84,32 +85,41 @@ def link_chains(
         return [np.array([i]) for i in idx]
     c = cands[idx]
     pts = c[:, :2]
-    rel = pts[None, :, :] - pts[:, None, :]  # rel[i, j] = p_j - p_i
-    dist = np.linalg.norm(rel, axis=-1)
-    np.fill_diagonal(dist, np.inf)
+    # candidate pairs from a k-d tree: a similar neighbour lies within max_gap * long_ratio of a candidate's own
+    # long side, so specks of noise (thousands in a large noisy frame) only ever meet their few close neighbours
+    near = cKDTree(pts).query_ball_point(pts, max_gap * long_ratio * c[:, LONG])
+    ii = np.repeat(np.arange(len(c)), [len(x) for x in near])
+    jj = np.concatenate([np.asarray(x, dtype=np.intp) for x in near]) if len(ii) else np.zeros(0, np.intp)
+    off = ii != jj
+    ii, jj = ii[off], jj[off].astype(np.intp)
+    rel = pts[jj] - pts[ii]
+    dist = np.linalg.norm(rel, axis=1)
     log_area, log_long = np.log(c[:, AREA]), np.log(c[:, LONG])
-    similar = (np.abs(log_area[:, None] - log_area[None, :]) <= np.log(area_ratio)) & (
-        np.abs(log_long[:, None] - log_long[None, :]) <= np.log(long_ratio)
+    similar = (np.abs(log_area[ii] - log_area[jj]) <= np.log(area_ratio)) & (
+        np.abs(log_long[ii] - log_long[jj]) <= np.log(long_ratio)
     )
-    turn = np.abs(wrap_half_pi(c[:, None, AXIS] - c[None, :, AXIS]))
-    tangent = np.stack([-np.sin(c[:, AXIS]), np.cos(c[:, AXIS])], axis=1)
-    along = np.einsum("ijk,ik->ij", rel, tangent) / np.where(np.isfinite(dist), dist, 1.0)  # cos to i's backbone
-    tilt_ok = (np.abs(along) >= np.cos(max_tilt)) & (np.abs(along.T) >= np.cos(max_tilt))
-    reach = max_gap * np.maximum(c[:, None, LONG], c[None, :, LONG])
+    turn = np.abs(wrap_half_pi(c[ii, AXIS] - c[jj, AXIS]))
+    safe = np.where(dist > 0, dist, 1.0)
+    along = (rel[:, 0] * -np.sin(c[ii, AXIS]) + rel[:, 1] * np.cos(c[ii, AXIS])) / safe  # cos to i's backbone
+    back = (rel[:, 0] * np.sin(c[jj, AXIS]) - rel[:, 1] * np.cos(c[jj, AXIS])) / safe  # ... and to j's
+    tilt_ok = (np.abs(along) >= np.cos(max_tilt)) & (np.abs(back) >= np.cos(max_tilt))
+    reach = max_gap * np.maximum(c[ii, LONG], c[jj, LONG])
     valid = (
         similar
         & (turn <= max_turn)
         & tilt_ok
         & (dist <= reach)
-        & (dist >= 0.5 * np.minimum(c[:, None, SHORT], c[None, :, SHORT]))
+        & (dist >= 0.5 * np.minimum(c[ii, SHORT], c[jj, SHORT]))
     )
     side = np.sign(along)
     pick = np.full((len(c), 2), -1)
     for s, col in ((1.0, 0), (-1.0, 1)):
-        d = np.where(valid & (side == s), dist, np.inf)
-        best = np.argmin(d, axis=1)
-        has = np.isfinite(d[np.arange(len(c)), best])
-        pick[has, col] = best[has]
+        m = valid & (side == s)
+        a, b, d = ii[m], jj[m], dist[m]
+        o = np.lexsort((d, a))  # by candidate, nearest first
+        a, b = a[o], b[o]
+        first = np.r_[True, a[1:] != a[:-1]] if a.size else np.zeros(0, bool)
+        pick[a[first], col] = b[first]
     adj: list[list[int]] = [[] for _ in range(len(c))]
     for i in range(len(c)):
         for j in pick[i]:
