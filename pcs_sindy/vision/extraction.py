@@ -311,8 +311,9 @@ def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
     whose chain of markers is the longest found (all markers in view and
     linked; with ``n_markers``, of that length) compete; the straightest
     (end-to-end distance over chain length) wins, the earliest among equals,
-    so a recording that starts straight starts at frame 0 and one whose
-    first frames are curled starts where the robot is plain.
+    so a recording that starts straight starts at frame 0 (taken at once,
+    without sampling others) and one whose first frames are curled starts
+    where the robot is plain.
     """
     T = src.n_frames
     picks = sorted(set(np.linspace(0, T - 1, min(T, _N_REFERENCE_SAMPLES)).round().astype(int).tolist()))
@@ -325,6 +326,9 @@ def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
             failed[k] = str(err)
             continue
         pts = analysis[2][:, :2]
+        if k == picks[0] and _is_straight(pts) and (p["n_markers"] is None or len(pts) == p["n_markers"] + 1):
+            # a recording that starts straight with its whole chain in view: nothing can be straighter
+            return k, analysis, img, f"frame {k}: the first frame, straight, with a chain of {len(pts)} markers"
         arc = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
         usable.append((k, analysis, img, float(np.linalg.norm(pts[-1] - pts[0])) / max(arc, 1e-9)))
     if not usable:
