@@ -312,13 +312,17 @@ def _finish(
     # markers are evenly spaced in arc length: one link much longer than the links on both sides of it skips a
     # marker (a chain tracked off by one); the spacing may change at a segment boundary, but for good
     nb = np.maximum(np.concatenate([links[1:2], links[:-1]]), np.concatenate([links[1:], links[-2:-1]]))
+    # (a marker the tracking skipped near the tip also leaves the filled tip one link further: both links are
+    # then far longer than the recording's spacing)
+    nb = np.minimum(nb, st["spacing"])
     jump = np.flatnonzero(links > _LINK_RATIO * nb) if links.size >= 3 else np.zeros(0, int)
     if jump.size:
         i = int(jump[0])
         scale = st.get("px_scale", 1)
         raise FrameProblem(
             f"the marker spacing jumps between markers {i} and {i + 1} ({links[i] * scale:.1f} px against "
-            f"{nb[i] * scale:.1f} px on either side): a marker skipped (ordering not trustworthy)"
+            f"{nb[i] * scale:.1f} px beside it or in the reference frame): a marker skipped (ordering not "
+            "trustworthy)"
         )
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
