@@ -91,7 +91,9 @@ def cli_run(ff, tmp: Path) -> dict:
     data = read_poses(pose_file)
     poses = data[1] if isinstance(data, tuple) else data.poses
     err = np.linalg.norm(np.asarray(poses)[..., :2] - ff.poses[..., :2], axis=-1)
-    res = subprocess.run([str(CLI), "fuse", str(pose_file), "--out", str(fused), "--quiet"], capture_output=True, text=True)
+    res = subprocess.run(
+        [str(CLI), "fuse", str(pose_file), "--out", str(fused), "--quiet"], capture_output=True, text=True
+    )
     if res.returncode != 0:
         return dict(ok=False, message=(res.stderr or res.stdout).strip().splitlines()[-1][:200])
     seg = json.loads((fused / "segmentation.json").read_text())
@@ -141,7 +143,8 @@ def main() -> None:
             label = kind + (" (held out)" if kind == HELD_OUT else "")
             rows.append(
                 f"| {label} | {ff.n_segments} | {py['complete']:.1f} | {py['extracted']:.1f} | "
-                f"{'yes' if py['raised'] is None else 'no'} | {'yes' if py['base_ok'] else 'NO'} | {py['n_segments']} | "
+                f"{'yes' if py['raised'] is None else 'no'} | {'yes' if py['base_ok'] else 'NO'} | "
+                f"{py['n_segments']} | "
                 f"{py['pos_rms']:.3f} / {py['pos_max']:.3f} | {cli_cell} | {py['fps']:.1f} |"
             )
             print(rows[-1], flush=True)

@@ -82,7 +82,8 @@ def foreign_poses(
     Each segment's bending decays from the kind's first-frame value
     (:data:`_FIRST_BEND`) with a time constant of a fifth of the recording
     while a swing of about +-1.2 rad (per unit length) grows in, with the
-    phase and frequency drawn from ``seed``; a small axial stretch
+    phase and frequency drawn from ``seed`` (two segments swing in
+    opposition, at different frequencies); a small axial stretch
     oscillates too.  Markers are equally spaced in rest arc length.
     """
     if kind not in FOREIGN_KINDS:
@@ -98,9 +99,9 @@ def foreign_poses(
     lengths = np.full(m, robot_length / m)
     t = np.linspace(0.0, 1.0, n_frames)[:, None]
     freq = rng.uniform(2.0, 3.0, m)
-    phase = rng.uniform(0.0, 2 * np.pi, m)
+    phase = rng.uniform(0.0, 2 * np.pi) + np.pi * np.arange(m)  # segments swing against each other
     grow = 1.0 - np.exp(-t / 0.15)
-    bend = first * np.exp(-t / 0.2) + 1.2 * grow * np.sin(2 * np.pi * freq * t + phase) * (1 + 0.4 * np.arange(m))
+    bend = first * np.exp(-t / 0.2) + 1.2 * grow * np.sin(2 * np.pi * freq * t + phase) * (1 + 0.8 * np.arange(m))
     q = np.zeros((n_frames, 3 * m))
     q[:, 0::3] = bend / lengths
     q[:, 2::3] = 0.005 * np.sin(2 * np.pi * 1.5 * t + rng.uniform(0, 2 * np.pi))

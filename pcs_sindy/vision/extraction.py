@@ -699,7 +699,12 @@ class MarkerStream:
         self.n_frames += 1
         self.last_predicted = []
         if out is None:
-            msg = f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}"
+            what = (
+                "no marker-shaped component at all (a blank frame?)"
+                if n_found == 0
+                else (f"found {n_found} marker-shaped components")
+            )
+            msg = f"stream, frame {k}: {what}, expected {self.n_markers + 1}: {err}"
             if self.on_missing != "predict":
                 self._history = []
                 raise ValueError(msg)
@@ -719,6 +724,8 @@ class MarkerStream:
         hist, self._history = self._history, []  # a raise below leaves no history
         if len(hist) < 2:
             raise ValueError(f"{msg}; no markers predicted: the two frames before were not both extracted")
+        if len(self.tracker.candidates) == 0:
+            raise ValueError(f"{msg}; no markers predicted: nothing in view to anchor a prediction")
         if self._run >= self.max_run:
             raise ValueError(f"{msg}; no markers predicted: already {self._run} frames in a row predicted")
         # constant velocity in pixels: at camera rate a marker moves a fraction of the spacing per frame
