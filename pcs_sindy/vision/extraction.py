@@ -699,11 +699,7 @@ class MarkerStream:
         self.n_frames += 1
         self.last_predicted = []
         if out is None:
-            what = (
-                "no marker-shaped component at all (a blank frame?)"
-                if n_found == 0
-                else (f"found {n_found} marker-shaped components")
-            )
+            what = f"found {n_found} marker-shaped components" + (" (a blank frame?)" if n_found == 0 else "")
             msg = f"stream, frame {k}: {what}, expected {self.n_markers + 1}: {err}"
             if self.on_missing != "predict":
                 self._history = []
