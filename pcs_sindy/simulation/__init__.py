@@ -8,7 +8,9 @@ inputs that drove the robot, and rendered videos of it.
 * :mod:`.actuation` - the robot's actuators: :class:`Tendons`, :class:`PressureChambers`;
 * :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
 * :mod:`.scenarios`, :mod:`.catalog` - the seed's scenarios and how their data are generated;
-* :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances.
+* :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances;
+* :mod:`.foreign` - footage of the kinds another lab records (curled first frames, outlined markers,
+  floors, bright edges) as large JPEG folders.
 
 This package is the independent truth the identification side is checked against: it
 imports only :mod:`pcs_sindy.core`, and identification, fusion and vision never import it.
@@ -24,6 +26,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "scenarios": ["Scenario", "ScenarioData", "Recording"],
         "catalog": ["get_scenario", "list_scenarios"],
         "rendering": ["render_video", "render_frames", "RenderedVideo"],
+        "foreign": ["render_foreign_footage", "ForeignFootage", "FOREIGN_KINDS"],
         "actuation": ["Tendons", "PressureChambers"],
     },
 )
