@@ -313,42 +313,76 @@ def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
     (end-to-end distance over chain length) wins, the earliest among equals,
     so a recording that starts straight starts at frame 0 (taken at once,
     without sampling others) and one whose first frames are curled starts
-    where the robot is plain.
+    where the robot is plain.  Once one frame has been analysed (every
+    candidate thresholder tried), the others are screened with the
+    thresholder it chose; only the winner is analysed in full.
     """
     T = src.n_frames
     picks = sorted(set(np.linspace(0, T - 1, min(T, _N_REFERENCE_SAMPLES)).round().astype(int).tolist()))
-    usable, failed = [], {}
+    n_expected = None if p["n_markers"] is None else p["n_markers"] + 1
+    screened, failed, analysed = [], {}, {}
+    det = None
     for k in picks:
         try:
             img = src.frame(k)
-            analysis = _analyse(p, img, name, k)
         except (OSError, ValueError) as err:
             failed[k] = str(err)
             continue
-        pts = analysis[2][:, :2]
-        if k == picks[0] and _is_straight(pts) and (p["n_markers"] is None or len(pts) == p["n_markers"] + 1):
-            # a recording that starts straight with its whole chain in view: nothing can be straighter
-            return k, analysis, img, f"frame {k}: the first frame, straight, with a chain of {len(pts)} markers"
+        if det is None:
+            try:
+                analysis = _analyse(p, img, name, k)
+            except ValueError as err:
+                failed[k] = str(err)
+                continue
+            det, pts = analysis[0], analysis[2][:, :2]
+            analysed[k] = (analysis, img)
+            if k == picks[0] and _is_straight(pts) and (n_expected is None or len(pts) == n_expected):
+                # a recording that starts straight with its whole chain in view: nothing can be straighter
+                return k, analysis, img, f"frame {k}: the first frame, straight, with a chain of {len(pts)} markers"
+        else:
+            cands = det(img)
+            chain = _pick_chain(link_chains(cands), n_expected)
+            if chain is None or len(chain) < 3:
+                failed[k] = "no chain of markers"
+                continue
+            pts = cands[chain, :2]
         arc = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
-        usable.append((k, analysis, img, float(np.linalg.norm(pts[-1] - pts[0])) / max(arc, 1e-9)))
-    if not usable:
+        screened.append((k, len(pts), float(np.linalg.norm(pts[-1] - pts[0])) / max(arc, 1e-9)))
+    if not screened:
         k0 = picks[0]
         raise ValueError(
             f"recording {name!r}: none of the {len(picks)} frames sampled across it ({picks}) shows a chain of "
             f"markers to start from; in frame {k0}: {failed[k0]}"
         )
-    longest = max(len(u[1][2]) for u in usable)
-    whole = [u for u in usable if len(u[1][2]) == longest]
-    top = max(u[3] for u in whole)
-    k, analysis, img, straight = next(u for u in whole if u[3] >= top - 0.002)
-    why = (
-        f"frame {k}: the straightest (end-to-end / chain length {straight:.3f}) of {len(whole)} frames showing a "
-        f"chain of {longest} markers among {len(picks)} sampled"
+    longest = max(u[1] for u in screened)
+    if n_expected is not None and any(u[1] == n_expected for u in screened):
+        longest = n_expected
+    whole = [u for u in screened if u[1] == longest]
+    # the straightest first (the earliest among equals); the full analysis may still refuse one (two chains)
+    top = max(u[2] for u in whole)
+    ranked = [u for u in whole if u[2] >= top - 0.002] + sorted(
+        (u for u in whole if u[2] < top - 0.002), key=lambda u: -u[2]
     )
-    if failed:
-        k1 = min(failed)
-        why += f"; no usable chain in frame(s) {sorted(failed)} (frame {k1}: {failed[k1].split(': ', 1)[-1][:160]})"
-    return k, analysis, img, why
+    last_err = None
+    for k, _, straight in ranked:
+        if k in analysed:
+            analysis, img = analysed[k]
+        else:
+            img = src.frame(k)
+            try:
+                analysis = _analyse(p, img, name, k)
+            except ValueError as err:
+                last_err = str(err)
+                continue
+        why = (
+            f"frame {k}: the straightest (end-to-end / chain length {straight:.3f}) of {len(whole)} frames showing a "
+            f"chain of {longest} markers among {len(picks)} sampled"
+        )
+        if failed:
+            k1 = min(failed)
+            why += f"; no usable chain in frame(s) {sorted(failed)} (frame {k1}: {failed[k1].split(': ', 1)[-1][:160]})"
+        return k, analysis, img, why
+    raise ValueError(f"recording {name!r}: no sampled frame could serve as the reference frame; {last_err}")
 
 
 def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
