@@ -124,3 +124,16 @@ def test_foreign_footage_arguments_are_checked(tmp_path) -> None:
         render_foreign_footage("curled_start", tmp_path / "x", jpeg_quality=0)
     with pytest.raises(ValueError, match="n_markers must be an integer >= 3"):
         foreign_poses("curled_start", 10, n_markers=2)
+
+
+def test_backdrop_nuisance_is_checked_and_drawn() -> None:
+    from pcs_sindy.simulation.nuisances import Nuisances
+    from pcs_sindy.simulation.rendering import render_frames
+
+    with pytest.raises(ValueError, match="backdrop must be None or a grey level"):
+        Nuisances(backdrop=300.0)
+    with pytest.raises(ValueError, match="backdrop_edge must lie in"):
+        Nuisances(backdrop=250.0, backdrop_edge=1.5)
+    poses, _ = foreign_poses("bright_edge", 2)
+    img = render_frames(poses[:1], nuisances=Nuisances(backdrop=250.0, backdrop_edge=0.75), background=180)[0]
+    assert img[5, 500] == 250 and img[5, 400] == 180  # right of 0.75 * 640 = 480 px: the lit backdrop
