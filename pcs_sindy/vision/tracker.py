@@ -38,6 +38,7 @@ __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
 
 _OPEN = np.ones((3, 3), np.uint8)
 _LINK_RATIO = 1.6  # most a link between neighbouring markers may exceed both links beside it
+_FILLED_RATIO = 1.8  # ... and, in a frame with a filled marker, the reference frame's spacing
 
 
 class FrameProblem(ValueError):
@@ -313,8 +314,9 @@ def _finish(
     # marker (a chain tracked off by one); the spacing may change at a segment boundary, but for good
     nb = np.maximum(np.concatenate([links[1:2], links[:-1]]), np.concatenate([links[1:], links[-2:-1]]))
     # (a marker the tracking skipped near the tip also leaves the filled tip one link further: both links are
-    # then far longer than the recording's spacing)
-    nb = np.minimum(nb, st["spacing"])
+    # then about twice the recording's spacing; only checked with a marker filled, since segments may stretch)
+    if missing.any():
+        nb = np.minimum(nb, _FILLED_RATIO / _LINK_RATIO * st["spacing"])
     jump = np.flatnonzero(links > _LINK_RATIO * nb) if links.size >= 3 else np.zeros(0, int)
     if jump.size:
         i = int(jump[0])
