@@ -307,7 +307,8 @@ def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int)
 def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
     """The frame to start from: (index, its analysis, its image, why).
 
-    Of frames sampled evenly over the recording (frame 0 included), those
+    Of frames sampled evenly over the recording (frame 0 included; a dozen,
+    one per 25 frames in shorter recordings but at least 4), those
     whose chain of markers is the longest found (all markers in view and
     linked; with ``n_markers``, of that length) compete; the straightest
     (end-to-end distance over chain length) wins, the earliest among equals,
@@ -318,7 +319,10 @@ def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
     thresholder it chose; only the winner is analysed in full.
     """
     T = src.n_frames
-    picks = sorted(set(np.linspace(0, T - 1, min(T, _N_REFERENCE_SAMPLES)).round().astype(int).tolist()))
+    # a dozen samples, fewer in short recordings (one per 25 frames, at least 4): the screening stays a few % of
+    # the work
+    n_samples = min(T, _N_REFERENCE_SAMPLES, max(4, T // 25))
+    picks = sorted(set(np.linspace(0, T - 1, n_samples).round().astype(int).tolist()))
     n_expected = None if p["n_markers"] is None else p["n_markers"] + 1
     screened, failed, analysed = [], {}, {}
     det = None

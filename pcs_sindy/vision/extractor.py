@@ -146,7 +146,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         extraction runs on from it and then back from it to frame 0, so a
         robot that starts curled (into a ring, or with its tip next to its
         own body) is followed into the curl from a frame where its chain is
-        plain.  ``"auto"`` (default): of a dozen frames sampled across the
+        plain.  ``"auto"`` (default): of up to a dozen frames sampled across the
         recording (frame 0 included), the straightest of those showing the
         longest chain of markers (the earliest among equals: frame 0 when the
         robot starts straight); the choice and why are in
