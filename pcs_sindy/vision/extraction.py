@@ -283,11 +283,20 @@ def _complete_camera(
     return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration + bent
 
 
-def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:
-    """Thresholder, fallbacks, chained markers, their spacing and the report, from the reference frame."""
+def _analyse(
+    p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int, segs: list[Thresholder] | None = None
+) -> tuple:
+    """Thresholder, fallbacks, chained markers, their spacing and the report, from the reference frame.
+
+    ``segs``: thresholders prepared on another frame of the recording, the one chosen there first; only it
+    is tried here (the others stay fallbacks).  Default: every candidate, prepared on this frame.
+    """
     roi = p["roi"]
-    segs = _thresholders(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
-    det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
+    if segs is None:
+        segs = _thresholders(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
+        det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
+    else:
+        det, cands, chain, choice = _reference(p, segs[:1], ref_img, name, ref)
     members = cands[chain]
     det.typical = {
         "area": float(np.median(members[:, AREA])) if p["marker_area"] is None else float(p["marker_area"]),
@@ -373,11 +382,15 @@ def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
             analysis, img = analysed[k]
         else:
             img = src.frame(k)
-            try:
-                analysis = _analyse(p, img, name, k)
-            except ValueError as err:
-                last_err = str(err)
-                continue
+            first = next(iter(analysed.values()))[0]
+            try:  # with the thresholder the first analysed frame chose (preparing every candidate costs more)
+                analysis = _analyse(p, img, name, k, [first[0].seg] + [f.seg for f in first[1]])
+            except ValueError:
+                try:
+                    analysis = _analyse(p, img, name, k)
+                except ValueError as err:
+                    last_err = str(err)
+                    continue
         why = (
             f"frame {k}: the straightest (end-to-end / chain length {straight:.3f}) of {len(whole)} frames showing a "
             f"chain of {longest} markers among {len(picks)} sampled"
