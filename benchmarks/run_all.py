@@ -18,6 +18,7 @@ ORDER = [
     "simulation_speed",
     "extraction_speed",
     "degraded_footage",
+    "foreign_footage",
     "calibration_round_trip",
     "streaming_state_estimation",
     "library_build",

@@ -10,7 +10,9 @@ inputs that drove the robot, and rendered videos of it.
 * :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
 * :mod:`.scenarios`, :mod:`.catalog` - the seed's scenarios and how their data are generated;
 * :mod:`.mocap` - :class:`MocapScenario`: a hanging tendon robot tracked by 3 position-only markers;
-* :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances.
+* :mod:`.rendering`, :mod:`.nuisances`, :mod:`.checkerboard` - synthetic footage with realistic nuisances;
+* :mod:`.foreign` - footage of the kinds another lab records (curled first frames, outlined markers,
+  floors, bright edges) as large JPEG folders.
 
 This package is the independent truth the identification side is checked against: it
 imports only :mod:`pcs_sindy.core`, and identification, fusion and vision never import it.
@@ -26,6 +28,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "scenarios": ["Scenario", "ScenarioData", "Recording"],
         "catalog": ["get_scenario", "list_scenarios"],
         "rendering": ["render_video", "render_frames", "RenderedVideo"],
+        "foreign": ["render_foreign_footage", "ForeignFootage", "FOREIGN_KINDS"],
         "actuation": ["Tendons", "PressureChambers"],
         "mocap": ["MocapScenario", "MocapRecording", "play_operator"],
     },

@@ -2,7 +2,7 @@
 
 :class:`Nuisances` describes the degradations (uneven light, vignetting,
 sensor noise, motion blur, JPEG compression, a floor, clutter and printed
-text, a marker partly covered for a few frames), so that extraction is tested
+text, a lit backdrop's edge, a marker partly covered for a few frames), so that extraction is tested
 on footage it was not tuned to; the private helpers below draw them for
 :func:`pcs_sindy.simulation.rendering.render_frames`.
 """
@@ -50,6 +50,11 @@ class Nuisances:
         Grey level (0-255) of a floor filling the image below ``floor_level``.
     floor_level : float
         Top of the floor as a fraction of the image height.
+    backdrop : float, optional
+        Grey level (0-255) of a brightly lit backdrop filling the image right
+        of ``backdrop_edge`` (a wall or screen edge the robot swings across).
+    backdrop_edge : float
+        Left edge of the backdrop as a fraction of the image width.
     occlusion : (marker, first frame, n frames, fraction), optional
         A finger-like occluder covering ``fraction`` of the width of marker
         ``marker`` (0 = base) in frames ``first .. first + n - 1``.
@@ -66,6 +71,8 @@ class Nuisances:
     clutter: bool = False
     floor: float | None = None
     floor_level: float = 0.85
+    backdrop: float | None = None
+    backdrop_edge: float = 0.5
     occlusion: tuple[int, int, int, float] | None = None
     seed: int = 0
 
@@ -87,6 +94,10 @@ class Nuisances:
             )
         if self.floor is not None and not 0 <= self.floor <= 255:
             raise ValueError(f"Nuisances.floor must be None or a grey level in [0, 255]; got {self.floor!r}")
+        if self.backdrop is not None and not 0 <= self.backdrop <= 255:
+            raise ValueError(f"Nuisances.backdrop must be None or a grey level in [0, 255]; got {self.backdrop!r}")
+        if not 0 < self.backdrop_edge < 1:
+            raise ValueError(f"Nuisances.backdrop_edge must lie in (0, 1); got {self.backdrop_edge!r}")
         if not 0 < self.floor_level < 1:
             raise ValueError(f"Nuisances.floor_level must lie in (0, 1); got {self.floor_level!r}")
         occ = self.occlusion
@@ -139,6 +150,8 @@ def draw_scene(
     height, width = shape[:2]
     rng = np.random.default_rng([nz.seed, 1])
     dark = (40,) * (3 if len(shape) == 3 else 1)
+    if nz.backdrop is not None:
+        img[:, int(round(nz.backdrop_edge * width)) :] = np.uint8(round(nz.backdrop))
     if nz.floor is not None:
         top = int(round(nz.floor_level * height))
         img[top:] = np.uint8(round(nz.floor))

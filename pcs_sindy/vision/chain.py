@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
+from scipy.spatial import cKDTree
 
 from ..core.kinematics import se2_compose, se2_relative, segment_inverse_kinematics, segment_pose
 from .markers import AREA, AXIS, LONG, SHORT
@@ -84,32 +85,41 @@ def link_chains(
         return [np.array([i]) for i in idx]
     c = cands[idx]
     pts = c[:, :2]
-    rel = pts[None, :, :] - pts[:, None, :]  # rel[i, j] = p_j - p_i
-    dist = np.linalg.norm(rel, axis=-1)
-    np.fill_diagonal(dist, np.inf)
+    # candidate pairs from a k-d tree: a similar neighbour lies within max_gap * long_ratio of a candidate's own
+    # long side, so specks of noise (thousands in a large noisy frame) only ever meet their few close neighbours
+    near = cKDTree(pts).query_ball_point(pts, max_gap * long_ratio * c[:, LONG])
+    ii = np.repeat(np.arange(len(c)), [len(x) for x in near])
+    jj = np.concatenate([np.asarray(x, dtype=np.intp) for x in near]) if len(ii) else np.zeros(0, np.intp)
+    off = ii != jj
+    ii, jj = ii[off], jj[off].astype(np.intp)
+    rel = pts[jj] - pts[ii]
+    dist = np.linalg.norm(rel, axis=1)
     log_area, log_long = np.log(c[:, AREA]), np.log(c[:, LONG])
-    similar = (np.abs(log_area[:, None] - log_area[None, :]) <= np.log(area_ratio)) & (
-        np.abs(log_long[:, None] - log_long[None, :]) <= np.log(long_ratio)
+    similar = (np.abs(log_area[ii] - log_area[jj]) <= np.log(area_ratio)) & (
+        np.abs(log_long[ii] - log_long[jj]) <= np.log(long_ratio)
     )
-    turn = np.abs(wrap_half_pi(c[:, None, AXIS] - c[None, :, AXIS]))
-    tangent = np.stack([-np.sin(c[:, AXIS]), np.cos(c[:, AXIS])], axis=1)
-    along = np.einsum("ijk,ik->ij", rel, tangent) / np.where(np.isfinite(dist), dist, 1.0)  # cos to i's backbone
-    tilt_ok = (np.abs(along) >= np.cos(max_tilt)) & (np.abs(along.T) >= np.cos(max_tilt))
-    reach = max_gap * np.maximum(c[:, None, LONG], c[None, :, LONG])
+    turn = np.abs(wrap_half_pi(c[ii, AXIS] - c[jj, AXIS]))
+    safe = np.where(dist > 0, dist, 1.0)
+    along = (rel[:, 0] * -np.sin(c[ii, AXIS]) + rel[:, 1] * np.cos(c[ii, AXIS])) / safe  # cos to i's backbone
+    back = (rel[:, 0] * np.sin(c[jj, AXIS]) - rel[:, 1] * np.cos(c[jj, AXIS])) / safe  # ... and to j's
+    tilt_ok = (np.abs(along) >= np.cos(max_tilt)) & (np.abs(back) >= np.cos(max_tilt))
+    reach = max_gap * np.maximum(c[ii, LONG], c[jj, LONG])
     valid = (
         similar
         & (turn <= max_turn)
         & tilt_ok
         & (dist <= reach)
-        & (dist >= 0.5 * np.minimum(c[:, None, SHORT], c[None, :, SHORT]))
+        & (dist >= 0.5 * np.minimum(c[ii, SHORT], c[jj, SHORT]))
     )
     side = np.sign(along)
     pick = np.full((len(c), 2), -1)
     for s, col in ((1.0, 0), (-1.0, 1)):
-        d = np.where(valid & (side == s), dist, np.inf)
-        best = np.argmin(d, axis=1)
-        has = np.isfinite(d[np.arange(len(c)), best])
-        pick[has, col] = best[has]
+        m = valid & (side == s)
+        a, b, d = ii[m], jj[m], dist[m]
+        o = np.lexsort((d, a))  # by candidate, nearest first
+        a, b = a[o], b[o]
+        first = np.r_[True, a[1:] != a[:-1]] if a.size else np.zeros(0, bool)
+        pick[a[first], col] = b[first]
     adj: list[list[int]] = [[] for _ in range(len(c))]
     for i in range(len(c)):
         for j in pick[i]:
@@ -144,6 +154,7 @@ def chain_from_base(
     first_dir: NDArray[np.float64] | None = None,
     n_target: int | None = None,
     allow_gaps: bool = True,
+    px_scale: float = 1.0,
 ) -> tuple[list[int | None], str | None]:
     """Order markers base -> tip by chaining; returns (order, error message or None).
 
@@ -161,7 +172,9 @@ def chain_from_base(
     almost as well, are refused, so a missing, merged or crossing marker is
     reported rather than silently skipped or swapped.  Chaining stops after
     ``n_target`` markers (gaps included) when given, else when no candidate
-    is left.
+    is left.  Distances in the messages are multiplied by ``px_scale`` (the
+    footage's pixels when the points come from frames decoded at a reduced
+    resolution).
     """
     n = len(points)
     order: list[int | None] = [base]
@@ -200,7 +213,8 @@ def chain_from_base(
             if dist[srt[0]] > 2.5 * spacing:
                 return (
                     order,
-                    f"chaining broke at the base (nearest marker {dist[srt[0]]:.1f} px away, spacing {spacing:.1f} px)",
+                    f"chaining broke at the base (nearest marker {dist[srt[0]] * px_scale:.1f} px away, spacing "
+                    f"{spacing * px_scale:.1f} px)",
                 )
             if srt.size > 1 and dist[srt[1]] < 1.4 * dist[srt[0]]:
                 return order, "chaining is ambiguous at the base (two markers equally near)"
@@ -266,8 +280,8 @@ def chain_from_base(
                 clear = by_near.size == 1 or near[by_near[1]] >= 1.4 * near[j]
                 if not (clear and near[j] <= 3.0 * step and dist[j] <= 1.5 * step):
                     return broken(
-                        f"chaining broke after {len(order)} markers (nearest candidate {best:.1f} px from the "
-                        f"predicted position, spacing {step:.1f} px, no unambiguous marker ahead)"
+                        f"chaining broke after {len(order)} markers (nearest candidate {best * px_scale:.1f} px from "
+                        f"the predicted position, spacing {step * px_scale:.1f} px, no unambiguous marker ahead)"
                     )
                 nxt = int(idx[j])
         order.append(nxt)
@@ -298,6 +312,8 @@ def track(
     candidates in reach, or one candidate claimed twice, make the frame
     ambiguous (None): the caller then chains it from the base.
     """
+    if len(points) == 0:  # nothing in view (a blank frame): every marker lost, none ambiguous
+        return np.full(len(previous), -1, dtype=np.intp)
     gaps = np.linalg.norm(np.diff(previous, axis=0), axis=1)
     reach = 0.45 * np.minimum(np.concatenate([gaps[:1], gaps]), np.concatenate([gaps, gaps[-1:]]))
     d = np.linalg.norm(predicted[:, None, :] - points[None, :, :], axis=-1)

@@ -54,7 +54,9 @@ from .tracker import Detector, FrameResult, FrameTracker
 
 __all__ = ["extract_recording", "MarkerStream"]
 
-_N_BASE_SAMPLES = 8
+_N_BASE_SAMPLES = 16
+_N_REFERENCE_SAMPLES = 12  # frames tried as the reference with reference_frame="auto"
+_BUFFER_BYTES = 512 * 2**20  # decoded frames before the reference kept in memory for the pass back to frame 0
 _HINTS = (
     "check that the robot is in view and its markers contrast with their surroundings; give n_markers=N; exclude "
     "clutter with roi=(x, y, width, height); try threshold='local' (uneven light), threshold='colour' (coloured "
@@ -131,8 +133,14 @@ def _reference(p: dict[str, Any], segs: list[Thresholder], ref_img: NDArray[np.u
 
 def _find_base(
     src: FrameSource, det: Detector, ends: NDArray[np.float64], spacing: float, ref: int, grey: bool, reduce: int
-) -> int:
-    """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording."""
+) -> tuple[int, str]:
+    """Which end of the reference chain (0 or 1) stays put over frames sampled across the recording, and why.
+
+    The clamped base moves by detection noise only, the tip somewhere by far
+    more: for each end, the largest distance over the sampled frames from its
+    place in the reference frame to the nearest marker-shaped component
+    (pixels reported at the footage's full resolution).
+    """
     name = src.name
     picks = [k for k in np.linspace(0, src.n_frames - 1, _N_BASE_SAMPLES + 1).round().astype(int) if k != ref]
     picks = sorted(set(picks))
@@ -141,6 +149,7 @@ def _find_base(
             f"recording {name!r}: cannot tell the base marker from a single frame; give base_position or a camera"
         )
     worst = np.zeros(2)
+    used = 0
     for k in picks:
         try:
             cands = det.accept(det(src.frame(int(k), grey=grey, reduce=reduce)))
@@ -148,16 +157,37 @@ def _find_base(
             continue  # a frame the container cannot seek to: the pass over all frames will report it
         if len(cands) == 0:
             continue
+        used += 1
         d = np.linalg.norm(ends[:, None] - cands[None, :, :2], axis=-1).min(axis=1)
         worst = np.maximum(worst, d)
     b = int(np.argmin(worst))
+    full = [((ends[e] + 0.5 * (reduce - 1) / reduce) * reduce).round(1).tolist() for e in (0, 1)]
+    evidence = (
+        f"motion over {used} frames sampled across the recording: the chain end at {full[b]} px (frame {ref}) moved "
+        f"at most {worst[b] * reduce:.1f} px, the other end at {full[1 - b]} px up to {worst[1 - b] * reduce:.1f} px; "
+        "the clamped base is the end that moves least"
+    )
     # the base moves by detection noise only; the tip must move clearly more somewhere
     if worst[1 - b] < max(4.0 * worst[b], 1.0, 0.1 * spacing):
         raise ValueError(
             f"recording {name!r}: both ends of the marker chain stay put (the robot hardly moves), so the base "
-            "marker is ambiguous; give base_position or a camera"
+            f"marker is ambiguous ({evidence}); give base_position=(u, v) or a camera"
         )
-    return b
+    return b, evidence
+
+
+def _is_straight(pts: NDArray[np.float64]) -> bool:
+    """Whether the chain's centres lie on one line (within half a pixel, or 2 % of their spacing for large markers)."""
+    centred = pts - pts.mean(axis=0)
+    dvec = np.linalg.svd(centred, full_matrices=False)[2][0]
+    off = np.abs(centred @ np.array([-dvec[1], dvec[0]]))
+    spacing = float(np.median(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+    return bool(off.max() <= max(0.5, 0.02 * spacing))
+
+
+def _base_axis_angle(phi: NDArray[np.float64]) -> float:
+    """Circular mean of the base marker's angle over frames: its tangent is the rest direction (clamped base)."""
+    return float(np.arctan2(np.mean(np.sin(phi)), np.mean(np.cos(phi))))
 
 
 def _rest_direction(pts: NDArray[np.float64]) -> float:
@@ -250,20 +280,28 @@ def _complete_camera(
     calibration: str | None,
     what: str,
     ref: int,
+    base_phi: NDArray[np.float64] | None = None,
 ) -> tuple[Camera, str]:
     """The camera with its base frame: origin, angle and scale from the parameters or the reference frame.
 
     ``rect_ref`` are the reference frame's markers in rectified pixels, ``origin``
-    the base marker's rectified position (used unless the camera or ``base_position`` gives one).
+    the base marker's rectified position (used unless the camera or ``base_position`` gives one),
+    ``base_phi`` the base marker's rectified angles over the recording (the rest direction when the
+    reference frame is not straight).
     """
     if camera is not None and camera.origin is not None:
         origin = np.asarray(camera.origin)
     elif p["base_position"] is not None:
         origin = lens.rectify(np.asarray(p["base_position"], dtype=float))
+    bent = ""
     if camera is not None and camera.angle is not None:
         angle = camera.angle
     elif p["rest_direction"] is not None and (camera is None or not camera.has_lens):
         angle = float(p["rest_direction"]) - 0.5 * np.pi
+    elif base_phi is not None and not _is_straight(rect_ref[:, :2]):
+        # no straight frame to read the rest direction from: the clamped base marker's axis gives it
+        angle = _base_axis_angle(base_phi)
+        bent = f", rest direction from the base marker's axis (frame {ref} is not straight)"
     else:
         angle = _rest_direction(rect_ref[:, :2]) - 0.5 * np.pi
     if camera is not None:
@@ -273,18 +311,29 @@ def _complete_camera(
     elif p["robot_length"] is not None:
         ppm = float(np.sum(np.linalg.norm(np.diff(rect_ref[:, :2], axis=0), axis=1))) / float(p["robot_length"])
         calibration = f"straight reference frame {ref} with robot_length={p['robot_length']!r}"
+        if not _is_straight(rect_ref[:, :2]):
+            calibration = f"reference frame {ref} (the straightest found) with robot_length={p['robot_length']!r}"
     else:
         raise ValueError(
             f"{what}: no calibration; give camera, pixels_per_metre, or robot_length (with a straight reference frame)"
         )
-    return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration
+    return replace(lens, pixels_per_metre=ppm, origin=tuple(origin), angle=angle), calibration + bent
 
 
-def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int) -> tuple:
-    """Thresholder, fallbacks, chained markers, their spacing and the report, from the reference frame."""
+def _analyse(
+    p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int, segs: list[Thresholder] | None = None
+) -> tuple:
+    """Thresholder, fallbacks, chained markers, their spacing and the report, from the reference frame.
+
+    ``segs``: thresholders prepared on another frame of the recording, the one chosen there first; only it
+    is tried here (the others stay fallbacks).  Default: every candidate, prepared on this frame.
+    """
     roi = p["roi"]
-    segs = _thresholders(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
-    det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
+    if segs is None:
+        segs = _thresholders(p, ref_img if roi is None else ref_img[roi[1] : roi[1] + roi[3], roi[0] : roi[0] + roi[2]])
+        det, cands, chain, choice = _reference(p, segs, ref_img, name, ref)
+    else:
+        det, cands, chain, choice = _reference(p, segs[:1], ref_img, name, ref)
     members = cands[chain]
     det.typical = {
         "area": float(np.median(members[:, AREA])) if p["marker_area"] is None else float(p["marker_area"]),
@@ -301,6 +350,95 @@ def _analyse(p: dict[str, Any], ref_img: NDArray[np.uint8], name: str, ref: int)
     return det, fallbacks, members, spacing, choice
 
 
+def _choose_reference(src: FrameSource, p: dict[str, Any], name: str) -> tuple:
+    """The frame to start from: (index, its analysis, its image, why).
+
+    Of frames sampled evenly over the recording (frame 0 included; a dozen,
+    one per 25 frames in shorter recordings but at least 4), those
+    whose chain of markers is the longest found (all markers in view and
+    linked; with ``n_markers``, of that length) compete; the straightest
+    (end-to-end distance over chain length) wins, the earliest among equals,
+    so a recording that starts straight starts at frame 0 (taken at once,
+    without sampling others) and one whose first frames are curled starts
+    where the robot is plain.  Once one frame has been analysed (every
+    candidate thresholder tried), the others are screened with the
+    thresholder it chose; only the winner is analysed in full.
+    """
+    T = src.n_frames
+    # a dozen samples, fewer in short recordings (one per 25 frames, at least 4): the screening stays a few % of
+    # the work
+    n_samples = min(T, _N_REFERENCE_SAMPLES, max(4, T // 25))
+    picks = sorted(set(np.linspace(0, T - 1, n_samples).round().astype(int).tolist()))
+    n_expected = None if p["n_markers"] is None else p["n_markers"] + 1
+    screened, failed, analysed = [], {}, {}
+    det = None
+    for k in picks:
+        try:
+            img = src.frame(k)
+        except (OSError, ValueError) as err:
+            failed[k] = str(err)
+            continue
+        if det is None:
+            try:
+                analysis = _analyse(p, img, name, k)
+            except ValueError as err:
+                failed[k] = str(err)
+                continue
+            det, pts = analysis[0], analysis[2][:, :2]
+            analysed[k] = (analysis, img)
+            if k == picks[0] and _is_straight(pts) and (n_expected is None or len(pts) == n_expected):
+                # a recording that starts straight with its whole chain in view: nothing can be straighter
+                return k, analysis, img, f"frame {k}: the first frame, straight, with a chain of {len(pts)} markers"
+        else:
+            cands = det(img)
+            chain = _pick_chain(link_chains(cands), n_expected)
+            if chain is None or len(chain) < 3:
+                failed[k] = "no chain of markers"
+                continue
+            pts = cands[chain, :2]
+        arc = float(np.sum(np.linalg.norm(np.diff(pts, axis=0), axis=1)))
+        screened.append((k, len(pts), float(np.linalg.norm(pts[-1] - pts[0])) / max(arc, 1e-9)))
+    if not screened:
+        k0 = picks[0]
+        raise ValueError(
+            f"recording {name!r}: none of the {len(picks)} frames sampled across it ({picks}) shows a chain of "
+            f"markers to start from; in frame {k0}: {failed[k0]}"
+        )
+    longest = max(u[1] for u in screened)
+    if n_expected is not None and any(u[1] == n_expected for u in screened):
+        longest = n_expected
+    whole = [u for u in screened if u[1] == longest]
+    # the straightest first (the earliest among equals); the full analysis may still refuse one (two chains)
+    top = max(u[2] for u in whole)
+    ranked = [u for u in whole if u[2] >= top - 0.002] + sorted(
+        (u for u in whole if u[2] < top - 0.002), key=lambda u: -u[2]
+    )
+    last_err = None
+    for k, _, straight in ranked:
+        if k in analysed:
+            analysis, img = analysed[k]
+        else:
+            img = src.frame(k)
+            first = next(iter(analysed.values()))[0]
+            try:  # with the thresholder the first analysed frame chose (preparing every candidate costs more)
+                analysis = _analyse(p, img, name, k, [first[0].seg] + [f.seg for f in first[1]])
+            except ValueError:
+                try:
+                    analysis = _analyse(p, img, name, k)
+                except ValueError as err:
+                    last_err = str(err)
+                    continue
+        why = (
+            f"frame {k}: the straightest (end-to-end / chain length {straight:.3f}) of {len(whole)} frames showing a "
+            f"chain of {longest} markers among {len(picks)} sampled"
+        )
+        if failed:
+            k1 = min(failed)
+            why += f"; no usable chain in frame(s) {sorted(failed)} (frame {k1}: {failed[k1].split(': ', 1)[-1][:160]})"
+        return k, analysis, img, why
+    raise ValueError(f"recording {name!r}: no sampled frame could serve as the reference frame; {last_err}")
+
+
 def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
     """Pixel-valued parameters for frames decoded at 1/red of the resolution."""
     q = dict(p, min_area=p["min_area"] / red**2)
@@ -315,10 +453,15 @@ def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
 def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[PoseTrajectory, dict[str, Any]]:
     """Pose trajectory and diagnostics of one recording (module level so joblib can pickle it)."""
     src = FrameSource(recording, name)
-    ref = p["reference_frame"]
-    if ref >= src.n_frames:
-        raise ValueError(f"reference_frame={ref} but recording {name!r} has only {src.n_frames} frames")
-    ref_img = src.frame(ref)
+    analysis = None
+    if isinstance(p["reference_frame"], str):  # "auto"
+        ref, analysis, ref_img, ref_reason = _choose_reference(src, p, name)
+    else:
+        ref = int(p["reference_frame"])
+        if ref >= src.n_frames:
+            raise ValueError(f"reference_frame={ref} but recording {name!r} has only {src.n_frames} frames")
+        ref_img = src.frame(ref)
+        ref_reason = f"frame {ref}: given (reference_frame={ref})"
     size = (int(ref_img.shape[1]), int(ref_img.shape[0]))
     camera, calibration, facts = _resolve_camera(recording, p, size)
     dt, rate_source = _frame_period(p, src, facts, calibration, name)
@@ -329,7 +472,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         )
 
     # 1. the reference frame chooses the thresholder and fixes the markers
-    det, fallbacks, members, spacing, choice = _analyse(p, ref_img, name, ref)
+    det, fallbacks, members, spacing, choice = analysis if analysis is not None else _analyse(p, ref_img, name, ref)
     grey = not det.seg.needs_colour
     n = len(members)
     # large markers in JPEG data: decode at a fraction of the resolution (the decoder skips the fine
@@ -359,56 +502,91 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     ends = members[[0, -1], :2]
     if p["base_position"] is not None:
         base_px, base_source = to_red(p["base_position"]), "given"
+        evidence = f"given: base_position={tuple(float(v) for v in p['base_position'])}"
     elif camera is not None and camera.origin is not None:
         base_px, base_source = to_red(camera.unrectify(np.asarray(camera.origin))), "camera origin"
+        evidence = f"the camera's origin ({calibration})"
     else:
-        base_px, base_source = ends[_find_base(src, det, ends, spacing, ref, grey, red)], "stays put"
+        b, evidence = _find_base(src, det, ends, spacing, ref, grey, red)
+        base_px, base_source = ends[b], "stays put"
     gap = np.linalg.norm(ends - base_px, axis=1)
     if gap.min() > 0.5 * spacing:
+        full_ends = (ends * red + 0.5 * (red - 1)).round(1).tolist()
         raise ValueError(
-            f"recording {name!r}, frame {ref} (reference frame): neither end of the marker chain lies within "
-            f"{0.5 * spacing:.1f} px of the base position {base_px.round(1).tolist()} ({base_source})"
+            f"recording {name!r}, frame {ref} (reference frame): neither end of the marker chain ({full_ends} px) lies "
+            f"within {0.5 * spacing * red:.1f} px of the base position "
+            f"{(base_px * red + 0.5 * (red - 1)).round(1).tolist()} ({base_source})"
         )
     if np.argmin(gap) == 1:
         members = members[::-1]
     first_dir = _first_direction(camera, p, members)
 
-    # 3. every frame
-    st = {"n": n, "base_px": base_px, "spacing": spacing, "first_dir": first_dir, "fill": p["fill_missing"]}
+    # 3. every frame: on from the reference frame, then back from it to frame 0 (a robot that starts curled
+    # is followed back into its curl from a frame where its chain is plain)
+    st = {
+        "n": n,
+        "base_px": base_px,
+        "spacing": spacing,
+        "first_dir": first_dir,
+        "fill": p["fill_missing"],
+        "px_scale": red,
+    }
     tracker = FrameTracker([det] + fallbacks, st)
-    outcomes: list[FrameResult | None] = []
+    results: dict[int, FrameResult | None] = {}
     problems: dict[int, str] = {}
-    found = []
+    counts: dict[int, int] = {}
     expected = (-(-size[0] // red), -(-size[1] // red))
     damaged = "raise" if p["on_missing"] == "raise" else "none"
-    for k, frame in enumerate(
-        tqdm(
-            src.frames(grey=grey, reduce=red, damaged=damaged),
-            total=src.n_frames,
-            desc=f"extract {Path(name).name}",
-            unit="frame",
-            disable=not p["progress"],
-        )
-    ):
+    bar = tqdm(total=src.n_frames, desc=f"extract {Path(name).name}", unit="frame", disable=not p["progress"])
+
+    def run(k: int, frame: NDArray[np.uint8] | None) -> None:
         if frame is None:  # undecodable (on_missing allows it): missing, at its own time
             problems[k] = "the frame's data cannot be decoded (damaged, or no file in a numbered folder)"
-            found.append(0)
-            outcomes.append(None)
-            continue
+            counts[k] = 0
+            results[k] = None
+            bar.update(1)
+            return
         if (frame.shape[1], frame.shape[0]) != expected:
             raise ValueError(
                 f"recording {name!r}, frame {k}: size {frame.shape[1] * red}x{frame.shape[0] * red} differs from frame "
                 f"{ref} ({size[0]}x{size[1]})"
             )
         out, n_found, err = tracker.step(frame)
-        found.append(n_found)
+        counts[k] = n_found
+        bar.update(1)
         if out is None:
             what = "no markers found" if n_found == 0 else f"found {n_found} marker-shaped components"
             msg = f"{what}, expected {n} (base + {n - 1} markers): {err}"
             if p["on_missing"] == "raise":
+                bar.close()
                 raise ValueError(f"recording {name!r}, frame {k}: {msg}")
             problems[k] = msg
-        outcomes.append(out)
+        results[k] = out
+
+    # frames before the reference are kept in memory when they fit, else read again one by one
+    frame_bytes = expected[0] * expected[1] * (1 if grey else 3)
+    keep = ref * frame_bytes <= _BUFFER_BYTES
+    before: list[NDArray[np.uint8]] = []
+    for k, frame in enumerate(src.frames(grey=grey, reduce=red, damaged=damaged)):
+        if k < ref:
+            if keep:
+                before.append(frame)
+            continue
+        run(k, frame)
+    if ref not in results:
+        bar.close()
+        raise ValueError(
+            f"recording {name!r}: decoding stopped after {len(results) + ref} frames, before the reference frame {ref}"
+        )
+    start = results[ref]
+    if start is not None and ref > 0:
+        nxt = results.get(ref + 1)
+        tracker.resume(start.pix, None if nxt is None else nxt.pix)
+        for k in range(ref - 1, -1, -1):
+            run(k, before[k] if keep else src.frame(k, grey=grey, reduce=red))
+    bar.close()
+    outcomes = [results.get(k) for k in range(max(results) + 1)]
+    found = [counts.get(k, 0) for k in range(len(outcomes))]
     T = len(outcomes)
     src.check_count(facts.get("n_frames"), calibration or "", allow=p["on_missing"] != "raise")
     if T == 0:
@@ -428,7 +606,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     if camera is None or camera.origin is None or camera.angle is None:
         origin = np.median(rect[valid, 0, :2], axis=0)
         camera, calibration = _complete_camera(
-            camera, lens, p, rect[ref], origin, calibration, f"recording {name!r}", ref
+            camera, lens, p, rect[ref], origin, calibration, f"recording {name!r}", ref, rect[valid, 0, 2]
         )
     poses = camera.from_rectified(rect)
     # the base is clamped: pick the 2pi branch that puts its first valid angle nearest 0
@@ -463,6 +641,9 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "base_marker": base_source,
         "frames_listed": {"container": src.n_listed, "camera JSON": facts.get("n_frames")},
         "frame_rate": {"fps": 1.0 / dt, "source": rate_source},
+        "base_evidence": evidence,
+        "reference_frame": ref,
+        "reference_reason": ref_reason,
         "calibration": calibration,
         "camera": camera.to_dict(),
     }
@@ -609,7 +790,8 @@ class MarkerStream:
         self.n_frames += 1
         self.last_predicted = []
         if out is None:
-            msg = f"stream, frame {k}: found {n_found} marker-shaped components, expected {self.n_markers + 1}: {err}"
+            what = f"found {n_found} marker-shaped components" + (" (a blank frame?)" if n_found == 0 else "")
+            msg = f"stream, frame {k}: {what}, expected {self.n_markers + 1}: {err}"
             if self.on_missing != "predict":
                 self._history = []
                 raise ValueError(msg)
@@ -629,6 +811,8 @@ class MarkerStream:
         hist, self._history = self._history, []  # a raise below leaves no history
         if len(hist) < 2:
             raise ValueError(f"{msg}; no markers predicted: the two frames before were not both extracted")
+        if len(self.tracker.candidates) == 0:
+            raise ValueError(f"{msg}; no markers predicted: nothing in view to anchor a prediction")
         if self._run >= self.max_run:
             raise ValueError(f"{msg}; no markers predicted: already {self._run} frames in a row predicted")
         # constant velocity in pixels: at camera rate a marker moves a fraction of the spacing per frame

@@ -134,13 +134,26 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         :class:`~pcs_sindy.fusion.kinematic_fusion.KinematicFusion`.
     base_position : (u, v), optional
         Pixel position of the base marker; default: the camera's origin, or
-        the marker that stays put over the recording.
+        the end of the chain that moves least over the recording (a clamped
+        base moves by detection noise only; the evidence is in
+        :attr:`base_evidence_`).
     rest_direction : float, optional
         Image angle (radians, ``atan2(dv, du)``) of the robot's rest direction
         (+y of the base frame) when no camera is used; default: from the base
         marker to the next one in the reference frame.
-    reference_frame : int
-        Frame used for the typical marker, N, and the calibration.
+    reference_frame : "auto" or int
+        Frame used for the typical marker, N, the base and the calibration;
+        extraction runs on from it and then back from it to frame 0, so a
+        robot that starts curled (into a ring, or with its tip next to its
+        own body) is followed into the curl from a frame where its chain is
+        plain.  ``"auto"`` (default): of up to a dozen frames sampled across the
+        recording (frame 0 included), the straightest of those showing the
+        longest chain of markers (the earliest among equals: frame 0 when the
+        robot starts straight); the choice and why are in
+        ``diagnostics_["reference_reason"]``.  With ``robot_length`` and no
+        camera, the scale comes from this frame (straight and unstretched
+        at best); when it is not straight the rest direction comes from the
+        clamped base marker's axis.
     fps, dt : float, optional
         Frame rate or period overriding the video's (required for arrays and
         image folders without a camera JSON holding ``fps``).
@@ -180,7 +193,13 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         detected), ``frames_tracked``, ``fallback_frames`` (frames done by
         another candidate thresholder), ``ignored_components`` (marker-shaped
         components off the chain per frame: clutter), ``max_theta_step``,
-        ``base_marker``, ``calibration`` and the camera used.
+        ``base_marker`` and ``base_evidence`` (how the base was told from
+        the tip), ``reference_frame`` and ``reference_reason``,
+        ``calibration`` and the camera used.
+    base_evidence_ : list of str
+        After :meth:`transform`, per recording: what decided which end of the
+        chain is the base (given, the camera's origin, or the motion of both
+        ends over frames sampled across the recording).
 
     Notes
     -----
@@ -222,7 +241,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         robot_length: float | None = None,
         base_position: tuple[float, float] | None = None,
         rest_direction: float | None = None,
-        reference_frame: int = 0,
+        reference_frame: int | str = "auto",
         fps: float | None = None,
         dt: float | None = None,
         refine: bool = True,
@@ -284,7 +303,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         "robot_length": [None, _POSITIVE],
         "base_position": [None, Check(_pixel, "(u, v) pixels: two finite numbers")],
         "rest_direction": [None, Interval(Real, None, None, closed="neither")],
-        "reference_frame": [Interval(Integral, 0, None, closed="left")],
+        "reference_frame": [Options(("auto",)), Interval(Integral, 0, None, closed="left")],
         "fps": [None, _POSITIVE],
         "dt": [None, _POSITIVE],
         "refine": "no_validation",
@@ -368,6 +387,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         else:
             results = Parallel(n_jobs=self.n_jobs)(jobs)
         self.diagnostics_ = [diag for _, diag in results]
+        self.base_evidence_ = [diag["base_evidence"] for _, diag in results]
         return [traj for traj, _ in results]
 
     def stream(self, reference: Any, *, max_predicted: int = 2, max_run: int = 3) -> MarkerStream:

@@ -100,7 +100,8 @@ def measure_components(
         x0, y0 = max(bx - 2, 0), max(by - 2, 0)
         x1, y1 = min(bx + bw + 2, W), min(by + bh + 2, H)
         mask = np.zeros((y1 - y0, x1 - x0), np.uint8)
-        cv2.drawContours(mask, comps.contours, int(i), 1, thickness=cv2.FILLED, offset=(-x0, -y0))
+        # one contour passed alone: OpenCV converts every contour of the list it is given on each call
+        cv2.drawContours(mask, (comps.contours[i],), 0, 1, thickness=cv2.FILLED, offset=(-x0, -y0))
         wgt = seg.coverage(work, y0, y1, x0, x1) * cv2.dilate(mask, _KERNEL)
         m = cv2.moments(wgt)
         m00 = m["m00"]

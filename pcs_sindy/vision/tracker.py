@@ -37,6 +37,8 @@ from .thresholding import Thresholder
 __all__ = ["FrameProblem", "FrameResult", "FrameTracker", "Detector"]
 
 _OPEN = np.ones((3, 3), np.uint8)
+_LINK_RATIO = 1.6  # most a link between neighbouring markers may exceed both links beside it
+_FILLED_RATIO = 1.8  # ... and, in a frame with a filled marker, the reference frame's spacing
 
 
 class FrameProblem(ValueError):
@@ -174,11 +176,16 @@ def _order_frame(
         raise FrameProblem("no markers found")
     d = np.linalg.norm(cands[:, :2] - st["base_px"], axis=1)
     b = int(np.argmin(d))
+    scale = st.get("px_scale", 1)  # frames decoded at 1/scale of the footage's resolution: report full-size pixels
     if d[b] > 0.5 * st["spacing"]:
+        base_full = (st["base_px"] * scale + 0.5 * (scale - 1)).round(1).tolist()
         raise FrameProblem(
-            f"no marker within {0.5 * st['spacing']:.1f} px of the base position {st['base_px'].round(1).tolist()}"
+            f"the chain breaks at the base: no marker within {0.5 * st['spacing'] * scale:.1f} px of the base "
+            f"position {base_full} (nearest {d[b] * scale:.1f} px away)"
         )
-    seq, err = chain_from_base(cands[:, :2], cands[:, AXIS], b, st["spacing"], st["first_dir"], st["n"], st["fill"])
+    seq, err = chain_from_base(
+        cands[:, :2], cands[:, AXIS], b, st["spacing"], st["first_dir"], st["n"], st["fill"], px_scale=scale
+    )
     if err is not None:
         raise FrameProblem(err)
     return _finish(cands, np.array([-1 if i is None else i for i in seq]), st, phi0, raw) + (False,)
@@ -302,6 +309,23 @@ def _finish(
     rescued: list[int] = []
     if missing.any() and raw is not None:
         pix, missing, rescued = _rescue(raw, pix, missing, ref, st["spacing"])
+    links = np.linalg.norm(np.diff(pix[:, :2], axis=0), axis=1)
+    # markers are evenly spaced in arc length: one link much longer than the links on both sides of it skips a
+    # marker (a chain tracked off by one); the spacing may change at a segment boundary, but for good
+    nb = np.maximum(np.concatenate([links[1:2], links[:-1]]), np.concatenate([links[1:], links[-2:-1]]))
+    # (a marker the tracking skipped near the tip also leaves the filled tip one link further: both links are
+    # then about twice the recording's spacing; only checked with a marker filled, since segments may stretch)
+    if missing.any():
+        nb = np.minimum(nb, _FILLED_RATIO / _LINK_RATIO * st["spacing"])
+    jump = np.flatnonzero(links > _LINK_RATIO * nb) if links.size >= 3 else np.zeros(0, int)
+    if jump.size:
+        i = int(jump[0])
+        scale = st.get("px_scale", 1)
+        raise FrameProblem(
+            f"the marker spacing jumps between markers {i} and {i + 1} ({links[i] * scale:.1f} px against "
+            f"{nb[i] * scale:.1f} px beside it or in the reference frame): a marker skipped (ordering not "
+            "trustworthy)"
+        )
     if crossings(pix[:, :2]):
         raise FrameProblem("the ordered marker chain crosses itself (ordering not trustworthy)")
     if zigzags(pix[:, 2]) >= 3:
@@ -329,7 +353,9 @@ class FrameTracker:
         The chosen thresholder first, then the fallbacks tried on frames it cannot complete.
     state : dict
         ``n`` (markers incl. the base), ``base_px``, ``spacing``, ``first_dir``
-        (rest direction in the image), ``fill`` (fill isolated missing markers).
+        (rest direction in the image), ``fill`` (fill isolated missing markers),
+        optionally ``px_scale`` (frames decoded at 1/px_scale of the footage's
+        resolution: messages quote full-resolution pixels).
     """
 
     def __init__(self, detectors: list[Detector], state: dict[str, Any]) -> None:
@@ -345,6 +371,15 @@ class FrameTracker:
             self.opened = Detector(first.seg, first.p, opened=True)
             self.opened.typical = first.typical
         self.reset()
+
+    def resume(self, last: NDArray[np.float64], before: NDArray[np.float64] | None = None) -> None:
+        """Track on from the pixel poses ``last`` (N + 1, 3) of a frame extracted before (and ``before``, of
+        the frame before that, for a constant-velocity prediction): used to run backwards in time from the
+        reference frame."""
+        self.prev2 = None if before is None else np.asarray(before)[:, :2]
+        self.prev = np.asarray(last)[:, :2]
+        self.phi0 = float(last[0, 2])
+        self.st["base_pose"] = np.asarray(last[0], dtype=float)
 
     def reset(self) -> None:
         """Forget the previous frames' positions (after a frame that could not be extracted)."""
