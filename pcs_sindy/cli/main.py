@@ -449,7 +449,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--robot-length",
         type=_positive_float,
         help="the robot's measured rest length [m]: stored in the pose files for 'fuse', and without a camera "
-        "JSON the scale is calibrated from it and the straight reference frame",
+        "JSON the scale is calibrated from it and the straightest frame (--reference-frame)",
     )
     p.add_argument("--n-markers", type=_positive_int, help="markers besides the base (default: as found)")
     p.add_argument(
