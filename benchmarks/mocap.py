@@ -316,7 +316,13 @@ def servo_main(seeds, duration, write):
         f"| {seed} | " + " | ".join(f"{r[1]:.2f}" for r in out[0]) + f" | {out[1]:.2f} |\n"
         for seed, out in runs.items()
     )
-    heads = " | ".join(r[0] for r in rows)
+    heads = "; ".join(f"m{i + 1} = {r[0]}" for i, r in enumerate(rows))
+    drive = "".join(
+        f"| {label} | {np.round(m.actuation_.gains_, 1).tolist()} | "
+        f"{np.round(1e3 * m.actuation_.offsets_[4:], 2).tolist()} |\n"
+        for label, (m, *_) in details.items()
+        if isinstance(m.actuation_, TendonActuation)
+    )
     body = (
         f"Simulated servo capture (`MocapScenario.servo(duration={duration:g})`, seed {seed0}): inputs are servo "
         "angles [deg] winding two elastic tendons (150 N/m, 12 mm pulleys, 2 mm slack, steps to 18-90 deg, "
@@ -332,9 +338,12 @@ def servo_main(seeds, duration, write):
         "| model | min stiffness | rate after 20 s [1/(m s)] | finite released | finite rollout |\n"
         "|---|---|---|---|---|\n"
         f"{sanity}\n"
+        "Tendon stiffness k (given or identified) and identified slacks s (true: 150 N/m, 2 mm):\n\n"
+        "| model | k [N/m] | s [mm] |\n|---|---|---|\n"
+        f"{drive}\n"
         f"Identified parameters of `{main_label}` with standard errors:\n\n"
         f"```\n{model.identifiability_report()}\n```\n\n"
-        f"Per seed, tip RMSE [mm] (columns: {heads}) and main PCS / best baseline:\n\n"
+        f"Per seed, tip RMSE [mm] ({heads}) and m1 / best baseline:\n\n"
         "| seed | " + " | ".join(f"m{i + 1}" for i in range(len(rows))) + " | ratio |\n"
         "|---|" + "---|" * len(rows) + "---|\n" + others
     ).replace("{seed0}", str(seed0))
