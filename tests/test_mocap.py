@@ -274,3 +274,58 @@ def test_positions_only_fusion_saves_and_loads(tmp_path):
     (a,), (b,) = fusion.transform(tr), loaded.transform(tr)
     np.testing.assert_array_equal(a.q, b.q)
     np.testing.assert_array_equal(fusion.base_pose_, loaded.base_pose_)
+
+
+def _servo_stretch(q, u, scenario):
+    """Closed-form tendon stretch of the servo scenario: r u pi/180 + l(q) - l(0) - s, both tendons to the tip."""
+    act = scenario.actuation
+    d = np.array([scenario.tendon_offset, -scenario.tendon_offset])
+    c = np.asarray(scenario.segment_lengths)
+    kappa, shear, axial = q[:, 0::3], q[:, 1::3], q[:, 2::3]
+    length = np.stack(
+        [np.sum(c * np.sqrt(shear**2 + (1 + axial + dk * kappa) ** 2), axis=1) for dk in d], axis=1
+    )  # each segment's tendon path is an offset curve of constant tangent length
+    return np.asarray(act.pulley_radius) * np.deg2rad(u) + length - np.sum(c) - np.asarray(act.slack)
+
+
+def test_servo_scenario_tendons_pull_only_when_stretched():
+    scenario = MocapScenario.servo(duration=6.0)
+    assert scenario.actuation.drive == "displacement" and scenario.input_max == 90.0 and scenario.play == 4.0
+    rec = scenario.generate(seed=0)
+    applied = play_operator(rec.u, scenario.play)
+    assert np.all(rec.u >= scenario.pretension) and np.max(rec.u) <= 90.0
+    tension = scenario.robot.tendon_tensions(rec.q, applied)
+    stretch = _servo_stretch(rec.q, applied, scenario)
+    slack = stretch < 0
+    assert 0.05 < slack.mean() < 0.95  # the tendons go slack and taut
+    np.testing.assert_array_equal(tension[slack], 0.0)
+    np.testing.assert_allclose(tension, 150.0 * np.maximum(stretch, 0.0), atol=1e-9)
+    with pytest.raises(TypeError, match="actuation"):
+        MocapScenario.servo(actuation=None)
+
+
+def test_displacement_drive_identified_on_a_clean_servo_capture():
+    """The simulator's servo drive and the identification's displacement drive are written independently:
+    on the scenario's true strains the identified servo gain r k and the body stiffness match the truth."""
+    from pcs_sindy.core import StrainTrajectory
+    from pcs_sindy.identification import EulerLagrangeRegressor
+    from pcs_sindy.models import TendonActuation
+
+    scenario = MocapScenario.servo(duration=8.0)
+    rec = scenario.generate(seed=0)
+    strains = StrainTrajectory(rec.q, rec.t, segment_lengths=list(scenario.segment_lengths))
+    # tendon stiffness and slack given, the pulley radius identified (variable projection)
+    act = TendonActuation(
+        [0.3, 0.3], [1, -1], offset=[0.012] * 2, drive="displacement", stiffness=[150.0] * 2, slack=[0.002] * 2
+    )
+    model = EulerLagrangeRegressor(actuation=act).fit([strains], [play_operator(rec.u, scenario.play)])
+    r = model.actuation_.offsets_[2:4]
+    np.testing.assert_allclose(r * 150.0, 0.012 * 150.0, rtol=5e-3)  # measured 1e-4
+    ei = scenario.youngs_modulus * np.pi * scenario.radius**4 / 4
+    ea = scenario.youngs_modulus * np.pi * scenario.radius**2
+    np.testing.assert_allclose(model.stiffness_[0::3], ei, rtol=0.04)  # measured 1.3 %
+    np.testing.assert_allclose(model.stiffness_[2::3], ea, rtol=5e-3)  # measured 0.03 %
+    # passive with the servos at 0 deg (the tendons slack): released bent, the model comes to rest
+    t = np.arange(1001) * 0.01
+    sim = model.simulate(rec.q[np.argmax(np.abs(rec.q[:, 0]))], np.zeros(9), t, np.zeros((t.size, 2)))
+    assert np.all(np.isfinite(sim.q)) and np.max(np.abs(sim.q[-50:, 0::3])) < 0.05 * np.max(np.abs(rec.q[:, 0::3]))

@@ -17,8 +17,11 @@ capture system's frame (rotated and offset from the robot's), at a nominal
 
 The inputs are tendon tensions [N] by default (``actuation=None``).  Any
 actuation object :class:`~pcs_sindy.simulation.PCSRobot` accepts can be given
-instead (e.g. a servo-driven elastic tendon twin whose inputs are servo
-angles); the step levels are then drawn in ``[0, input_max]`` of its units.
+instead; the step levels are then drawn in ``[0, input_max]`` of its units.
+:meth:`MocapScenario.servo` is the kind the issue's recordings are: servo
+angles [deg] winding elastic tendons (``Tendons(..., drive="displacement")``)
+that go slack when the body bends towards them or the servo lets go, with
+the play on the servo angles.
 
 :meth:`MocapRecording.to_csv` writes the recording like a motion-capture
 export: a sample index, no time stamps, the inputs, and the marker
@@ -131,9 +134,9 @@ class MocapScenario:
     actuation : object, optional
         An actuation for :class:`PCSRobot` (default: ``Tendons`` at ``±tendon_offset``, inputs tensions).
     input_max : float
-        Largest step level per input (N for tensions).
+        Largest step level per input (N for tensions, deg for servo angles).
     pretension : float
-        Input level of a tendon that is off.
+        Input level of a tendon that is off (N, or deg for servo angles).
     hold : tuple of float
         Range of the step durations [s].
     play : float
@@ -172,6 +175,55 @@ class MocapScenario:
     frozen_fraction: float = 0.03
     jump_rate: float = 5e-4
     input_names: tuple[str, ...] = field(default=())
+
+    @classmethod
+    def servo(
+        cls,
+        *,
+        stiffness: float = 150.0,
+        pulley_radius: float = 0.012,
+        slack: float = 0.002,
+        **kwargs: Any,
+    ) -> MocapScenario:
+        """The servo-driven capture: inputs are servo angles [deg] winding two elastic tendons.
+
+        Each servo winds its tendon (at ``±tendon_offset`` to the tip) on a pulley:
+        ``Tendons(..., drive="displacement")`` with the tension
+        ``stiffness * max(0, pulley_radius * u * pi/180 + l(q) - l(0) - slack)``.
+        Steps go to 18-90 deg (``input_max=90``); a servo that is off rests at
+        ``pretension=5`` deg, where its tendon is still slack on the straight
+        robot (``0.012 m * 5 deg = 1.05 mm < 2 mm``) and it goes taut only when the
+        other tendon bends the robot away from it; the play (hysteresis) is 4 deg.
+
+        Parameters
+        ----------
+        stiffness : float, default 150.0
+            Tendon stiffness [N/m] of both tendons.
+        pulley_radius : float, default 0.012
+            Servo pulley radius [m].
+        slack : float, default 0.002
+            Slack [m] of the straight robot's tendons at 0 deg.
+        **kwargs
+            Other fields of the scenario (``duration``, ``noise``, ``input_max``, ...).
+
+        Returns
+        -------
+        MocapScenario
+        """
+        kwargs = {"input_max": 90.0, "pretension": 5.0, "play": 4.0, **kwargs}
+        if "actuation" in kwargs:
+            raise TypeError("MocapScenario.servo() builds its own actuation; give stiffness/pulley_radius/slack")
+        d = float(kwargs.get("tendon_offset", cls.tendon_offset))
+        total = float(np.sum(kwargs.get("segment_lengths", cls.segment_lengths)))
+        actuation = Tendons(
+            end=[total, total],
+            offset=[d, -d],
+            drive="displacement",
+            stiffness=[stiffness] * 2,
+            pulley_radius=[pulley_radius] * 2,
+            slack=[slack] * 2,
+        )
+        return cls(actuation=actuation, **kwargs)
 
     @property
     def robot(self) -> PCSRobot:
