@@ -26,26 +26,20 @@ _REJECTED_MAX = 200
 
 
 def save_png(fig: Any, path: str | Path) -> Path:
-    """Write a figure as a PNG atomically: a temporary file in the same folder, then a rename.
+    """Write a figure as a PNG atomically (:func:`pcs_sindy.core.atomic.savefig`) and close it.
 
     An interrupted or failed write (disk full) leaves any previous file at ``path`` as it was.
     """
     import matplotlib.pyplot as plt
 
+    from ..core import atomic
+
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
     try:
-        with open(tmp, "xb") as fh:  # created exclusively: never someone else's file
-            fig.savefig(fh, format="png", dpi=110)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
+        return atomic.savefig(fig, path, format="png", dpi=110)
     finally:
         plt.close(fig)
-        if tmp.exists():
-            tmp.unlink()
-    return path
 
 
 def _components(image: Any, params: dict[str, Any], chosen: str | None) -> Any:
