@@ -108,8 +108,9 @@ def choose_position_threshold(
     planar = [tr.plane_positions for tr in trajs]
     scores: dict[tuple[int, ...], float] = {}
     rows, bounds = [], []
+    curvatures: dict[tuple[int, ...], NDArray[np.float64]] = {}
     for h in hs:
-        boundaries, _, bend_scale = _merge(trajs, geometry, float(h), bend_scale)
+        boundaries, _, bend_scale = _merge(trajs, geometry, float(h), bend_scale, curvatures)
         key = tuple(int(b) for b in boundaries)
         if key not in scores:
             group = np.searchsorted(boundaries, np.arange(1, geometry["s"].size))
@@ -136,19 +137,32 @@ def _marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[s
 
 
 def _merge(
-    trajs: Sequence[PoseTrajectory], geometry: dict[str, Any], threshold: float, bend_scale: float | None
+    trajs: Sequence[PoseTrajectory],
+    geometry: dict[str, Any],
+    threshold: float,
+    bend_scale: float | None,
+    curvatures: dict[tuple[int, ...], NDArray[np.float64]] | None = None,
 ) -> tuple[NDArray[np.intp], list[dict[str, Any]], float]:
-    """Algorithm 1 on the bending strains between markers: segment end markers, history, curvature scale."""
+    """Algorithm 1 on the bending strains between markers: segment end markers, history, curvature scale.
+
+    ``curvatures`` (segmentation -> fitted curvatures) is filled and reused across calls, so a sweep over
+    thresholds fits each segmentation's strains once.
+    """
     geo, s = geometry["geo"], geometry["s"]
     N = s.size - 1
     boundaries = np.arange(1, N + 1)
     history: list[dict[str, Any]] = []
     P = [tr.plane_positions for tr in trajs]
     while boundaries.size > 1:
-        lengths = np.diff(s[np.concatenate([[0], boundaries])])
-        kappa = np.concatenate(
-            [fit_position_strains(p, geo["base_pose"], lengths, s[1:])[0][:, 0::3] for p in P], axis=0
-        )
+        key = tuple(int(b) for b in boundaries)
+        kappa = None if curvatures is None else curvatures.get(key)
+        if kappa is None:
+            lengths = np.diff(s[np.concatenate([[0], boundaries])])
+            kappa = np.concatenate(
+                [fit_position_strains(p, geo["base_pose"], lengths, s[1:])[0][:, 0::3] for p in P], axis=0
+            )
+            if curvatures is not None:
+                curvatures[key] = kappa
         if bend_scale is None:
             bend_scale = float(np.percentile(np.abs(kappa), 99.0)) or 1.0
         distances = np.mean(np.abs(np.diff(kappa, axis=1)), axis=0) / bend_scale
