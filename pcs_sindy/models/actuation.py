@@ -219,12 +219,19 @@ class Actuation(BaseEstimator, ABC):
 
     # -- inputs -----------------------------------------------------------------
     def check_inputs(self, u: ArrayLike, name: str = "u", t: NDArray | None = None) -> NDArray[np.float64]:
-        """Validated inputs (T, p): finite, the right width (subclasses add sign rules)."""
+        """Validated inputs (T, p): finite, the right width, one row per time of ``t`` when it is given
+        (subclasses add sign rules)."""
         arr = np.asarray(u, dtype=float)
         if arr.ndim != 2 or arr.shape[1] != self.n_inputs_:
             raise ValueError(
                 f"{name} must have shape (T, {self.n_inputs_}) (one column per actuator input of "
                 f"{type(self).__name__}); got {arr.shape}"
+            )
+        if t is not None and arr.shape[0] != np.size(t):
+            # the compiled loops read row k on [t[k], t[k+1]): a short table would be read past its end
+            raise ValueError(
+                f"{name} must have shape ({np.size(t)}, {self.n_inputs_}) (one row per time in t, one column per "
+                f"actuator input); got shape {arr.shape}: give one row of inputs for each of the {np.size(t)} times"
             )
         if not np.all(np.isfinite(arr)):
             raise ValueError(f"{name} contains NaN or inf (first at sample {np.argwhere(~np.isfinite(arr))[0][0]})")

@@ -171,14 +171,7 @@ class ForwardModel(ABC):
                     ]
 
                 return checked
-            arr = np.asarray(u, dtype=float)
-            if arr.ndim != 2 or arr.shape[0] != t.size:
-                # the compiled loops read row k on [t[k], t[k+1]): a short table would be read past its end
-                raise ValueError(
-                    f"u must have shape ({t.size}, {self.n_inputs}) (one row per time in t, one column per "
-                    f"actuator input); got shape {arr.shape}: give one row of inputs for each of the {t.size} times"
-                )
-            return np.ascontiguousarray(act.check_inputs(arr, "u", t))
+            return np.ascontiguousarray(act.check_inputs(u, "u", t))
         if callable(u):
             fn = u
 
