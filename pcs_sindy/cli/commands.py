@@ -21,6 +21,7 @@ stages.  Each function imports what it uses.
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import time
@@ -50,6 +51,35 @@ __all__ = [
 
 class CLIError(Exception):
     """An error caused by the user's input, reported without a traceback."""
+
+
+def _paths_in(value: Any) -> list[Any]:
+    if isinstance(value, (str, os.PathLike)):
+        return [value]
+    if isinstance(value, (list, tuple)):
+        return [v for v in value if isinstance(v, (str, os.PathLike))]
+    return []
+
+
+def reads_inputs(func: Callable) -> Callable:
+    """Run ``func`` so that no output replaces a file it reads (:func:`pcs_sindy.core.atomic.protecting`).
+
+    Every path-like argument except ``out`` counts as an input; writing over one raises
+    :class:`~pcs_sindy.core.atomic.InputOverwriteError` before anything is replaced.
+    """
+
+    @functools.wraps(func)
+    def guarded(*args: Any, **kwargs: Any) -> Any:
+        import inspect
+
+        from ..core.atomic import protecting
+
+        bound = inspect.signature(func).bind(*args, **kwargs)
+        read = [p for name, value in bound.arguments.items() if name != "out" for p in _paths_in(value)]
+        with protecting(read):
+            return func(*args, **kwargs)
+
+    return guarded
 
 
 def say(quiet: bool, text: str) -> None:
@@ -226,6 +256,7 @@ def _unique_stems(names: Sequence[str | Path], what: str) -> None:
         raise CLIError(f"{what} share a name (stem); their outputs would overwrite each other")
 
 
+@reads_inputs
 def render(
     inputs: Sequence[str | Path],
     out: str | Path,
@@ -276,6 +307,7 @@ def render(
     return [Path(v) for v, _ in results]
 
 
+@reads_inputs
 def calibrate(
     views: Sequence[str | Path],
     out: str | Path,
@@ -354,6 +386,7 @@ def _extract_one(extractor: Any, video: str, progress: bool) -> tuple[Any, dict[
     return traj, extractor.diagnostics_[0], [str(w.message) for w in caught]
 
 
+@reads_inputs
 def extract(
     videos: Sequence[str | Path],
     out: str | Path,
@@ -482,6 +515,7 @@ def _warn(message: str) -> None:
     warnings.warn(message, UserWarning, stacklevel=3)
 
 
+@reads_inputs
 def fuse(
     poses: Sequence[str | Path],
     out: str | Path,
@@ -704,6 +738,7 @@ def build_regressor(
     return reg
 
 
+@reads_inputs
 def fit(
     strains: Sequence[str | Path],
     tau: Sequence[str | Path] | None,
@@ -806,6 +841,7 @@ class RolloutResult:
     metrics: dict[str, Any] = field(default_factory=dict)
 
 
+@reads_inputs
 def rollout(
     model: Any,
     tau: str | Path,

@@ -24,6 +24,10 @@ results, plots, the derivation cache):
   Files of a set must live in one folder.  Nothing a user wrote is ever deleted: only our
   own temporaries and journals are removed.
 
+Inputs are never outputs: inside :func:`protecting` (every command of the command line runs in
+one, naming the files it reads) any writer here refuses, with :class:`InputOverwriteError`, a
+target that is one of those files, before anything is written.
+
 Guarantee measured by ``tests/test_atomic.py``: a child process killed (``os._exit``) after
 every possible number of renames of a three-file set leaves, as read after :func:`recover`,
 exactly the old set or exactly the new set; a write under ``RLIMIT_FSIZE`` leaves the old file
@@ -33,6 +37,7 @@ bit for bit and raises an ``OSError`` naming the file.
 from __future__ import annotations
 
 import contextlib
+import contextvars
 import json
 import os
 import secrets
@@ -40,10 +45,65 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import IO, Any
 
-__all__ = ["FileSet", "write_bytes", "write_text", "savez", "savefig", "recover", "probe_writable"]
+__all__ = [
+    "FileSet",
+    "InputOverwriteError",
+    "protecting",
+    "write_bytes",
+    "write_text",
+    "savez",
+    "savefig",
+    "recover",
+    "probe_writable",
+]
 
 _JOURNAL_PREFIX = ".pcs_sindy-commit."
 _JOURNAL_SUFFIX = ".json"
+
+# The files the running command reads, as resolved paths: a context variable so that threads and
+# nested commands each see their own.
+_PROTECTED: contextvars.ContextVar[frozenset[str]] = contextvars.ContextVar("pcs_sindy_protected", default=frozenset())
+
+
+class InputOverwriteError(ValueError):
+    """An output would replace a file that the same command reads."""
+
+
+def _identity(path: str | os.PathLike) -> str:
+    # realpath: a link or "a/../b" naming an input is the input
+    return os.path.normcase(os.path.realpath(os.fspath(path)))
+
+
+@contextlib.contextmanager
+def protecting(paths: Any) -> Iterator[frozenset[str]]:
+    """No writer of this module may replace any of ``paths`` while the block runs.
+
+    Parameters
+    ----------
+    paths : iterable of path
+        The files being read (None entries are ignored).  Paths that do not name an existing
+        regular file are ignored too: only what exists can be destroyed.
+
+    Yields
+    ------
+    frozenset of str
+        Every protected path (resolved), including those of enclosing blocks.
+    """
+    added = {_identity(p) for p in paths if p is not None and os.path.isfile(p)}
+    token = _PROTECTED.set(_PROTECTED.get() | added)
+    try:
+        yield _PROTECTED.get()
+    finally:
+        _PROTECTED.reset(token)
+
+
+def _refuse_inputs(target: Path) -> None:
+    protected = _PROTECTED.get()
+    if protected and _identity(target) in protected:
+        raise InputOverwriteError(
+            f"refusing to write {str(target)!r}: it is one of the files this command reads, and writing it "
+            "would destroy it; choose another output (--out)"
+        )
 
 
 def _named_error(err: OSError, path: Path, action: str = "write") -> OSError:
@@ -157,6 +217,7 @@ class FileSet:
         if self._done:
             raise RuntimeError("this FileSet was already committed or aborted")
         target = Path(path)
+        _refuse_inputs(target)
         folder = target.parent
         if self.folder is None:
             self.folder = folder
