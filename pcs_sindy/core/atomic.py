@@ -298,6 +298,10 @@ class FileSet:
         if not pending:
             return []
         folder = self.folder if self.folder is not None else Path(".")
+        with _folder_lock(folder):  # another process's commit or recovery in this folder waits
+            return self._commit(pending, folder)
+
+    def _commit(self, pending: list[tuple[Path, Path]], folder: Path) -> list[Path]:
         if len(pending) == 1:
             _rename(*pending[0])
             _fsync_dir(folder)
@@ -332,6 +336,35 @@ class FileSet:
             self.abort()
 
 
+@contextlib.contextmanager
+def _folder_lock(folder: Path) -> Iterator[None]:
+    """Serialise the commits and recoveries of every process in ``folder``.
+
+    Two processes committing sets of the same files would otherwise interleave their renames
+    and leave one's JSON beside the other's ``.npz``.  The lock is an advisory ``flock`` on the
+    folder itself (no lock file is left behind); where there is none (not POSIX, or a folder
+    that cannot be opened) the commit runs unlocked, as before.
+    """
+    try:
+        import fcntl
+    except ImportError:  # pragma: no cover - not POSIX
+        fcntl = None
+    fd = None
+    if fcntl is not None:
+        try:
+            fd = os.open(folder, os.O_RDONLY)
+            fcntl.flock(fd, fcntl.LOCK_EX)
+        except OSError:
+            if fd is not None:
+                os.close(fd)
+            fd = None
+    try:
+        yield
+    finally:
+        if fd is not None:
+            os.close(fd)  # releases the lock
+
+
 def _rename(tmp: Path, target: Path) -> None:
     try:
         os.replace(tmp, target)
@@ -355,6 +388,16 @@ def recover(folder: str | os.PathLike) -> list[Path]:
         The files renamed into place.
     """
     folder = Path(folder)
+    try:
+        if not any(p.name.startswith(_JOURNAL_PREFIX) for p in folder.iterdir()):
+            return []
+    except OSError:
+        return []
+    with _folder_lock(folder):  # never roll forward a set whose own commit is still renaming
+        return _recover(folder)
+
+
+def _recover(folder: Path) -> list[Path]:
     try:
         journals = [
             p for p in folder.iterdir() if p.name.startswith(_JOURNAL_PREFIX) and p.name.endswith(_JOURNAL_SUFFIX)
