@@ -323,3 +323,34 @@ def test_nuisances_scene_and_occlusion() -> None:
         Nuisances(jpeg_quality=0)
     with pytest.raises(ValueError, match="nuisances"):
         render_frames(poses, CAM, nuisances={"noise": 1.0})
+
+
+@pytest.mark.parametrize("suffix", [".avi", ".mp4"])
+def test_interrupted_render_leaves_no_video_under_its_name(tmp_path: Path, monkeypatch, suffix: str) -> None:
+    """Ctrl-C while frames are written: nothing under the final name, the old video kept, no temporaries."""
+    import pcs_sindy.simulation.rendering as rendering
+
+    poses = random_poses(600)  # three chunks of frames
+    cam = Camera(1500.0, (160.0, 40.0), (320, 240))
+    target = tmp_path / f"clip{suffix}"
+    calls = {"n": 0}
+    real = rendering.render_frames
+
+    def interrupted(*args, **kwargs):
+        calls["n"] += 1
+        if calls["n"] == 2:  # after a first chunk reached the writer
+            raise KeyboardInterrupt
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(rendering, "render_frames", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        render_video(poses, target, cam, fps=100.0, marker_size=SIZE)
+    assert calls["n"] == 2
+    assert list(tmp_path.iterdir()) == []  # no truncated video, no hidden temporary
+
+    target.write_bytes(b"an older video")
+    calls["n"] = 0
+    with pytest.raises(KeyboardInterrupt):
+        render_video(poses, target, cam, fps=100.0, marker_size=SIZE)
+    assert target.read_bytes() == b"an older video"
+    assert [p.name for p in tmp_path.iterdir()] == [target.name]

@@ -32,6 +32,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from ..core.atomic import FileSet
 from ..core.camera import Camera, camera_json_path
 from ._drawing import SHIFT, draw_polygon, fixed_point, subdivide
 from .checkerboard import render_checkerboard
@@ -295,17 +296,20 @@ def render_video(
     if suffix:
         width, height = camera.image_size
         fourcc = cv2.VideoWriter_fourcc(*(codec or _VIDEO_CODECS[suffix]))
-        writer = cv2.VideoWriter(str(path), fourcc, float(fps), (width, height), True)
-        if not writer.isOpened():
-            raise OSError(
-                f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec or _VIDEO_CODECS[suffix]})"
-            )
-        try:
-            for _, frames in tqdm(chunks, desc="video", unit="chunk", disable=not progress):
-                for frame in frames:
-                    writer.write(frame if colour else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
-        finally:
-            writer.release()
+        # written under a hidden temporary name and renamed when complete: an interrupted render
+        # (Ctrl-C, a full disk) never leaves a truncated video under the name extraction reads
+        with FileSet() as video, video.path_for(path) as tmp:
+            writer = cv2.VideoWriter(str(tmp), fourcc, float(fps), (width, height), True)
+            if not writer.isOpened():
+                raise OSError(
+                    f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec or _VIDEO_CODECS[suffix]})"
+                )
+            try:
+                for _, frames in tqdm(chunks, desc="video", unit="chunk", disable=not progress):
+                    for frame in frames:
+                        writer.write(frame if colour else cv2.cvtColor(frame, cv2.COLOR_GRAY2BGR))
+            finally:
+                writer.release()
     else:
         for start, frames in tqdm(chunks, desc="frames", unit="chunk", disable=not progress):
             for j, frame in enumerate(frames):
