@@ -32,6 +32,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core import atomic
 from ..core.atomic import FileSet
 from ..core.trajectory import StrainTrajectory
+from .npz_headers import check_npz_headers
 
 __all__ = [
     "FILE_FORMATS",
@@ -123,6 +124,10 @@ def read_arrays(
     if not isinstance(data, np.lib.npyio.NpzFile):
         raise DataFileError(f"{what} {str(path)!r} is a single .npy array, not an .npz file with named arrays")
     with data:
+        try:
+            check_npz_headers(data, f"{what} {str(path)!r}")
+        except ValueError as err:
+            raise DataFileError(str(err)) from None
         missing = [k for k in required if k not in data.files]
         if missing:
             raise DataFileError(f"{what} {str(path)!r} lacks {missing} (found {sorted(data.files)})")

@@ -48,6 +48,7 @@ import numpy as np
 from .._version import __version__
 from ..core.atomic import FileSet, recover
 from ..core.validation import InvalidParameterError, validate_parameters
+from .npz_headers import check_npz_headers
 
 __all__ = [
     "save",
@@ -968,6 +969,7 @@ def _parse_npz(data: bytes, entries: dict, source: str) -> dict[str, np.ndarray]
         unpacked = sum(info.file_size for info in npz.zip.infolist())
         if unpacked > _MAX_ARRAY_BYTES:
             raise ValueError(f"model file {source}: the npz unpacks to {unpacked} bytes (at most {_MAX_ARRAY_BYTES})")
+        check_npz_headers(npz, f"model file {source}", limit=_MAX_ARRAY_BYTES)
         if sorted(npz.files) != sorted(entries):
             raise ValueError(
                 f"model file {source}: the npz holds arrays {sorted(npz.files)[:10]}, "
