@@ -111,7 +111,7 @@ def inspect_video(
     from ..core.camera import Camera
     from ..pipeline.pcs_pipeline import make_pcs_pipeline
     from ..plotting.stills import plot_contact_sheet
-    from ..vision.frame_source import IMAGE_SUFFIXES, FrameSource
+    from ..vision.frame_source import IMAGE_SUFFIXES, FrameSource, check_frame_size, image_size
 
     if isinstance(frames, bool) or not isinstance(frames, (int, np.integer)) or not 1 <= frames <= 48:
         raise ValueError(f"frames must be an integer from 1 to 48 (panels on the sheet); got {frames!r}")
@@ -120,6 +120,9 @@ def inspect_video(
         raise FileNotFoundError(f"video {str(video)!r} does not exist")
     recording: Any = str(path)
     if path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES:
+        size = image_size(path)
+        if size is not None:
+            check_frame_size(*size, f"image {str(path)!r}")
         image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
         if image is None:
             raise OSError(f"cannot read image {str(path)!r}")

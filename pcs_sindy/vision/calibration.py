@@ -25,7 +25,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.camera import Camera, undistort_points
-from .frame_source import IMAGE_SUFFIXES, FrameSource
+from .frame_source import IMAGE_SUFFIXES, FrameSource, check_frame_size, image_size
 
 __all__ = ["calibrate_camera", "find_board", "read_views"]
 
@@ -201,6 +201,9 @@ def read_views(paths: Sequence[str | Path], every: int = 1) -> tuple[list[NDArra
     for raw in paths:
         path = Path(raw)
         if path.is_file() and path.suffix.lower() in IMAGE_SUFFIXES:
+            size = image_size(path)
+            if size is not None:
+                check_frame_size(*size, f"image {str(path)!r}")
             img = cv2.imread(str(path), cv2.IMREAD_GRAYSCALE)
             if img is None:
                 raise OSError(f"cannot read image {str(path)!r}")

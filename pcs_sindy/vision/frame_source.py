@@ -26,9 +26,23 @@ import numpy as np
 import scipy.sparse
 from numpy.typing import NDArray
 
-__all__ = ["FrameSource", "check_recordings", "describe", "read_frames", "group_image_files", "IMAGE_SUFFIXES"]
+__all__ = [
+    "FrameSource",
+    "check_recordings",
+    "describe",
+    "read_frames",
+    "group_image_files",
+    "image_size",
+    "check_frame_size",
+    "IMAGE_SUFFIXES",
+    "MAX_FRAME_PIXELS",
+]
 
 IMAGE_SUFFIXES = (".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff")
+#: Frames larger than this many pixels are refused before they are decoded (a 240 KB PNG can
+#: hold a 10000 x 10000 white image, 100 Mpx and 0.3 GB per decoded copy); 64 Mpx is 8000 x 8000,
+#: more than any camera that films a robot.
+MAX_FRAME_PIXELS = 64_000_000
 _REDUCED = {1: cv2.IMREAD_GRAYSCALE, 2: cv2.IMREAD_REDUCED_GRAYSCALE_2, 4: cv2.IMREAD_REDUCED_GRAYSCALE_4}
 
 
@@ -41,6 +55,49 @@ def describe(recording: Any, index: int) -> str:
     if isinstance(recording, (str, os.PathLike)):
         return str(recording)
     return f"array recording {index}"
+
+
+def _jpeg_size(head: bytes) -> tuple[int, int] | None:
+    k = 2
+    while k + 9 < len(head):
+        if head[k] != 0xFF:
+            return None
+        marker = head[k + 1]
+        if marker == 0xFF:  # fill byte
+            k += 1
+            continue
+        length = int.from_bytes(head[k + 2 : k + 4], "big")
+        if 0xC0 <= marker <= 0xCF and marker not in (0xC4, 0xC8, 0xCC):  # a start of frame
+            return int.from_bytes(head[k + 7 : k + 9], "big"), int.from_bytes(head[k + 5 : k + 7], "big")
+        k += 2 + length
+    return None
+
+
+def image_size(path: str | os.PathLike) -> tuple[int, int] | None:
+    """Width and height from an image file's header, without decoding it (None: not known from the header).
+
+    Reads PNG, JPEG and BMP headers; other formats give None.
+    """
+    with open(path, "rb") as fh:
+        head = fh.read(1 << 16)
+    if head[:8] == b"\x89PNG\r\n\x1a\n" and len(head) >= 24:
+        return int.from_bytes(head[16:20], "big"), int.from_bytes(head[20:24], "big")
+    if head[:2] == b"\xff\xd8":
+        return _jpeg_size(head)
+    if head[:2] == b"BM" and len(head) >= 26:
+        return abs(int.from_bytes(head[18:22], "little", signed=True)), abs(
+            int.from_bytes(head[22:26], "little", signed=True)
+        )
+    return None
+
+
+def check_frame_size(width: int, height: int, what: str) -> None:
+    """Refuse a frame of more than :data:`MAX_FRAME_PIXELS` pixels, naming ``what`` and its size."""
+    if width * height > MAX_FRAME_PIXELS:
+        raise ValueError(
+            f"{what} is {width} x {height} pixels ({width * height / 1e6:.0f} Mpx); frames of at most "
+            f"{MAX_FRAME_PIXELS / 1e6:.0f} Mpx are read: downscale the footage"
+        )
 
 
 def _grey(frame: NDArray[np.uint8], name: str, k: int) -> NDArray[np.uint8]:
@@ -104,6 +161,9 @@ class FrameSource:
             try:
                 if not cap.isOpened():
                     raise OSError(f"recording {name!r}: OpenCV cannot open it as a video")
+                check_frame_size(
+                    int(cap.get(cv2.CAP_PROP_FRAME_WIDTH)), int(cap.get(cv2.CAP_PROP_FRAME_HEIGHT)), f"video {name!r}"
+                )
                 ok, first = cap.read()
                 if not ok or first is None:
                     raise OSError(f"recording {name!r}: OpenCV opened it but could not decode frame 0")
@@ -136,6 +196,9 @@ class FrameSource:
             raise OSError(
                 f"recording {self.name!r}, frame {k}: no image file (the numbered sequence skips it, after {before!r})"
             )
+        size = image_size(self._files[k])
+        if size is not None:
+            check_frame_size(*size, f"recording {self.name!r}, frame {k} ({str(self._files[k])!r})")
         img = cv2.imread(str(self._files[k]), _REDUCED[reduce] if grey else cv2.IMREAD_UNCHANGED)
         if img is None:
             raise OSError(f"recording {self.name!r}, frame {k}: cannot read image {str(self._files[k])!r}")
