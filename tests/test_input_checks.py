@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -116,6 +117,46 @@ def test_force_files_are_paired_by_name_or_refused(tmp_path):
         pair_files(strains, other[:1], "order")
     with pytest.raises(ValueError, match="pairing must be 'name' or 'order'"):
         pair_files(strains, other, "size")
+
+
+def test_numbers_are_never_cut_to_pair_files(tmp_path):
+    """run_10..12 share the prefix "run_1" but are not run_0..2 (issue 27): refused, not paired."""
+    st = _strains()
+    strains = [write_strains(tmp_path / f"run_{k}.npz", st) for k in range(3)]
+    (tmp_path / "f").mkdir()
+    (tmp_path / "g").mkdir()
+    taus = [write_tau(tmp_path / "f" / f"run_{k}.npz", st.t, np.zeros((20, 3))) for k in (10, 11, 12)]
+    with pytest.raises(DataFileError, match="do not match"):
+        pair_files(strains, taus)
+    # whole name parts still pair: strain_a <- tau_a, and suffixes: a_q <- a_tau
+    named = [write_tau(tmp_path / "g" / f"run_{k}_tau.npz", st.t, np.full((20, 3), k)) for k in (2, 0, 1)]
+    assert [Path(b).name for _, b in pair_files(strains, named)] == ["run_0_tau.npz", "run_1_tau.npz", "run_2_tau.npz"]
+
+
+def test_fit_skips_the_segmentation_arrays_a_glob_catches(tmp_path, capsys):
+    """The quickstart's ``fit strains/*.npz`` catches segmentation.npz: skipped with a warning naming it."""
+    from pcs_sindy.fusion import KinematicFusion
+    from pcs_sindy.io.data_files import model_file_arrays, write_model_file
+    from pcs_sindy.simulation import get_scenario
+
+    data = get_scenario("one_segment").generate(seed=0, n_train=2, train_duration=0.05, validation=False)
+    fusion = KinematicFusion(threshold=0.2, total_length=0.1).fit([r.poses for r in data.train])
+    folder = tmp_path / "strains"
+    folder.mkdir()
+    write_model_file(fusion, folder / "segmentation.json")
+    strains, taus = [], []
+    fused = fusion.transform([r.poses for r in data.train])
+    for k, (rec, st) in enumerate(zip(data.train, fused, strict=True)):
+        st = StrainTrajectory(st.q, rec.t, segment_lengths=(0.1,))
+        strains.append(str(write_strains(folder / f"train_{k}.npz", st)))
+        (tmp_path / "taus").mkdir(exist_ok=True)
+        taus.append(str(write_tau(tmp_path / "taus" / f"train_{k}.npz", rec.t, rec.tau)))
+    globbed = sorted(str(p) for p in folder.glob("*.npz"))
+    assert model_file_arrays(globbed) == [folder / "segmentation.npz"]
+    capsys.readouterr()
+    assert main(["fit", *globbed, "--tau", *taus, "--out", str(tmp_path / "m.json"), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "skipping" in err and "segmentation.npz" in err
 
 
 def test_cli_fit_refuses_unmatched_force_files(tmp_path, capsys):

@@ -795,6 +795,15 @@ def fit(
         raise CLIError("--inputs needs --actuation (the layout the inputs act through)")
     layout = files.read_layout(actuation) if isinstance(actuation, (str, Path)) else actuation
     forces = tau if tau is not None else inputs
+    skipped = files.model_file_arrays(strains)
+    if skipped:  # e.g. the quickstart's strains/*.npz catches segmentation.npz
+        if len(skipped) == len(strains):
+            raise CLIError(f"{[str(p) for p in skipped]} are model files' arrays, not strain files")
+        _warn(
+            f"skipping {', '.join(map(str, skipped))}: the array file of a model file (its .json beside it), "
+            "not a strain file"
+        )
+        strains = [s for s in strains if Path(s) not in skipped]
     pairs = files.pair_files(strains, forces, pair_by, "tau" if tau is not None else "input")
     data, taus = files.read_training_files(strains, forces, key="tau" if tau is not None else "u", pairing=pair_by)
     if not quiet and len(pairs) > 1:

@@ -42,6 +42,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "write_tau",
             "write_recording",
             "read_training_files",
+            "model_file_arrays",
             "pair_files",
             "read_model_file",
             "write_model_file",

@@ -298,12 +298,40 @@ def write_recording(path: str | Path, rec: Any, *, into: FileSet | None = None) 
     return Path(path)
 
 
+def _kind(c: str) -> int:
+    return 0 if c.isdigit() else 1 if c.isalpha() else 2
+
+
+def _whole_parts(stems: list[str], n: int, from_end: bool) -> int:
+    """The longest ``k <= n`` such that the first (last) ``k`` characters end on a name-part boundary in every stem.
+
+    Parts are runs of digits, of letters, and of anything else: ``run_10`` is ``run``, ``_``, ``10``.
+    """
+    for k in range(n, 0, -1):
+        ok = True
+        for st in stems:
+            cut = len(st) - k if from_end else k
+            if 0 < cut < len(st) and _kind(st[cut - 1]) == _kind(st[cut]):
+                ok = False
+                break
+        if ok:
+            return k
+    return 0
+
+
 def _keys(stems: list[str]) -> list[str]:
-    """Stems without the prefix and suffix they all share (``strain_a``, ``strain_b`` -> ``a``, ``b``)."""
+    """Stems without the prefix and suffix they all share (``strain_a``, ``strain_b`` -> ``a``, ``b``).
+
+    Only whole name parts are cut (runs of digits, of letters, of other characters): ``run_10``,
+    ``run_11`` keep ``10``, ``11``, so they never pair with ``run_0``, ``run_1``.
+    """
     if len(stems) < 2:
         return list(stems)
     prefix = os.path.commonprefix(stems)
+    prefix = prefix[: _whole_parts(stems, len(prefix), from_end=False)]
     suffix = os.path.commonprefix([st[::-1] for st in stems])[::-1]
+    k = _whole_parts(stems, len(suffix), from_end=True)
+    suffix = suffix[len(suffix) - k :] if k else ""
     cut = [st[len(prefix) :] for st in stems]
     return [c[: len(c) - len(suffix)] if suffix and len(c) >= len(suffix) else c for c in cut]
 
@@ -359,9 +387,11 @@ def pair_files(
             by_key = dict(zip(tkeys, tau_files))
             return [(s, by_key[k]) for s, k in zip(strain_files, skeys)]
     if len(tau_files) != len(strain_files):
+        unmatched = [str(s) for s in strain_files if Path(s).stem not in by_stem]
         raise DataFileError(
             f"got {len(strain_files)} strain file(s) but {len(tau_files)} {what} file(s), and their names (stems) "
-            f"do not match; give one {what} file per strain file, named like it (same stem)"
+            f"do not match (strain files without a {what} file of the same name: {unmatched[:6]}"
+            f"{' ...' if len(unmatched) > 6 else ''}); give one {what} file per strain file, named like it (same stem)"
         )
     raise DataFileError(
         f"the names of the {len(tau_files)} {what} file(s) do not match those of the {len(strain_files)} strain "
@@ -369,6 +399,27 @@ def pair_files(
         f"name each {what} file like its strain file (same stem), or, if that order is right, pair by order "
         "(pairing='order', on the command line --pair-by order)"
     )
+
+
+def model_file_arrays(paths: Sequence[str | Path]) -> list[Path]:
+    """The paths that are the array half (``.npz``) of a model file (a ``.json`` of the same stem beside it).
+
+    ``pcs-sindy fuse`` writes ``segmentation.json`` + ``segmentation.npz`` next to the strain
+    files, so a glob ``strains/*.npz`` catches the segmentation's arrays too.
+    """
+    found = []
+    for p in paths:
+        path = Path(p)
+        sibling = path.with_suffix(".json")
+        if path.suffix == ".npz" and sibling.is_file():
+            try:
+                with open(sibling, "rb") as fh:
+                    head = fh.read(4096)
+            except OSError:
+                continue
+            if b'"format"' in head and b"pcs_sindy.model" in head:
+                found.append(path)
+    return found
 
 
 def read_training_files(
