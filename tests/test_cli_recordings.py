@@ -25,6 +25,7 @@ from pcs_sindy.cli.commands import pipeline_step
 from pcs_sindy.cli.defaults import read_options
 from pcs_sindy.cli.main import build_parser, command_kwargs, main
 from pcs_sindy.core import Camera, PlanarPCS, forward_kinematics
+from pcs_sindy.core.camera import camera_json_path
 from pcs_sindy.simulation.rendering import render_video
 from pcs_sindy.vision import MarkerPoseExtractor
 
@@ -185,6 +186,23 @@ def test_camera_json_fps_is_honoured_and_image_size_may_be_left_out(footage, tmp
     # and from Python: camera=path
     (traj,) = MarkerPoseExtractor(camera=str(path), progress=False).fit_transform([str(footage["folder"])])
     np.testing.assert_allclose(traj.t, np.arange(T) / 500.0)
+
+
+def test_fps_overriding_a_camera_json_is_said(footage, tmp_path, capsys):
+    """--fps 100 with a camera JSON saying 500 fps: the user's rate is used, with a warning naming both."""
+    cam = json.loads((footage["video"].with_name("clip.avi.camera.json")).read_text())
+    cam["fps"] = 500.0
+    path = tmp_path / "cam.json"
+    path.write_text(json.dumps(cam))
+    argv = ["extract", str(footage["folder"]), "--out", str(tmp_path / "p"), "--camera", str(path), "--quiet"]
+    capsys.readouterr()
+    assert main([*argv, "--fps", "100"]) == 0
+    err = capsys.readouterr().err
+    assert "fps=100 overrides" in err and "500 fps" in err
+    t, _ = _poses_file(tmp_path / "p" / "frames.npz")
+    np.testing.assert_allclose(t, np.arange(T) / 100.0)
+    assert main([*argv, "--fps", "500"]) == 0  # the same rate: nothing to say
+    assert "overrides" not in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("fps", [0, -5, 1e-300, float("nan"), float("inf"), "fast", True])
@@ -418,3 +436,40 @@ def test_a_camera_json_with_only_a_scale_and_a_rate_is_enough(footage, tmp_path)
     np.testing.assert_allclose(t, np.arange(T) / FPS)
     assert np.abs(poses[..., :2] - footage["truth"][..., :2]).max() < 0.5 / CAM.pixels_per_metre
     assert np.abs(poses[..., 2] - footage["truth"][..., 2]).max() < np.radians(1.0)
+
+
+# --------------------------------------------------------------------------
+# one scale for a set of videos without camera JSONs
+# --------------------------------------------------------------------------
+def test_videos_without_camera_share_one_scale(tmp_path):
+    """Three videos of one set-up, only the robot length given, each stretched differently in its first frame.
+
+    Alone, each is scaled from its own reference frame (straight, but stretched by -8, 0 or +8 %), so
+    two are 8 % off; together they take one scale from the median chain length of all frames, with a
+    warning, and every video's markers come out at their true distances (truth: the rendered kinematics).
+    """
+    t = np.arange(T) / FPS
+    videos, truths = [], []
+    for k, stretch in enumerate((-0.08, 0.0, 0.08)):
+        q = np.zeros((T, 3))
+        q[:, 0] = 10.0 * np.sin(2 * np.pi * 2.0 * t)
+        q[:, 2] = stretch + 0.01 * np.sin(2 * np.pi * 3.0 * t)
+        truth = forward_kinematics(q, LENGTHS, S)
+        video = render_video(truth, tmp_path / f"v{k}.avi", CAM, fps=FPS, marker_size=SIZE).video
+        camera_json_path(video).unlink()  # no camera JSON: the scale must come from the footage
+        videos.append(str(video))
+        truths.append(truth)
+
+    def tip_error(traj, truth):
+        dist = np.linalg.norm(traj.poses[:, -1, :2] - traj.poses[:, 0, :2], axis=-1)
+        return np.abs(dist / np.linalg.norm(truth[:, -1, :2] - truth[:, 0, :2], axis=-1) - 1).max()
+
+    extractor = MarkerPoseExtractor(robot_length=LENGTHS[0], fps=FPS, progress=False)
+    (alone,) = extractor.transform([videos[2]])
+    assert tip_error(alone, truths[2]) > 0.05  # alone, a stretched reference frame gives a wrong scale
+    with pytest.warns(UserWarning, match=r"own scales .* differ by up to 1[5-9] %.* median chain length"):
+        both = extractor.transform(videos)
+    for traj, truth in zip(both, truths, strict=True):
+        assert tip_error(traj, truth) < 0.015
+    assert "rescaled" in extractor.diagnostics_[2]["calibration"]
+    assert len({traj.metadata["camera"]["pixels_per_metre"] for traj in both}) == 1

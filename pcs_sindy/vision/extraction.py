@@ -241,10 +241,21 @@ def _frame_period(
     playback rate (high-speed cameras save 1000 fps footage as 30 fps video): the JSON wins, with a
     warning when the two differ by more than 1 %.
     """
-    if p["dt"] is not None:
-        return float(p["dt"]), "dt"
-    if p["fps"] is not None:
-        return 1.0 / float(p["fps"]), "fps"
+    given = (
+        ("dt", float(p["dt"])) if p["dt"] is not None else ("fps", float(p["fps"])) if p["fps"] is not None else None
+    )
+    if given is not None:
+        period = given[1] if given[0] == "dt" else 1.0 / given[1]
+        if "fps" in facts and abs(period * facts["fps"] - 1.0) > 0.01:
+            # the user's word wins, but a capture rate written down in the camera JSON is not overridden silently
+            warnings.warn(
+                f"recording {name!r}: {given[0]}={given[1]:g} overrides the {calibration}'s {facts['fps']:g} fps "
+                f"(a frame period of {period:g} s instead of {1.0 / facts['fps']:g} s); leave {given[0]} out to use "
+                "the camera JSON's",
+                UserWarning,
+                stacklevel=3,
+            )
+        return period, given[0]
     if "fps" in facts:
         if src.fps is not None and abs(src.fps - facts["fps"]) > 0.01 * facts["fps"]:
             warnings.warn(
@@ -647,6 +658,13 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "calibration": calibration,
         "camera": camera.to_dict(),
     }
+    if "robot_length=" in calibration:  # the scale came from this recording's own reference frame
+        chain = rect[ref, :, :2]
+        length = float(np.sum(np.linalg.norm(np.diff(chain, axis=0), axis=1)))
+        diag["scale_reference"] = {
+            "pixels_per_metre": float(camera.pixels_per_metre),
+            "straightness": float(np.linalg.norm(chain[-1] - chain[0]) / length) if length > 0 else 0.0,
+        }
     meta = {"source": name, "camera": camera.to_dict(), "diagnostics": diag}
     if p["robot_length"] is not None:
         meta["rest_length"] = float(p["robot_length"])

@@ -19,6 +19,7 @@ Knows nothing of dynamics.
 from __future__ import annotations
 
 import os
+import warnings
 from numbers import Integral, Real
 from typing import Any
 
@@ -77,6 +78,54 @@ def _area_tolerance(value: Any) -> bool:
 def _pixel(value: Any) -> bool:
     bp = np.asarray(value, dtype=float)
     return bp.shape == (2,) and bool(np.all(np.isfinite(bp)))
+
+
+#: Recordings of one set-up calibrated each from its own reference frame whose scales differ by
+#: more than this (relative) get a warning naming every scale.
+SCALE_SPREAD_WARNING = 0.02
+
+
+def share_scale(trajs: list[PoseTrajectory], diags: list[dict[str, Any]]) -> list[PoseTrajectory]:
+    """One scale for a set of recordings that were each scaled from their own reference frame.
+
+    With ``robot_length`` and no camera, every recording's scale is its reference frame's chain
+    length divided by the robot's length: right only when the robot is straight *and unstretched*
+    there.  The videos of one set-up share one camera, so all take one scale: the median chain
+    length over every frame of every recording (the median deformed length, which stretches and
+    compressions of the single reference frames do not move) divided by ``robot_length``.  The
+    positions are rescaled, ``diagnostics_`` say so, and a warning names every recording's own scale
+    when they differed by more than :data:`SCALE_SPREAD_WARNING`.  Recordings with a camera or a given
+    ``pixels_per_metre`` are returned unchanged.
+    """
+    own = [d.get("scale_reference") for d in diags]
+    if len(trajs) < 2 or any(o is None for o in own):
+        return trajs
+    lengths = []  # chain lengths in pixels of every frame (metres times the recording's own scale)
+    for traj, o in zip(trajs, own):
+        xy = np.asarray(traj.poses, dtype=float)[..., :2]
+        lengths.append(o["pixels_per_metre"] * np.linalg.norm(np.diff(xy, axis=1), axis=-1).sum(axis=1))
+    rest = float(trajs[0].metadata["rest_length"])
+    common = float(np.median(np.concatenate(lengths))) / rest
+    ratios = np.array([o["pixels_per_metre"] / common for o in own])
+    if np.ptp(ratios) > SCALE_SPREAD_WARNING:
+        listed = ", ".join(f"{d['recording']}: {o['pixels_per_metre']:.1f} px/m" for d, o in zip(diags, own))
+        warnings.warn(
+            f"the recordings' own scales (each from its reference frame and robot_length) differ by up to "
+            f"{100 * np.ptp(ratios):.0f} %: {listed}; all use {common:.1f} px/m, from the median chain length of "
+            "all their frames. A camera JSON per set-up (pcs-sindy calibrate) or pixels_per_metre avoids the guess",
+            UserWarning,
+            stacklevel=3,
+        )
+    out = []
+    for traj, diag, ratio in zip(trajs, diags, ratios):
+        poses = np.array(traj.poses, dtype=float)
+        poses[..., :2] *= ratio  # metres = pixels / scale, measured from the base marker
+        camera = {**diag["camera"], "pixels_per_metre": common}
+        diag["camera"] = camera
+        diag["calibration"] += f"; rescaled by {ratio:.4f} to the set's scale (median chain length of all recordings)"
+        meta = {**traj.metadata, "camera": camera, "diagnostics": diag}
+        out.append(PoseTrajectory(poses, t=traj.t, metadata=meta))
+    return out
 
 
 class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, auto_wrap_output_keys=None):
@@ -386,9 +435,10 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
             results = [extract_recording(rec, name, params) for rec, name in zip(X, names)]
         else:
             results = Parallel(n_jobs=self.n_jobs)(jobs)
+        trajs = share_scale([traj for traj, _ in results], [diag for _, diag in results])
         self.diagnostics_ = [diag for _, diag in results]
         self.base_evidence_ = [diag["base_evidence"] for _, diag in results]
-        return [traj for traj, _ in results]
+        return trajs
 
     def stream(self, reference: Any, *, max_predicted: int = 2, max_run: int = 3) -> MarkerStream:
         """A streaming extractor for a live camera, set up on its first frame.
