@@ -247,8 +247,11 @@ def test_a_damaged_frame_is_interpolated_in_place(footage, tmp_path, capsys):
     bad = tmp_path / "bad.avi"
     bad.write_bytes(bytes(data))
     (tmp_path / "bad.avi.camera.json").write_text(footage["video"].with_name("clip.avi.camera.json").read_text())
-    line = _fail(capsys, ["extract", str(bad), "--out", str(tmp_path / "p"), "--quiet"])
+    line = _fail(capsys, ["extract", str(bad), "--out", str(tmp_path / "p"), "--quiet", "--on-missing", "raise"])
     assert "frame 12" in line
+    # the default interpolates one damaged frame, and says which
+    assert main(["extract", str(bad), "--out", str(tmp_path / "p"), "--quiet"]) == 0
+    assert "interpolated in time (frames 12;" in capsys.readouterr().err
     ex = MarkerPoseExtractor(on_missing="interpolate", progress=False)
     (traj,) = ex.fit_transform([str(bad)])
     np.testing.assert_allclose(traj.t, np.arange(T) / FPS)  # the frames after keep their time
@@ -268,7 +271,8 @@ def test_a_frame_missing_from_a_numbered_folder_keeps_the_others_in_time(footage
     for f in sorted(footage["folder"].iterdir()):
         if f.name != "frame_0013.png":  # frame 12 lost when copying
             (folder / f.name).write_bytes(f.read_bytes())
-    line = _fail(capsys, ["extract", str(folder), "--out", str(tmp_path / "p"), "--quiet", "--fps", str(FPS)])
+    argv = ["extract", str(folder), "--out", str(tmp_path / "p"), "--quiet", "--fps", str(FPS), "--on-missing", "raise"]
+    line = _fail(capsys, argv)
     assert "frame 12" in line and "frame_0012.png" in line
     ex = MarkerPoseExtractor(camera=CAM, fps=FPS, on_missing="interpolate", progress=False)
     (traj,) = ex.fit_transform([str(folder)])

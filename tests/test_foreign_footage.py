@@ -74,7 +74,7 @@ def test_errors_name_the_frame_and_full_resolution_pixels(tmp_path) -> None:
     cv2.circle(img, (int(u), int(v)), 40, (255, 255, 255), -1)
     cv2.imwrite(str(path), img)
     with pytest.raises(ValueError, match=r"frame 3: .*the base position \[([\d.]+), ([\d.]+)\]") as info:
-        extract(ff.folder, ff)
+        extract(ff.folder, ff, on_missing="raise")
     quoted = np.array([float(x) for x in re.search(r"base position \[([\d.]+), ([\d.]+)\]", str(info.value)).groups()])
     assert np.linalg.norm(quoted - base_px) < 3.0, (quoted, base_px)
     ex, traj = extract(ff.folder, ff, on_missing="interpolate")

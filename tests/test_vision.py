@@ -180,6 +180,27 @@ def test_static_recording_base_is_ambiguous(random_set) -> None:
         extractor(camera=None, base_position=(320.0, 90.0)).transform([frames])
 
 
+def test_auto_interpolates_short_gaps_and_refuses_long_ones(curl_set) -> None:
+    """The default on_missing='auto': up to MAX_AUTO_GAP frames in a row interpolated with a warning, more refused."""
+    from pcs_sindy.vision.extraction import MAX_AUTO_GAP
+
+    truth, frames = curl_set
+    short = frames.copy()
+    short[[4, 10, 11]] = 255  # blank frames: no markers
+    with pytest.warns(UserWarning, match=r"3 frame\(s\) could not be extracted .*frames 4, 10-11"):
+        (traj,) = extractor().transform([short])
+    good = np.setdiff1d(np.arange(len(frames)), [4, 10, 11])
+    check(PoseTrajectory(traj.poses[good], t=traj.t[good]), truth[good])
+    # interpolated frames lie between their neighbours' poses (truth: the neighbours themselves)
+    assert np.all(np.abs(traj.poses[4] - 0.5 * (traj.poses[3] + traj.poses[5])) < 1e-12)
+    long = frames.copy()
+    long[6 : 7 + MAX_AUTO_GAP] = 255
+    with pytest.raises(ValueError, match=rf"frames 6-{6 + MAX_AUTO_GAP}: {MAX_AUTO_GAP + 1} consecutive .*inspect"):
+        extractor().transform([long])
+    (traj,) = extractor(on_missing="interpolate").transform([long])  # asked for: interpolated without limit
+    assert np.isfinite(traj.poses).all()
+
+
 def test_video_png_folder_and_parallel(tmp_path: Path, curl_set) -> None:
     truth, _ = curl_set
     truth = truth[::3]
@@ -214,7 +235,11 @@ def test_missing_merged_extra_markers(curl_set) -> None:
     a, b = pix[9, 12, :2], pix[9, 13, :2]  # merged: a blob joining two markers
     cv2.line(frames[9], tuple(int(round(c)) for c in a), tuple(int(round(c)) for c in b), 0, 6)
     frames[14] = 255  # blank
-    cases = (("found 20", 5, dict(fill_missing=False)), ("found 19", 9, {}), ("no markers", 14, {}))
+    cases = (
+        ("found 20", 5, dict(fill_missing=False, on_missing="raise")),
+        ("found 19", 9, dict(on_missing="raise")),
+        ("no markers", 14, dict(on_missing="raise")),
+    )
     for msg, k, kw in cases:
         with pytest.raises(ValueError, match=rf"recording 'array recording 0', frame {k}: {msg}"):
             bad = frames.copy()
@@ -271,7 +296,9 @@ def test_bad_recordings(tmp_path: Path, random_set) -> None:
         cv2.imwrite(str(broken / f"f{k}.png"), f)
     (broken / "f1.png").write_bytes(b"garbage")
     with pytest.raises(OSError, match="frame 1"):
-        extractor().transform([broken])
+        extractor(on_missing="raise").transform([broken])
+    with pytest.warns(UserWarning, match=r"1 frame\(s\) could not be extracted .*frames 1;.*cannot be decoded"):
+        extractor().transform([broken])  # the default interpolates one damaged frame, and says so
     with pytest.raises(ValueError, match="uint8"):
         extractor().transform([frames.astype(float)])
     with pytest.raises(ValueError, match="shape"):
@@ -380,7 +407,7 @@ def test_bad_footage_named_by_recording_and_frame(tmp_path: Path, random_set) ->
     later = frames[:4].copy()
     later[2] = both[2]
     with pytest.raises(ValueError, match=r"array recording 0', frame 2: .*second chain"):
-        extractor().transform([later])
+        extractor(on_missing="raise").transform([later])
     # a camera JSON made at another resolution, found next to the video
     avi = render_video(truth[:3], tmp_path / "clip.avi", CAM, fps=50.0, marker_size=SIZE).video
     Camera(3000.0, (320.0, 90.0), (800, 600)).to_json(tmp_path / "clip.avi.camera.json", extra={"fps": 50.0})
@@ -393,7 +420,7 @@ def test_uneven_light_and_floor_choose_the_local_threshold() -> None:
     truth = poses_of(smooth_strains(12))
     nz = Nuisances(lighting_gradient=1.2, gradient_angle=0.0, vignetting=0.5, floor=120.0, floor_level=0.55, noise=2.0)
     frames = render_frames(truth, CAM, marker_size=SIZE, nuisances=nz)
-    with pytest.raises(ValueError, match=r"array recording 0', frame \d+"):
+    with pytest.raises(ValueError, match=r"array recording 0', frames? \d+"):
         extractor(threshold="otsu").transform([frames])  # part of the robot merges with the floor
     with pytest.raises(
         ValueError, match=r"frame 0 \(reference frame\): expected a chain of 21 .*otsu: a chain of \d+ .*Try: "

@@ -52,7 +52,7 @@ from .thresholding import (
 )
 from .tracker import Detector, FrameResult, FrameTracker
 
-__all__ = ["extract_recording", "MarkerStream"]
+__all__ = ["extract_recording", "MarkerStream", "MAX_AUTO_GAP"]
 
 _N_BASE_SAMPLES = 16
 _N_REFERENCE_SAMPLES = 12  # frames tried as the reference with reference_frame="auto"
@@ -461,6 +461,41 @@ def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
     return q
 
 
+#: With ``on_missing="auto"``, runs of at most this many consecutive frames that cannot be
+#: extracted are interpolated (with a warning); a longer run is an error.
+MAX_AUTO_GAP = 5
+
+
+def _runs(frames: list[int]) -> list[tuple[int, int]]:
+    """Consecutive runs ``(first, last)`` of sorted frame indices."""
+    runs: list[tuple[int, int]] = []
+    for k in frames:
+        if runs and k == runs[-1][1] + 1:
+            runs[-1] = (runs[-1][0], k)
+        else:
+            runs.append((k, k))
+    return runs
+
+
+def _check_gaps(missing: list[int], problems: dict[int, str], name: str) -> None:
+    """``on_missing="auto"``: a warning naming short gaps, an error naming the first gap that is too long."""
+    runs = _runs(missing)
+    for a, b in runs:
+        if b - a + 1 > MAX_AUTO_GAP:
+            raise ValueError(
+                f"recording {name!r}, frames {a}-{b}: {b - a + 1} consecutive frames cannot be extracted (frame {a}: "
+                f"{problems[a]}); on_missing='auto' interpolates at most {MAX_AUTO_GAP} in a row. Look at them with "
+                "'pcs-sindy inspect', or interpolate anyway with on_missing='interpolate' (--on-missing interpolate)"
+            )
+    shown = ", ".join(str(a) if a == b else f"{a}-{b}" for a, b in runs[:8]) + (" ..." if len(runs) > 8 else "")
+    warnings.warn(
+        f"recording {name!r}: {len(missing)} frame(s) could not be extracted and were interpolated in time "
+        f"(frames {shown}; frame {missing[0]}: {problems[missing[0]]}); on_missing='raise' refuses them",
+        UserWarning,
+        stacklevel=4,
+    )
+
+
 def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[PoseTrajectory, dict[str, Any]]:
     """Pose trajectory and diagnostics of one recording (module level so joblib can pickle it)."""
     src = FrameSource(recording, name)
@@ -599,9 +634,11 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
     outcomes = [results.get(k) for k in range(max(results) + 1)]
     found = [counts.get(k, 0) for k in range(len(outcomes))]
     T = len(outcomes)
-    src.check_count(facts.get("n_frames"), calibration or "", allow=p["on_missing"] != "raise")
+    src.check_count(facts.get("n_frames"), calibration or "", allow=p["on_missing"] == "interpolate")
     if T == 0:
         raise ValueError(f"recording {name!r}: no frames")
+    if p["on_missing"] == "auto" and problems:
+        _check_gaps(sorted(problems), problems, name)
     valid = np.array([o is not None for o in outcomes])
     if not valid.any():
         raise ValueError(f"recording {name!r}: no frame could be extracted")

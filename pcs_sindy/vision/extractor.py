@@ -209,14 +209,20 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
     refine : bool
         Sub-pixel centres and axes from intensity-weighted moments (default);
         ``False`` uses ``minAreaRect`` directly.
-    on_missing : {"raise", "interpolate", "predict"}
+    on_missing : {"auto", "raise", "interpolate", "predict"}
         A frame whose markers cannot be extracted (missing or merged markers
-        that cannot be filled, a chain that cannot be ordered) either raises
-        (naming recording and frame) or is interpolated in time from its
-        valid neighbours (listed in :attr:`diagnostics_`).  ``"predict"`` is
-        for :meth:`stream` only (a live camera has no later frames to
-        interpolate from): a few lost markers are predicted from the last
-        two frames.
+        that cannot be filled, a chain that cannot be ordered, undecodable
+        data) either raises (``"raise"``, naming recording and frame) or is
+        interpolated in time from its valid neighbours (``"interpolate"``,
+        listed in :attr:`diagnostics_`).  ``"auto"`` (default) interpolates
+        gaps of at most :data:`~pcs_sindy.vision.extraction.MAX_AUTO_GAP`
+        consecutive frames with a warning naming them, and raises on a longer
+        gap (naming it, ``on_missing="interpolate"`` and ``pcs-sindy
+        inspect``): a few frames where markers touch do not stop a recording,
+        a robot out of view for a while does.  ``"predict"`` is for
+        :meth:`stream` only (a live camera has no later frames to interpolate
+        from): a few lost markers are predicted from the last two frames;
+        there ``"auto"`` raises like ``"raise"``.
     fill_missing : bool
         An isolated missing (or partly hidden) marker between two detected
         neighbours gets the pose halfway along the constant-strain arc
@@ -294,7 +300,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         fps: float | None = None,
         dt: float | None = None,
         refine: bool = True,
-        on_missing: str = "raise",
+        on_missing: str = "auto",
         fill_missing: bool = True,
         min_area: float = 4.0,
         n_jobs: int | None = None,
@@ -356,7 +362,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         "fps": [None, _POSITIVE],
         "dt": [None, _POSITIVE],
         "refine": "no_validation",
-        "on_missing": [Options(("raise", "interpolate", "predict"))],
+        "on_missing": [Options(("auto", "raise", "interpolate", "predict"))],
         "fill_missing": ["boolean"],
         "min_area": [_POSITIVE],
         "n_jobs": "no_validation",
@@ -425,7 +431,7 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         params = self._extraction_params()
         if params["on_missing"] == "predict":
             raise ValueError(
-                "on_missing='predict' is for stream(); recordings take 'raise' or 'interpolate' (which uses the "
+                "on_missing='predict' is for stream(); recordings take 'auto', 'raise' or 'interpolate' (which uses the "
                 "frames on both sides)"
             )
         X = check_recordings(X)
