@@ -431,8 +431,8 @@ class MarkerPoseExtractor(PersistenceMixin, TransformerMixin, BaseEstimator, aut
         params = self._extraction_params()
         if params["on_missing"] == "predict":
             raise ValueError(
-                "on_missing='predict' is for stream(); recordings take 'auto', 'raise' or 'interpolate' (which uses the "
-                "frames on both sides)"
+                "on_missing='predict' is for stream(); recordings take 'auto', 'raise' or 'interpolate' (which uses "
+                "the frames on both sides)"
             )
         X = check_recordings(X)
         names = [describe(rec, k) for k, rec in enumerate(X)]
