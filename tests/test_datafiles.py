@@ -175,3 +175,23 @@ def test_model_files_are_checked_for_their_class(tmp_path):
         read_model_file(path, EulerLagrangeRegressor)
     with pytest.raises(FileNotFoundError, match="model file"):
         read_model_file(tmp_path / "none.json", EulerLagrangeRegressor)
+
+
+def test_folders_fifos_and_devices_are_named_for_what_they_are(tmp_path):
+    """Not "does not exist" for what exists (issue 27): a folder, a FIFO (whose read would hang), /dev/zero."""
+    import os
+
+    from pcs_sindy.io import read_poses
+
+    (tmp_path / "poses.npz").mkdir()
+    with pytest.raises(DataFileError, match="is a folder, not a file"):
+        read_poses(tmp_path / "poses.npz")
+    fifo = tmp_path / "pipe.npz"
+    os.mkfifo(fifo)
+    with pytest.raises(DataFileError, match="FIFO"):
+        read_poses(fifo)  # returns at once: a read would wait for a writer forever
+    if os.path.exists("/dev/zero"):
+        with pytest.raises(DataFileError, match="a device"):
+            read_poses("/dev/zero")
+    with pytest.raises(FileNotFoundError, match="does not exist"):
+        read_poses(tmp_path / "missing.npz")

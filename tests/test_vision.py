@@ -180,6 +180,19 @@ def test_static_recording_base_is_ambiguous(random_set) -> None:
         extractor(camera=None, base_position=(320.0, 90.0)).transform([frames])
 
 
+def test_all_markers_found_but_not_chained_says_so(curl_set) -> None:
+    """Every marker is there but the chain cannot start at the base: not "found 21, expected 21" (issue 27)."""
+    truth, frames = curl_set
+    frames = frames.copy()
+    pix = CAM.to_pixels(truth)
+    _erase_marker(frames[6], pix[6], 0)  # the base marker moved 150 px aside: same count, no chain from the base
+    w, t = np.asarray(SIZE) * CAM.pixels_per_metre
+    moved = pix[6, 0] + np.array([150.0, 0.0, 0.0])
+    cv2.fillPoly(frames[6], [np.round(marker_corners(moved, w, t)).astype(np.int32)], 0)
+    with pytest.raises(ValueError, match=r"frame 6: found all 21 marker-shaped components \(base \+ 20 markers\), but"):
+        extractor(on_missing="raise").transform([frames])
+
+
 def test_auto_interpolates_short_gaps_and_refuses_long_ones(curl_set) -> None:
     """The default on_missing='auto': up to MAX_AUTO_GAP frames in a row interpolated with a warning, more refused."""
     from pcs_sindy.vision.extraction import MAX_AUTO_GAP

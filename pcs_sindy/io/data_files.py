@@ -89,6 +89,38 @@ def output_dir(path: str | Path) -> Path:
     return out
 
 
+def check_regular_file(path: str | Path, what: str) -> None:
+    """Refuse, naming what it is, a path that is not an existing regular file (a folder, a FIFO, a device).
+
+    Raises
+    ------
+    FileNotFoundError
+        When nothing is there.
+    DataFileError
+        When something else than a regular file is (reading a FIFO would wait forever,
+        ``/dev/zero`` never ends).
+    """
+    import stat
+
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        raise FileNotFoundError(f"{what} {str(path)!r} does not exist") from None
+    except OSError as err:
+        raise DataFileError(f"cannot read {what} {str(path)!r}: {err.strerror or err}") from None
+    if stat.S_ISDIR(mode):
+        raise DataFileError(f"{what} {str(path)!r} is a folder, not a file (give the files in it)")
+    if not stat.S_ISREG(mode):
+        kind = (
+            "a FIFO (named pipe)"
+            if stat.S_ISFIFO(mode)
+            else "a device"
+            if stat.S_ISCHR(mode) or stat.S_ISBLK(mode)
+            else "not a regular file"
+        )
+        raise DataFileError(f"{what} {str(path)!r} is {kind}, not a regular file")
+
+
 def read_arrays(
     path: str | Path, required: Sequence[str], what: str = "data file", optional: Sequence[str] = ()
 ) -> dict[str, NDArray]:
@@ -115,8 +147,7 @@ def read_arrays(
     """
     src = Path(path)
     atomic.recover(src.parent)  # finish a set of files a crash interrupted
-    if not src.is_file():
-        raise FileNotFoundError(f"{what} {str(path)!r} does not exist")
+    check_regular_file(src, what)
     try:
         data = np.load(src, allow_pickle=False)
     except (OSError, EOFError, ValueError, zipfile.BadZipFile) as err:

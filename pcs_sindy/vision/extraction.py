@@ -601,8 +601,11 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         counts[k] = n_found
         bar.update(1)
         if out is None:
-            what = "no markers found" if n_found == 0 else f"found {n_found} marker-shaped components"
-            msg = f"{what}, expected {n} (base + {n - 1} markers): {err}"
+            if n_found == n:  # every marker is there, but they could not be put in order
+                msg = f"found all {n} marker-shaped components (base + {n - 1} markers), but {err}"
+            else:
+                what = "no markers found" if n_found == 0 else f"found {n_found} marker-shaped components"
+                msg = f"{what}, expected {n} (base + {n - 1} markers): {err}"
             if p["on_missing"] == "raise":
                 bar.close()
                 raise ValueError(f"recording {name!r}, frame {k}: {msg}")
