@@ -71,6 +71,9 @@ HOSTILE = {
     "import": _first_line("import os"),
     "loop": _first_line("while 1: pass"),
     "huge power": _first_line("z = 9**9**9"),
+    # powers nested through locals: each ** raises a name, but the name holds a Python integer that
+    # grows 64-fold in digits per line (issue 27: ran for minutes)
+    "nested powers": _first_line("a = 9 * 9\n    b = a**64\n    c = b**64\n    d = c**64\n    e = d**64"),
     "lambda": _first_line("z = (lambda: 0)()"),
     "decorator": lambda s: s.replace("def psi(", "@np.vectorize\ndef psi(", 1),
     "store into an argument": lambda s: s.replace("    return out\n", "    q[:, 0] = 0\n    return out\n", 1),
@@ -92,7 +95,8 @@ def test_hostile_cache_text_is_a_cache_miss(name, cache, reference):
 
 
 @pytest.mark.parametrize(
-    "name", ["attribute store", "default argument", "import", "loop", "huge power", "lambda", "decorator"]
+    "name",
+    ["attribute store", "default argument", "import", "loop", "huge power", "nested powers", "lambda", "decorator"],
 )
 def test_the_check_refuses_forms_the_generator_never_writes(name, reference):
     """The static check alone (no execution) refuses each form and names it."""

@@ -377,15 +377,18 @@ def _number(node: ast.AST, limit: float = _MAX_LITERAL) -> bool:
     )
 
 
-def _has_name(node: ast.AST) -> bool:
-    return any(isinstance(n, ast.Name) for n in ast.walk(node))
-
-
 class _GeneratedForm:
     """The statement and expression forms :func:`_generate_source` writes, and nothing else."""
 
-    def __init__(self, local: set[str]) -> None:
+    def __init__(self, local: set[str], state: set[str]) -> None:
         self.local = local
+        # names that hold the state (the arguments, and locals computed from them, in statement order):
+        # a power must raise one of these, never a constant, which aliasing through locals could make
+        # an integer that grows without bound (c = 9; d = c**64; e = d**64; ...)
+        self.state = set(state)
+
+    def holds_state(self, node: ast.AST) -> bool:
+        return any(isinstance(n, ast.Name) and n.id in self.state for n in ast.walk(node))
 
     # -- expressions ----------------------------------------------------------
     def expr(self, node: ast.AST) -> None:
@@ -401,7 +404,7 @@ class _GeneratedForm:
                 exponent = node.right
                 if isinstance(exponent, ast.UnaryOp) and isinstance(exponent.op, ast.USub):
                     exponent = exponent.operand
-                if not (_number(exponent, _MAX_POWER) and type(exponent.value) is int and _has_name(node.left)):
+                if not (_number(exponent, _MAX_POWER) and type(exponent.value) is int and self.holds_state(node.left)):
                     raise _fail(node, "a power must raise an expression of the state to a small literal integer")
             self.expr(node.left)
             self.expr(node.right)
@@ -506,6 +509,8 @@ class _GeneratedForm:
             else:  # attribute stores (np.cos = np.sin), tuple unpacking, starred
                 raise _fail(stmt, f"assigns to a {type(target).__name__}")
             self.expr(stmt.value)
+            if isinstance(target, ast.Name) and self.holds_state(stmt.value):
+                self.state.add(target.id)
         ret = fn.body[-1].value
         names = ret.elts if isinstance(ret, ast.Tuple) else [ret]
         if [getattr(n, "id", None) for n in names] != list(results):
@@ -543,7 +548,7 @@ def _check_generated_source(source: str) -> None:
             for t in stmt.targets
             if isinstance(t, ast.Name)
         }
-        _GeneratedForm(local - _GLOBALS).function(fn, name)
+        _GeneratedForm(local - _GLOBALS, set(_SIGNATURES[name])).function(fn, name)
 
 
 def _distinct_products(terms: list[LagrangianTerm]) -> list[tuple[tuple[str, int], ...]]:
