@@ -477,3 +477,28 @@ def test_videos_without_camera_share_one_scale(tmp_path):
         assert tip_error(traj, truth) < 0.015
     assert "rescaled" in extractor.diagnostics_[2]["calibration"]
     assert len({traj.metadata["camera"]["pixels_per_metre"] for traj in both}) == 1
+
+
+def test_scenarios_are_listed_with_descriptions(capsys):
+    from pcs_sindy.simulation import describe_scenarios, list_scenarios
+
+    assert main(["scenarios"]) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert [ln.split()[0] for ln in lines] == list_scenarios()
+    for line, (name, text) in zip(lines, describe_scenarios().items(), strict=True):
+        assert line.startswith(name) and line.endswith(text) and len(text) > 10
+
+
+def test_a_closed_pipe_ends_quietly():
+    """``pcs-sindy scenarios | head -1``: no error message when the reader goes away before the output."""
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "pcs_sindy.cli.main", "scenarios"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    proc.stdout.close()  # the reader is gone before the command writes
+    err = proc.stderr.read()
+    proc.wait(timeout=60)
+    proc.stderr.close()
+    assert "rror" not in err and "Traceback" not in err, err

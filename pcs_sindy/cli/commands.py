@@ -107,17 +107,18 @@ def pipeline_step(name: str, **params: Any) -> Any:
 
 
 def scenarios() -> list[str]:
-    """Print and return the names of the built-in scenarios.
+    """Print the built-in scenarios with a description each; return their names.
 
     Returns
     -------
     list of str
     """
-    from ..simulation.catalog import list_scenarios
+    from ..simulation.catalog import describe_scenarios
 
-    names = list(list_scenarios())
-    print("\n".join(names))
-    return names
+    described = describe_scenarios()
+    width = max(map(len, described))
+    print("\n".join(f"{name:<{width}}  {text}" for name, text in described.items()))
+    return list(described)
 
 
 def simulate(

@@ -789,6 +789,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"pcs-sindy {args.command}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:  # the reader went away (pcs-sindy scenarios | head): not an error of the command
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())  # Python's final flush must not raise again
+        return 141
     finally:
         _WRITING.update(path=None, active=False)
 
@@ -808,6 +812,8 @@ def _run(args: argparse.Namespace) -> int:
             if not args.debug:
                 warnings.showwarning = one_line_warning
             args.func(args)
+    except BrokenPipeError:
+        raise  # handled by main()
     except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:
         if args.debug:
             raise

@@ -26,7 +26,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "dynamics": ["PCSRobot", "SimulationError"],
         "pac": ["PACRobot"],
         "scenarios": ["Scenario", "ScenarioData", "Recording"],
-        "catalog": ["get_scenario", "list_scenarios"],
+        "catalog": ["get_scenario", "list_scenarios", "describe_scenarios"],
         "rendering": ["render_video", "render_frames", "RenderedVideo"],
         "foreign": ["render_foreign_footage", "ForeignFootage", "FOREIGN_KINDS"],
         "actuation": ["Tendons", "PressureChambers"],

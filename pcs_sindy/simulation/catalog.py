@@ -129,6 +129,11 @@ def list_scenarios() -> list[str]:
     return list(_DESCRIPTIONS)
 
 
+def describe_scenarios() -> dict[str, str]:
+    """Every name accepted by :func:`get_scenario` with a one-line description of its robot."""
+    return dict(_DESCRIPTIONS)
+
+
 def get_scenario(name: str, **overrides: Any) -> Scenario:
     """Build a named scenario (docs/method.md, "Scenarios and data").
 
