@@ -446,10 +446,13 @@ def extract(
     list of Path
         The pose files.
     """
+    import warnings
+
     from sklearn.base import clone
 
     from ..core.atomic import FileSet
     from ..io import data_files as files
+    from ..vision.extractor import share_scale
     from ..vision.frame_source import group_image_files
 
     if camera is not None and not Path(camera).is_file():
@@ -486,6 +489,13 @@ def extract(
     extractor.fit()  # every option and the camera JSON checked before any work
     folder = files.output_dir(out)
     results = _over_files(_extract_one, [(clone(extractor), str(v)) for v in videos], n_jobs, "extract", quiet)
+    # the videos of one call are one set-up: one scale when each was scaled from its own reference frame
+    with warnings.catch_warnings(record=True) as shared:
+        warnings.simplefilter("always")
+        trajs = share_scale([tr for tr, _, _ in results], [diag for _, diag, _ in results])
+    results = [(tr, diag, caught) for tr, (_, diag, caught) in zip(trajs, results)]
+    for w in shared:
+        _warn(str(w.message))
     paths = []
     with FileSet(folder) as outputs:  # the pose files of one call: all new or all old
         for name, (tr, _, _) in zip(videos, results):
@@ -497,10 +507,18 @@ def extract(
         for message in caught:  # raised in a worker: shown here, once
             _warn(message)
         repaired = len(diag["frames_repaired"])
+        outliers = diag.get("outlier_frames", {})
+        if outliers:
+            shown = "; ".join(f"frame {k}: marker(s) {v}" for k, v in list(outliers.items())[:6])
+            _warn(
+                f"{Path(name).name}: {len(outliers)} frame(s) have a marker far off its own track ({shown}"
+                f"{' ...' if len(outliers) > 6 else ''}): look at them with 'pcs-sindy inspect'"
+            )
         say(
             quiet,
             f"extracted {Path(name).name}: {tr.n_frames} frames, {tr.n_markers} markers"
-            f"{f', {repaired} frames interpolated' if repaired else ''} ({diag['calibration']}) -> {path}",
+            f"{f', {repaired} frames interpolated' if repaired else ''}"
+            f"{f', {len(outliers)} with a marker off its track' if outliers else ''} ({diag['calibration']}) -> {path}",
         )
     if plot:
         from .sheet import inspect_video

@@ -38,7 +38,7 @@ from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from ..core.camera import Camera, camera_extras, camera_json_path, read_camera_json
-from ..core.trajectory import PoseTrajectory
+from ..core.trajectory import PoseTrajectory, clean_marker_tracks
 from .chain import link_chains, track, wrap_half_pi
 from .frame_source import FrameSource
 from .markers import AREA, AXIS, LONG, PIXELS, SHORT
@@ -461,6 +461,25 @@ def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
     return q
 
 
+def _track_outliers(poses: NDArray[np.float64], valid: NDArray[np.bool_]) -> dict[int, list[int]]:
+    """Frames whose markers lie far off their own track: ``{frame: [markers, 1-based]}``.
+
+    A marker detected at the wrong place (a merged blob split wrongly, a reflection) still makes a
+    complete frame; it shows as a sample far from its track's running median while the other markers
+    stay on theirs (:func:`~pcs_sindy.core.trajectory.clean_marker_tracks`, jumps of at least 1 mm
+    and ten noise levels).  Only extracted frames are judged.
+    """
+    xy = np.array(poses[:, 1:, :2], dtype=float)
+    xy[~valid] = np.nan
+    if xy.shape[0] < 9:
+        return {}
+    cleaned, _ = clean_marker_tracks(xy)
+    repeated = np.zeros(xy.shape[:2], dtype=bool)  # a still robot filmed twice: the same place, not a jump
+    repeated[1:] = np.all(np.diff(xy, axis=0) == 0, axis=2)
+    off = np.isnan(cleaned).any(axis=2) & valid[:, None] & ~repeated
+    return {int(k): [int(i) + 1 for i in np.flatnonzero(off[k])] for k in np.flatnonzero(off.any(axis=1))}
+
+
 #: With ``on_missing="auto"``, runs of at most this many consecutive frames that cannot be
 #: extracted are interpolated (with a warning); a longer run is an error.
 MAX_AUTO_GAP = 5
@@ -698,6 +717,7 @@ def extract_recording(recording: Any, name: str, p: dict[str, Any]) -> tuple[Pos
         "calibration": calibration,
         "camera": camera.to_dict(),
     }
+    diag["outlier_frames"] = _track_outliers(poses, valid)
     if "robot_length=" in calibration:  # the scale came from this recording's own reference frame
         chain = rect[ref, :, :2]
         length = float(np.sum(np.linalg.norm(np.diff(chain, axis=0), axis=1)))
