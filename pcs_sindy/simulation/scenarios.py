@@ -37,6 +37,7 @@ import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
+from ..core import atomic
 from ..core.progress import ticking
 from .pac import PACRobot
 
@@ -430,9 +431,7 @@ class Scenario:
                         arrays[f"{key}{k}"] = value
             try:
                 path.parent.mkdir(parents=True, exist_ok=True)
-                tmp = path.with_name(path.name + f".{os.getpid()}.tmp.npz")
-                np.savez(tmp, **arrays)
-                os.replace(tmp, path)
+                atomic.savez(path, **arrays)  # two processes filling the cache leave one complete file
             except OSError:
                 pass  # caching is an optimisation; an unwritable cache is not an error
         return out
