@@ -83,7 +83,15 @@ def reads_inputs(func: Callable) -> Callable:
 
 
 def say(quiet: bool, text: str) -> None:
-    if not quiet:
+    """A message of a command: logged (logger ``pcs_sindy.cli``) when the command line set up logging, else printed."""
+    if quiet:
+        return
+    import logging
+
+    log = logging.getLogger("pcs_sindy.cli")
+    if log.hasHandlers():
+        log.info(text)
+    else:  # called from Python without logging set up: print, as a script expects
         print(text)
 
 
@@ -826,7 +834,7 @@ def fit(
     pairs = files.pair_files(strains, forces, pair_by, "tau" if tau is not None else "input")
     data, taus = files.read_training_files(strains, forces, key="tau" if tau is not None else "u", pairing=pair_by)
     if not quiet and len(pairs) > 1:
-        print("pairing: " + "; ".join(f"{Path(a).name} <- {b}" for a, b in pairs))
+        say(quiet, "pairing: " + "; ".join(f"{Path(a).name} <- {b}" for a, b in pairs))
     model = build_regressor(
         library=library,
         formulation=formulation,
@@ -848,14 +856,15 @@ def fit(
     path = files.write_model_file(model, files.output_dir(target.parent) / target.name)
     if not quiet:
         names = model.kinematics_.strain_names(active_only=False)
-        print(
+        say(
+            quiet,
             f"identified in {seconds:.1f} s from {len(data)} recording(s), "
-            f"{model.n_regression_samples_} samples; removed strains: {model.removed_strains_ or 'none'}"
+            f"{model.n_regression_samples_} samples; removed strains: {model.removed_strains_ or 'none'}",
         )
         model.print()
-        print("stiffness: " + ", ".join(f"{nm} {k:.4g}" for nm, k in zip(names, model.stiffness_)))
-        print("damping:   " + ", ".join(f"{nm} {d:.4g}" for nm, d in zip(names, model.damping_)))
-        print(f"model -> {path}")
+        say(quiet, "stiffness: " + ", ".join(f"{nm} {k:.4g}" for nm, k in zip(names, model.stiffness_)))
+        say(quiet, "damping:   " + ", ".join(f"{nm} {d:.4g}" for nm, d in zip(names, model.damping_)))
+        say(quiet, f"model -> {path}")
     return model
 
 

@@ -151,5 +151,5 @@ def demo(
     path = write_report_md(
         report, clock, seed=seed, quick=quick, identification=identification, integration=integration, machine=machine
     )
-    print(f"demo report: {path} (total {clock['total']} s)")
+    print(f"demo report: {path} (total {clock['total']} s)")  # the result, shown even with -q
     return path

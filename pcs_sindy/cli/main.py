@@ -27,9 +27,11 @@ from __future__ import annotations
 import argparse
 import errno
 import inspect
+import logging
 import math
 import os
 import sys
+import time
 import warnings
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -325,8 +327,17 @@ def command_kwargs(func: Callable, args: argparse.Namespace) -> dict[str, Any]:
     """The parsed options of ``args`` that are parameters of the command ``func``."""
     params = inspect.signature(func).parameters
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in params.values()):  # takes every option
-        return {k: v for k, v in vars(args).items() if k not in ("command", "func", "debug")}
+        return {k: v for k, v in vars(args).items() if k not in ("command", "func", "debug", "verbose")}
     return {k: v for k, v in vars(args).items() if k in params}
+
+
+def _global_options(p: argparse.ArgumentParser, *, defaults: bool) -> None:
+    """``-q``, ``-v`` and ``--debug``, on the main parser (with defaults) and on every command (without:
+    a value given before the command is not reset by the command's parser)."""
+    kw: dict[str, Any] = {} if defaults else {"default": argparse.SUPPRESS}
+    p.add_argument("-q", "--quiet", action="store_true", help="no progress bars or messages (warnings remain)", **kw)
+    p.add_argument("-v", "--verbose", action="store_true", help="also debug messages (options, timings)", **kw)
+    p.add_argument("--debug", action="store_true", help="show tracebacks on errors", **kw)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -345,7 +356,7 @@ def build_parser() -> argparse.ArgumentParser:
         formatter_class=fmt,
     )
     parser.add_argument("--version", action="version", version=f"pcs-sindy {__version__}")
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    _global_options(parser, defaults=True)
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
 
     def add(name: str, help_: str, func: Callable) -> argparse.ArgumentParser:
@@ -361,8 +372,7 @@ def build_parser() -> argparse.ArgumentParser:
                 default=jobs,
                 help=f"parallel jobs over files (-1: all cores; default {jobs if jobs is not None else 'serial'})",
             )
-        if "quiet" in params:
-            p.add_argument("--quiet", action="store_true", help="no progress bars or messages")
+        _global_options(p, defaults=False)  # also after the command: 'pcs-sindy fit ... -q'
         return p
 
     add("scenarios", "list the built-in scenarios", scenarios)
@@ -370,7 +380,9 @@ def build_parser() -> argparse.ArgumentParser:
     scenario = "simulation.scenarios:Scenario"
     p = add("simulate", "simulate a scenario: recordings (.npz with t, q, qd, tau, poses, poses_true)", simulate)
     p.add_argument("scenario", help="scenario name (see 'pcs-sindy scenarios')")
-    p.add_argument("--out", required=True, help="output directory (train_00.npz ..., validation.npz, scenario.json)")
+    p.add_argument(
+        "-o", "--out", required=True, help="output directory (train_00.npz ..., validation.npz, scenario.json)"
+    )
     p.add_argument("--seed", type=int, help=_later(lambda: f"random seed (default {_of(scenario, 'generate.seed')})"))
     p.add_argument("--noise", type=_noise, help="pose noise: 'seed', 'none' (default) or 'SIGMA_P_M,SIGMA_THETA_DEG'")
     p.add_argument(
@@ -394,7 +406,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("render", "render pose files to marker videos, each with a camera JSON (<video>.camera.json)", render)
     p.add_argument("inputs", nargs="+", help="pose files (.npz with 'poses'; recordings qualify)")
-    p.add_argument("--out", required=True, help="output directory (one video per input, same stem)")
+    p.add_argument("-o", "--out", required=True, help="output directory (one video per input, same stem)")
     p.add_argument("--fps", type=_positive_float, help="frame rate (default: from the time stamps)")
     p.add_argument(
         "--format",
@@ -425,6 +437,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--square", type=_positive_float, required=True, help="side of a square in metres")
     p.add_argument("--plane", help="image of the board lying in the robot's plane (default: the last view)")
     p.add_argument(
+        "-o",
         "--out",
         required=True,
         help="camera JSON to write (name it <video>.camera.json to have 'extract' find it; a folder gets camera.json)",
@@ -439,7 +452,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("extract", "extract marker poses from videos: one pose file (.npz with t, poses) per video", extract)
     p.add_argument("videos", nargs="+", help="videos or folders of image frames (a folder is one recording)")
-    p.add_argument("--out", required=True, help="output directory (one pose file per video, same stem)")
+    p.add_argument("-o", "--out", required=True, help="output directory (one pose file per video, same stem)")
     p.add_argument(
         "--camera",
         help="camera JSON for every video, honoured in full (fps, n_frames; image_size may be left out) "
@@ -469,7 +482,7 @@ def build_parser() -> argparse.ArgumentParser:
         inspect_video,
     )
     p.add_argument("video", help="a video, a folder of image frames or one image")
-    p.add_argument("--out", help="PNG to write (default <video stem>.inspect.png beside the video)")
+    p.add_argument("-o", "--out", help="PNG to write (default <video stem>.inspect.png beside the video)")
     p.add_argument(
         "--frames",
         type=_positive_int,
@@ -484,7 +497,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("fuse", "kinematic fusion: segmentation (segmentation.json/.npz) and one strain file per pose file", fuse)
     p.add_argument("poses", nargs="*", help="pose files (.npz with t, poses); or --markers-csv")
-    p.add_argument("--out", required=True, help="output directory")
+    p.add_argument("-o", "--out", required=True, help="output directory")
     p.add_argument(
         "--markers-csv",
         nargs="+",
@@ -659,7 +672,7 @@ def build_parser() -> argparse.ArgumentParser:
         default=_default(rollout, "n_markers"),
         help="markers on the prediction without truth or segmentation (default %(default)s)",
     )
-    p.add_argument("--out", required=True, help="output directory (rollout.npz, metrics.json, rollout.png)")
+    p.add_argument("-o", "--out", required=True, help="output directory (rollout.npz, metrics.json, rollout.png)")
     p.add_argument("--no-plot", dest="plot", action="store_false", help="do not draw rollout.png")
     p.add_argument(
         "--method",
@@ -782,6 +795,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     _quiet_opencv()
     _watch_writes()
     _WRITING.update(path=None, active=True)
+    if not sys.stderr.isatty():
+        # a log file, not a terminal: a bar line every 30 s, not ten a second (tqdm reads this when first
+        # imported, which in a command-line process is after this point)
+        os.environ.setdefault("TQDM_MININTERVAL", "30")
+    handler = _log_to_stdout(args)
     try:
         return _run(args)
     except KeyboardInterrupt:
@@ -795,6 +813,25 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 141
     finally:
         _WRITING.update(path=None, active=False)
+        logging.getLogger("pcs_sindy").removeHandler(handler)
+
+
+def _log_to_stdout(args: argparse.Namespace) -> logging.Handler:
+    """The command's messages go through ``logging`` (logger ``pcs_sindy``) to standard output.
+
+    Level INFO; ``-q``: WARNING (no messages); ``-v``: DEBUG.  Warnings go to standard error as one
+    line each (:func:`_run`).
+    """
+    handler = logging.StreamHandler(sys.stdout)
+    handler.setFormatter(logging.Formatter("%(message)s"))
+    logger = logging.getLogger("pcs_sindy")
+    level = logging.DEBUG if getattr(args, "verbose", False) else logging.INFO
+    if getattr(args, "quiet", False):
+        level = logging.WARNING
+    logger.setLevel(level)
+    logger.addHandler(handler)
+    logger.propagate = False  # the user's root logger configuration (if any) does not print them twice
+    return handler
 
 
 def _run(args: argparse.Namespace) -> int:
@@ -811,7 +848,12 @@ def _run(args: argparse.Namespace) -> int:
         with warnings.catch_warnings():  # restores showwarning on exit
             if not args.debug:
                 warnings.showwarning = one_line_warning
+            log = logging.getLogger("pcs_sindy.cli")
+            options = {k: v for k, v in vars(args).items() if k not in ("func",)}
+            log.debug("pcs-sindy %s: options %s", args.command, options)
+            start = time.perf_counter()
             args.func(args)
+            log.debug("pcs-sindy %s: done in %.2f s", args.command, time.perf_counter() - start)
     except BrokenPipeError:
         raise  # handled by main()
     except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:

@@ -17,6 +17,8 @@ import re
 from pathlib import Path
 from typing import Any
 
+from .commands import say
+
 __all__ = ["inspect_video", "save_png"]
 
 #: marker-shaped components drawn as rejected: at least this fraction of the typical marker's area
@@ -214,6 +216,5 @@ def inspect_video(
         rejected_label="rejected component" if error is None else "component found",
     )
     written = save_png(fig, target)
-    if not quiet:
-        print(f"inspected {path.name} -> {written}" + (f" (extraction failed: {error})" if error else ""))
+    say(quiet, f"inspected {path.name} -> {written}" + (f" (extraction failed: {error})" if error else ""))
     return written
