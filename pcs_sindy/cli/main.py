@@ -570,7 +570,7 @@ def build_parser() -> argparse.ArgumentParser:
         "are identified",
     )
     p.add_argument(
-        "--out", required=True, help="model file (model.json + model.npz); a folder (dir/) gets dir/model.json"
+        "-o", "--out", required=True, help="model file (model.json + model.npz); a folder (dir/) gets dir/model.json"
     )
     p.add_argument(
         "--library",
@@ -692,7 +692,10 @@ def build_parser() -> argparse.ArgumentParser:
 
     p = add("demo", "the whole pipeline on two_segment from rendered videos, with a report folder", demo)
     p.add_argument(
-        "--out", default=_default(demo, "out"), help="output directory (default %(default)s; the report in OUT/report)"
+        "-o",
+        "--out",
+        default=_default(demo, "out"),
+        help="output directory (default %(default)s; the report in OUT/report)",
     )
     p.add_argument("--seed", type=int, default=_default(demo, "seed"), help="random seed (default %(default)s)")
     p.add_argument(
@@ -799,6 +802,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         # a log file, not a terminal: a bar line every 30 s, not ten a second (tqdm reads this when first
         # imported, which in a command-line process is after this point)
         os.environ.setdefault("TQDM_MININTERVAL", "30")
+    logger = logging.getLogger("pcs_sindy")
+    before = (logger.level, logger.propagate)
     handler = _log_to_stdout(args)
     try:
         return _run(args)
@@ -813,7 +818,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 141
     finally:
         _WRITING.update(path=None, active=False)
-        logging.getLogger("pcs_sindy").removeHandler(handler)
+        logger.removeHandler(handler)
+        logger.setLevel(before[0])
+        logger.propagate = before[1]
 
 
 def _log_to_stdout(args: argparse.Namespace) -> logging.Handler:
