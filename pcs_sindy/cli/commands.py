@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from .messages import say
+
 if TYPE_CHECKING:
     import numpy as np
 
@@ -80,19 +82,6 @@ def reads_inputs(func: Callable) -> Callable:
             return func(*args, **kwargs)
 
     return guarded
-
-
-def say(quiet: bool, text: str) -> None:
-    """A message of a command: logged (logger ``pcs_sindy.cli``) when the command line set up logging, else printed."""
-    if quiet:
-        return
-    import logging
-
-    log = logging.getLogger("pcs_sindy.cli")
-    if log.hasHandlers():
-        log.info(text)
-    else:  # called from Python without logging set up: print, as a script expects
-        print(text)
 
 
 def _given(**options: Any) -> dict[str, Any]:

@@ -15,7 +15,8 @@ import sys
 import time
 from pathlib import Path
 
-from .commands import extract, fit, fuse, render, rollout, say, simulate
+from .commands import extract, fit, fuse, render, rollout, simulate
+from .messages import say
 
 __all__ = ["demo"]
 

@@ -17,7 +17,7 @@ import re
 from pathlib import Path
 from typing import Any
 
-from .commands import say
+from .messages import say
 
 __all__ = ["inspect_video", "save_png"]
 
