@@ -640,8 +640,8 @@ def _fuse_marker_csv(
     quiet: bool,
 ) -> tuple[Any, list[Any], list[Any]]:
     """:func:`fuse` of motion-capture CSV files (positions only)."""
-    import numpy as np
 
+    from ..core.atomic import FileSet
     from ..core.trajectory import PoseTrajectory
     from ..io import data_files as files
     from ..io.marker_csv import read_marker_csv
@@ -669,11 +669,15 @@ def _fuse_marker_csv(
     folder = files.output_dir(out)
     fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet)
     strains = fusion.fit(trajs).transform(trajs)
-    for name, st, u in zip(csv_files, strains, inputs):
-        files.write_strains(folder / (Path(name).stem + ".npz"), st)
-        if u is not None:
-            np.savez(files.output_dir(folder / "inputs") / (Path(name).stem + ".npz"), t=st.t, u=u)
-    seg = files.write_model_file(fusion, folder / "segmentation.json")
+    if any(u is not None for u in inputs):  # the logged inputs, for 'fit --inputs': all new or all old
+        in_folder = files.output_dir(folder / "inputs")
+        with FileSet(in_folder) as logged:
+            for name, st, u in zip(csv_files, strains, inputs):
+                files.write_tau(in_folder / (Path(name).stem + ".npz"), st.t, u, into=logged, key="u")
+    with FileSet(folder) as outputs:  # segmentation and strain files: all new or all old
+        for name, st in zip(csv_files, strains):
+            files.write_strains(folder / (Path(name).stem + ".npz"), st, into=outputs)
+        seg = files.write_model_file(fusion, folder / "segmentation.json", into=outputs)
     if input_columns:
         from ..fusion.position_fusion import tendon_sides
 

@@ -263,12 +263,19 @@ def read_layout(path: str | Path) -> dict[str, Any]:
     return layout
 
 
-def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet | None = None) -> Path:
-    """Write a tau file (``t``, ``tau``); returns its path (``into`` as in :func:`write_poses`)."""
+def write_tau(
+    path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet | None = None, key: str = "tau"
+) -> Path:
+    """Write a tau file (``t``, ``tau``); returns its path (``into`` as in :func:`write_poses`).
+
+    ``key="u"`` writes an input file (actuator inputs ``u``, read by ``fit --inputs``) instead.
+    """
+    if key not in ("tau", "u"):
+        raise ValueError(f"key must be 'tau' or 'u'; got {key!r}")
     t, tau = np.asarray(t, dtype=float), np.asarray(tau, dtype=float)
     if tau.ndim != 2 or t.shape != (tau.shape[0],):
-        raise ValueError(f"need t (T,) and tau (T, n); got {t.shape} and {tau.shape}")
-    _savez(path, {"t": t, "tau": tau}, into)
+        raise ValueError(f"need t (T,) and {key} (T, n); got {t.shape} and {tau.shape}")
+    _savez(path, {"t": t, key: tau}, into)
     return Path(path)
 
 
