@@ -48,6 +48,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
         "position_fusion": [
             "fuse_position_segments",
+            "marker_geometry",
             "choose_position_threshold",
             "position_strain_trajectories",
             "positions_in_user_frame",

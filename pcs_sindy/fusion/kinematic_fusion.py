@@ -56,6 +56,7 @@ from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
     choose_position_threshold,
     fuse_position_segments,
+    marker_geometry,
     position_strain_trajectories,
     positions_in_user_frame,
 )
@@ -383,12 +384,15 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
         q_max = check_q_max(self.q_max)
         bend = None if self.scaling == "data" else float(q_max[0])
+        geometry = marker_geometry(trajs, int(self.max_refine_frames))
         if isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
-            h, choice = choose_position_threshold(trajs, bend, int(self.max_refine_frames), rule=rule)
+            h, choice = choose_position_threshold(
+                trajs, bend, int(self.max_refine_frames), rule=rule, geometry=geometry
+            )
         else:
             h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
-        fit = fuse_position_segments(trajs, h, bend, int(self.max_refine_frames))
+        fit = fuse_position_segments(trajs, h, bend, int(self.max_refine_frames), geometry=geometry)
         self.threshold_ = h
         self.threshold_choice_ = choice
         s = fit["arc_lengths"]

@@ -3,9 +3,9 @@
 Recordings made by :meth:`pcs_sindy.core.PoseTrajectory.from_positions`
 carry marker positions in a plane, no orientations and no base.  This module
 
-* fits the markers' rest arc lengths (unless known) with a uniformly bending
-  robot, then the fixed base pose with a curvature per marker spacing
-  (:func:`pcs_sindy.fusion.position_fit.fit_marker_geometry`);
+* fits the markers' rest arc lengths (unless known) and the fixed base pose with a
+  uniformly bending robot (:func:`marker_geometry`), and the base pose again for the
+  fused segmentation (:func:`pcs_sindy.fusion.position_fit.fit_marker_geometry`);
 * runs the seed's Algorithm 1 on the curvatures of one bending-only segment
   per marker spacing (:func:`fuse_position_segments`): adjacent segments
   whose curvature trajectories, scaled by the bending scale of ``q_max``,
@@ -27,12 +27,14 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core.trajectory import PoseTrajectory, StrainTrajectory
 from .merging import merge_runs
+from ..core.kinematics import forward_kinematics
 from .position_fit import fit_marker_geometry, fit_position_strains
 from .threshold_selection import AUTO_THRESHOLDS, SweepRow, choice_from_sweep
 
 __all__ = [
     "fuse_position_segments",
     "choose_position_threshold",
+    "marker_geometry",
     "position_strain_trajectories",
     "positions_in_user_frame",
     "tendon_sides",
@@ -58,6 +60,7 @@ def fuse_position_segments(
     bend_scale: float | None,
     max_frames: int = 300,
     refit_base: bool = True,
+    geometry: dict[str, Any] | None = None,
 ) -> dict[str, Any]:
     """Base pose, marker arc lengths and the fused segmentation of positions-only recordings.
 
@@ -75,6 +78,8 @@ def fuse_position_segments(
     refit_base : bool, default True
         Fit the base pose again for the fused segmentation (constant curvature over each
         fused segment), so that the model's own shape, not the finer initial one, matches the markers.
+    geometry : dict, optional
+        The marker geometry already fitted (:func:`marker_geometry`), e.g. by a threshold sweep.
 
     Returns
     -------
@@ -83,7 +88,8 @@ def fuse_position_segments(
         ``base_pose_std`` (3,), ``rms`` [m], ``boundaries`` (m,) marker index of each segment's
         end, ``segment_lengths`` (m,), ``history`` (per merge iteration).
     """
-    geometry = _marker_geometry(trajs, max_frames)
+    if geometry is None:
+        geometry = marker_geometry(trajs, max_frames)
     boundaries, history, bend_scale = _merge(trajs, geometry, threshold, bend_scale)
     return _fused(trajs, geometry, boundaries, history, bend_scale, max_frames, refit_base)
 
@@ -95,17 +101,20 @@ def choose_position_threshold(
     *,
     rule: str = "relative_drop",
     thresholds: ArrayLike | None = None,
+    geometry: dict[str, Any] | None = None,
 ) -> tuple[float, dict[str, Any]]:
     """The merge threshold of positions-only recordings by a rule over a sweep (``threshold="auto"``).
 
-    The marker geometry is fitted once; Algorithm 1 runs for every threshold, and each
-    distinct segmentation is scored by the RMS marker position error of its own fit (constant
-    curvature per fused segment, base pose refitted), the positions' analogue of ``e_p_dist``.
+    The marker geometry is fitted once (or given: :func:`marker_geometry`); Algorithm 1 runs for
+    every threshold on the geometry's frames, and each distinct segmentation is scored by the RMS
+    marker position error of its own strains (constant curvature per fused segment, the fitted
+    base), the positions' analogue of ``e_p_dist``.
     The rule and the record are those of :func:`~pcs_sindy.fusion.threshold_selection.choose_threshold`.
     """
     hs = AUTO_THRESHOLDS if thresholds is None else np.sort(np.atleast_1d(np.asarray(thresholds, dtype=float)))
-    geometry = _marker_geometry(trajs, max_frames)
-    planar = [tr.plane_positions for tr in trajs]
+    if geometry is None:
+        geometry = marker_geometry(trajs, max_frames)
+    frames = geometry["frames"]
     scores: dict[tuple[int, ...], float] = {}
     rows, bounds = [], []
     curvatures: dict[tuple[int, ...], NDArray[np.float64]] = {}
@@ -113,27 +122,47 @@ def choose_position_threshold(
         boundaries, _, bend_scale = _merge(trajs, geometry, float(h), bend_scale, curvatures)
         key = tuple(int(b) for b in boundaries)
         if key not in scores:
-            group = np.searchsorted(boundaries, np.arange(1, geometry["s"].size))
-            fit = fit_marker_geometry(planar, geometry["s"][1:], max_frames=max_frames, curvatures=group)
-            scores[key] = float(fit["rms"])
+            # the RMS marker error of the segmentation's own strains for the fitted base, on the geometry's frames
+            s = geometry["s"]
+            lengths = np.diff(s[np.concatenate([[0], boundaries])])
+            q, _ = fit_position_strains(frames, geometry["geo"]["base_pose"], lengths, s[1:])
+            pose = forward_kinematics(q, lengths, s[1:], base_pose=geometry["geo"]["base_pose"])
+            scores[key] = float(np.sqrt(np.nanmean(np.sum((pose[..., :2] - frames) ** 2, axis=2))))
         rows.append(SweepRow(float(h), len(key), scores[key], scores[key]))
         bounds.append(np.asarray(key))
     return choice_from_sweep(rows, bounds, rule=rule, error="e_p_dist")
 
 
-def _marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[str, Any]:
-    """Marker arc lengths (given or fitted) and the base pose with a curvature per marker spacing."""
+def marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[str, Any]:
+    """Marker arc lengths (given or fitted) and the base pose of positions-only recordings.
+
+    Both come from a uniformly bending robot (:func:`fit_marker_geometry` with
+    ``curvatures="uniform"``): the curves the markers sweep fix the base's distance and
+    orientation only when the curvature is shared along the body (with a curvature per
+    spacing any pattern of displacements fits a base anywhere near the first marker).
+
+    Returns
+    -------
+    dict
+        ``geo`` (the fit), ``s`` (N + 1,) arc lengths with the base, ``given``, ``arc_std`` (N,),
+        ``frames`` (F, N, 2) the in-plane positions of the frames used (at most ``max_frames``,
+        evenly over all recordings).
+    """
     known = _known_arc_lengths(trajs)
-    given = known is not None
     planar = [tr.plane_positions for tr in trajs]
-    arc_std = np.zeros(planar[0].shape[1])
-    if known is None:  # the arc lengths from a uniformly bending robot (a curvature per spacing leaves them free)
-        first = fit_marker_geometry(planar, None, max_frames=max_frames, curvatures="uniform")
-        known, arc_std = first["arc_lengths"], np.asarray(first["std"])[3:]
-    # the base pose for those arc lengths with a curvature per marker spacing (no uniform-bending bias)
-    geo = fit_marker_geometry(planar, known, max_frames=max_frames, curvatures="per_segment")
+    geo = fit_marker_geometry(planar, known, max_frames=max_frames, curvatures="uniform")
+    arc_std = np.zeros(planar[0].shape[1]) if known is not None else np.asarray(geo["std"])[3:]
     s = np.concatenate([[0.0], geo["arc_lengths"]])
-    return {"geo": geo, "s": s, "given": given, "arc_std": arc_std}
+    return {"geo": geo, "s": s, "given": known is not None, "arc_std": arc_std, "frames": _frames(planar, max_frames)}
+
+
+def _frames(planar: Sequence[NDArray[np.float64]], max_frames: int) -> NDArray[np.float64]:
+    """At most ``max_frames`` frames with a valid marker, evenly over all recordings (as fit_marker_geometry)."""
+    P = np.concatenate(planar, axis=0)
+    P = P[np.any(np.all(np.isfinite(P), axis=2), axis=1)]
+    if P.shape[0] > max_frames:
+        P = P[np.linspace(0, P.shape[0] - 1, int(max_frames)).round().astype(int)]
+    return P
 
 
 def _merge(
@@ -152,15 +181,13 @@ def _merge(
     N = s.size - 1
     boundaries = np.arange(1, N + 1)
     history: list[dict[str, Any]] = []
-    P = [tr.plane_positions for tr in trajs]
+    frames = geometry["frames"]  # Algorithm 1's mean distances, on the evenly spread frames of the geometry fit
     while boundaries.size > 1:
         key = tuple(int(b) for b in boundaries)
         kappa = None if curvatures is None else curvatures.get(key)
         if kappa is None:
             lengths = np.diff(s[np.concatenate([[0], boundaries])])
-            kappa = np.concatenate(
-                [fit_position_strains(p, geo["base_pose"], lengths, s[1:])[0][:, 0::3] for p in P], axis=0
-            )
+            kappa = fit_position_strains(frames, geo["base_pose"], lengths, s[1:])[0][:, 0::3]
             if curvatures is not None:
                 curvatures[key] = kappa
         if bend_scale is None:
@@ -189,7 +216,9 @@ def _fused(
     if refit_base:  # the base pose of the fused model itself: its curvature is constant over each segment
         planar = [tr.plane_positions for tr in trajs]
         group = np.searchsorted(boundaries, np.arange(1, N + 1))
-        geo = fit_marker_geometry(planar, s[1:], max_frames=max_frames, base_pose=None, curvatures=group)
+        geo = fit_marker_geometry(
+            planar, s[1:], max_frames=max_frames, curvatures=group, initial_base_pose=geo["base_pose"]
+        )
         std = np.asarray(geo["std"])
     return {
         "base_pose": np.asarray(geo["base_pose"], dtype=float),
