@@ -60,6 +60,33 @@ def _initial_geometry(P: NDArray[np.float64], arc_lengths: NDArray | None) -> tu
     return np.array([base_xy[0], base_xy[1], theta]), s
 
 
+def marker_positions_jacobian(
+    kappa: ArrayLike,
+    lengths: ArrayLike,
+    s: ArrayLike,
+    base_pose: ArrayLike,
+    offsets: ArrayLike | None = None,
+    *,
+    with_theta: bool = False,
+):
+    """In-plane marker positions (T, N, 2) of a bending-only robot and their Jacobian (T, N, 2, m).
+
+    A marker at arc length ``s_i`` sits ``offsets[i]`` off the backbone along the cross-section's
+    in-plane normal ``(cos theta, sin theta)``.  With ``with_theta`` the backbone poses
+    (T, N, 3) are returned too.
+    """
+    lengths = np.asarray(lengths, dtype=float)
+    pose, jac = forward_kinematics_jacobian(bending_strains(kappa), lengths, s, base_pose=base_pose)
+    jac = jac[..., 0::3]  # (T, N, 3, m)
+    pos, J = pose[..., :2], jac[..., :2, :]
+    if offsets is not None and np.any(np.asarray(offsets) != 0):
+        d = np.asarray(offsets, dtype=float)
+        c, sn = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+        pos = pos + d[:, None] * np.stack([c, sn], axis=-1)
+        J = J + (d[:, None] * np.stack([-sn, c], axis=-1))[..., None] * jac[..., 2:3, :]
+    return (pos, J, pose) if with_theta else (pos, J)
+
+
 def _chord_curvatures(
     P: NDArray[np.float64], base: NDArray[np.float64], lengths: NDArray[np.float64], s: NDArray[np.float64]
 ) -> NDArray[np.float64]:
@@ -113,6 +140,8 @@ def fit_marker_geometry(
     base_pose: ArrayLike | None = None,
     curvatures: str | ArrayLike = "uniform",
     initial_base_pose: ArrayLike | None = None,
+    base_position: ArrayLike | None = None,
+    offsets: str | ArrayLike | None = None,
 ) -> dict[str, NDArray[np.float64] | float]:
     """Fixed base pose and rest arc lengths of position-only markers.
 
@@ -143,14 +172,21 @@ def fit_marker_geometry(
         Where the fit of the base pose starts (default: a straight robot through the markers'
         mean positions); e.g. the base of a uniformly bending fit, since with a curvature per
         spacing the base's orientation is only weakly seen by positions.
+    base_position : array_like, shape (2,), optional
+        A known base position (a marker on the clamp): only the base's orientation is fitted.
+    offsets : "fit" or array_like, shape (N,), optional
+        Each marker's distance [m] from the backbone along its cross-section's in-plane normal
+        (see :func:`fit_position_strains`): given, or ``"fit"`` (one per marker, shared by all
+        frames); default 0.
 
     Returns
     -------
     dict
         ``base_pose`` (3,), ``arc_lengths`` (N,), ``rms`` (position residual
         RMS [m]), ``std`` (standard errors of base pose and arc lengths, (3 + N,); a sandwich
-        estimate over blocks of consecutive frames, as the residuals are correlated model error),
-        ``curvatures`` (F, groups) of the frames used.
+        estimate over blocks of consecutive frames, as the residuals are correlated model error;
+        0 for what was given), ``offsets`` (N,) and ``offsets_std`` (N,), ``curvatures`` (F, groups)
+        of the frames used.
     """
     recs = _check_plane_positions(positions)
     P = np.concatenate(recs, axis=0)
@@ -177,60 +213,83 @@ def fit_marker_geometry(
                 f"curvatures must be {N} non-decreasing indices from 0 in steps of 0 or 1; got {curvatures!r}"
             )
     nk = int(group[-1]) + 1
-    fit_base = base_pose is None
+    if base_position is not None:
+        bp = np.asarray(base_position, dtype=float).reshape(-1)
+        if bp.shape != (2,) or not np.all(np.isfinite(bp)):
+            raise ValueError(f"base_position must be 2 finite in-plane coordinates [m]; got {base_position!r}")
+        b0 = np.array([bp[0], bp[1], b0[2]])
+    fit_xy = base_pose is None and base_position is None
+    fit_th = base_pose is None
     fit_s = arc_lengths is None
-    n_glob = 3 * fit_base + N * fit_s
+    fit_d = isinstance(offsets, str)
+    if fit_d and offsets != "fit":
+        raise ValueError(f"offsets must be 'fit', None or {N} distances [m]; got {offsets!r}")
+    d0 = np.zeros(N) if offsets is None or fit_d else np.asarray(offsets, dtype=float).reshape(-1)
+    if d0.shape != (N,) or not np.all(np.isfinite(d0)):
+        raise ValueError(f"offsets must be 'fit', None or {N} finite distances [m]; got {offsets!r}")
+    # blocks of the global unknowns: base x, y; base angle; log gaps; offsets
+    sizes = [2 * fit_xy, 1 * fit_th, N * fit_s, N * fit_d]
+    cuts = np.cumsum([0] + sizes)
+    n_glob = int(cuts[-1])
     scale = max(float(s0[-1]), 1e-3)
     ends = np.flatnonzero(np.diff(np.append(group, nk)))  # last marker of each curvature group
     mask = np.all(np.isfinite(P), axis=2)  # (F, N)
     W = np.repeat(mask, 2, axis=1).astype(float)
     target = np.where(mask[..., None], P, 0.0)
-    # variable projection: the globals (base, log gaps) are fitted by least squares on the residual left
-    # after every frame's curvatures are solved for them (a batched solve, warm-started)
-    state = {"q": np.zeros((F, 3 * nk))}
+    # variable projection: the globals are fitted by least squares on the residual left after every
+    # frame's curvatures are solved for them (a batched solve, warm-started)
+    state: dict = {"q": None}
 
     def unpack(x):
-        k, b, sv = 0, b0, s0
-        if fit_base:
-            b = x[:3] * np.array([scale, scale, 1.0])
-            k = 3
+        b, sv, d = b0.copy(), s0, d0
+        if fit_xy:
+            b[:2] = x[cuts[0] : cuts[1]] * scale
+        if fit_th:
+            b[2] = x[cuts[1]]
         if fit_s:
-            sv = np.cumsum(np.exp(x[k : k + N])) * scale
-        return b, sv
+            sv = np.cumsum(np.exp(x[cuts[2] : cuts[3]])) * scale
+        if fit_d:
+            d = x[cuts[3] : cuts[4]] * scale
+        return b, sv, d
 
     def solve(x):
         if state.get("x") is not None and np.array_equal(state["x"], x):
             return state["solved"]
-        b, sv = unpack(x)
+        b, sv, d = unpack(x)
         lengths = np.diff(np.concatenate([[0.0], sv[ends]]))
-        q, _ = fit_position_strains(P, b, lengths, sv, q0=state["q"], tol=1e-9 * scale)
+        q, _ = fit_position_strains(P, b, lengths, sv, q0=state["q"], tol=1e-9 * scale, offsets=d)
         state["q"] = q
-        pose, jac = forward_kinematics_jacobian(q, lengths, sv, base_pose=b)
-        state["x"], state["solved"] = np.array(x, copy=True), (b, sv, pose, jac[:, :, :2, 0::3])
+        kappa = q[:, 0::3]
+        pos, Jk, pose = marker_positions_jacobian(kappa, lengths, sv, b, d, with_theta=True)
+        state["x"], state["solved"] = np.array(x, copy=True), (b, sv, d, pos, Jk, pose)
         return state["solved"]
 
     def residuals(x):
-        _, _, pose, _ = solve(x)
-        return ((pose[..., :2] - target) * mask[..., None]).reshape(-1) / scale
+        pos = solve(x)[3]
+        return ((pos - target) * mask[..., None]).reshape(-1) / scale
 
     def jacobian(x):
-        b, sv, pose, Jk = solve(x)
-        p = pose[..., :2]  # (F, N, 2)
+        b, sv, d, p, Jk, pose = solve(x)
+        backbone = pose[..., :2]
+        theta = pose[..., 2]
+        normal = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
         cols = []
-        if fit_base:  # translation, and rotation about the base
-            rel = p - b[:2]
+        if fit_xy:
             cols += [np.broadcast_to([1.0, 0.0], p.shape) * scale, np.broadcast_to([0.0, 1.0], p.shape) * scale]
+        if fit_th:  # rotation of the whole body about the base
+            rel = p - b[:2]
             cols.append(np.stack([-rel[..., 1], rel[..., 0]], axis=-1))
         if fit_s:  # lengthening gap j moves the markers beyond along the tangent at s_j, turning them by kappa
-            theta = pose[..., 2]
             tangent = np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
             kap = state["q"][:, 0::3][:, group]  # (F, N) curvature at each marker's spacing
             gaps = np.diff(np.concatenate([[0.0], sv]))
             for j in range(N):
-                d = p - p[:, j : j + 1]
-                col = tangent[:, j : j + 1] + kap[:, j, None, None] * np.stack([-d[..., 1], d[..., 0]], axis=-1)
-                col = col * (np.arange(N) >= j)[None, :, None] * gaps[j]
-                cols.append(col)
+                rel = p - backbone[:, j : j + 1]
+                col = tangent[:, j : j + 1] + kap[:, j, None, None] * np.stack([-rel[..., 1], rel[..., 0]], axis=-1)
+                cols.append(col * (np.arange(N) >= j)[None, :, None] * gaps[j])
+        if fit_d:
+            for j in range(N):
+                cols.append(normal * (np.arange(N) == j)[None, :, None] * scale)
         Jg = np.stack(cols, axis=-1) * mask[..., None, None]  # (F, N, 2, n_glob)
         Jg = Jg.reshape(F, 2 * N, n_glob) / scale
         Jk = Jk.reshape(F, 2 * N, nk) * W[..., None] / scale
@@ -240,22 +299,26 @@ def fit_marker_geometry(
         Jr = Jg - np.einsum("fia,fag->fig", Jk, np.linalg.solve(A, B))
         return Jr.reshape(2 * F * N, n_glob)
 
-    x0 = []
-    if fit_base:
-        x0 += list(b0 / np.array([scale, scale, 1.0]))
+    x0 = np.zeros(n_glob)
+    if fit_xy:
+        x0[cuts[0] : cuts[1]] = b0[:2] / scale
+    if fit_th:
+        x0[cuts[1]] = b0[2]
     if fit_s:
-        x0 += list(np.log(np.diff(np.concatenate([[0.0], s0])) / scale))
-    x0 = np.asarray(x0, dtype=float)
+        x0[cuts[2] : cuts[3]] = np.log(np.diff(np.concatenate([[0.0], s0])) / scale)
+    if fit_d:
+        x0[cuts[3] : cuts[4]] = d0 / scale
     if n_glob:
         res = least_squares(residuals, x0, jac=jacobian, x_scale="jac", method="trf", max_nfev=100)
-        x, fun = res.x, res.fun
+        x = res.x
     else:
-        x, fun = x0, residuals(x0)
-    b, sv = unpack(x)
+        x = x0
+    fun = residuals(x)
+    b, sv, d = unpack(x)
     n_obs = int(mask.sum()) * 2
     dof = max(n_obs - n_glob - F * nk, 1)
     rms = float(np.sqrt(np.sum(fun**2) / max(n_obs, 1))) * scale
-    std = np.full(n_glob, np.nan)
+    std_glob = np.zeros(n_glob)
     if n_glob:
         J = jacobian(x)
         r = residuals(x)
@@ -269,20 +332,29 @@ def fit_marker_geometry(
         meat = per_block.T @ per_block * n_blocks / max(n_blocks - 1, 1)
         cov = bread @ meat @ bread
         cov = np.maximum(cov, bread * np.sum(r**2) / dof)  # never below the white-noise covariance
-        # back to physical units: base x, y in metres; arc lengths s_i = scale sum_{j<=i} exp(x_j)
+        # back to physical units: base x, y and offsets in metres; arc lengths s_i = scale sum_{j<=i} exp(x_j)
         units = np.eye(n_glob)
-        if fit_base:
-            units[0, 0] = units[1, 1] = scale
+        units[cuts[0] : cuts[1], cuts[0] : cuts[1]] *= scale
+        units[cuts[3] : cuts[4], cuts[3] : cuts[4]] *= scale
         if fit_s:
             gaps = np.diff(np.concatenate([[0.0], sv]))
-            k = 3 * fit_base
-            units[k:, k:] = np.tril(np.ones((N, N))) * gaps[None, :]
-        std = np.sqrt(np.clip(np.diag(units @ cov @ units.T), 0.0, None))
+            units[cuts[2] : cuts[3], cuts[2] : cuts[3]] = np.tril(np.ones((N, N))) * gaps[None, :]
+        std_glob = np.sqrt(np.clip(np.diag(units @ cov @ units.T), 0.0, None))
+    std = np.zeros(3 + N)
+    if fit_xy:
+        std[:2] = std_glob[cuts[0] : cuts[1]]
+    if fit_th:
+        std[2] = std_glob[cuts[1]]
+    if fit_s:
+        std[3:] = std_glob[cuts[2] : cuts[3]]
+    offsets_std = std_glob[cuts[3] : cuts[4]] if fit_d else np.zeros(N)
     return {
         "base_pose": np.asarray(b, dtype=float),
         "arc_lengths": np.asarray(sv, dtype=float),
         "rms": rms,
         "std": std,
+        "offsets": np.asarray(d, dtype=float),
+        "offsets_std": offsets_std,
         "curvatures": state["q"][:, 0::3],
     }
 
@@ -296,6 +368,7 @@ def fit_position_strains(
     q0: ArrayLike | None = None,
     max_iter: int = 30,
     tol: float = 1e-7,
+    offsets: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Bending strains of every frame from in-plane marker positions.
 
@@ -312,6 +385,9 @@ def fit_position_strains(
     max_iter : int, default 30
     tol : float, default 1e-7
         A frame has converged when a step moves none of its markers by more than ``tol`` [m].
+    offsets : array_like, shape (N,), optional
+        Distance [m] of each marker from the backbone along its cross-section's in-plane
+        normal ``(cos theta, sin theta)`` (markers on the skin of a thick body); default 0.
 
     Returns
     -------
@@ -336,10 +412,12 @@ def fit_position_strains(
     else:
         kappa = np.asarray(q0, dtype=float).reshape(T, m, 3)[..., 0].copy()
 
+    d = np.zeros(N) if offsets is None else np.asarray(offsets, dtype=float).reshape(N)
+
     def evaluate(rows, k):
-        pose, jac = forward_kinematics_jacobian(bending_strains(k), lengths, s, base_pose=base)
-        r = (pose[..., :2].reshape(rows.size, 2 * N) - target[rows]) * W[rows]
-        J = jac[:, :, :2, 0::3].reshape(rows.size, 2 * N, m) * W[rows][..., None]
+        pose, jac = marker_positions_jacobian(k, lengths, s, base, d)
+        r = (pose.reshape(rows.size, 2 * N) - target[rows]) * W[rows]
+        J = jac.reshape(rows.size, 2 * N, m) * W[rows][..., None]
         return r, J
 
     # Levenberg-Marquardt per frame; only the frames not yet converged are evaluated again
