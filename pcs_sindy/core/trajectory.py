@@ -332,6 +332,7 @@ class PoseTrajectory:
         jump_factor: float = 10.0,
         normal: ArrayLike | None = None,
         plane: MarkerPlane | None = None,
+        base_marker: bool = False,
     ) -> PoseTrajectory:
         """A positions-only recording: marker positions without orientations or base.
 
@@ -364,6 +365,10 @@ class PoseTrajectory:
         plane : MarkerPlane, optional
             Project on this plane instead of fitting one: give the ``.plane`` of the
             recording a fusion was fitted on to transform more recordings of the same set-up.
+        base_marker : bool, default False
+            ``positions[:, 0]`` is a marker on the clamped base: its median position (in the
+            user's frame, ``metadata["base_marker"]``) fixes the base position of the fusion, and
+            the trajectory's markers are the others (``n_markers = N - 1``).
         """
         P = np.asarray(positions, dtype=float)
         if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
@@ -372,13 +377,24 @@ class PoseTrajectory:
             raise ValueError("positions contains inf; use NaN for missing samples")
         if arc_lengths is not None:
             s = np.asarray(arc_lengths, dtype=float)
-            if s.shape != (P.shape[1],) or not np.all(np.isfinite(s)) or s[0] <= 0 or np.any(np.diff(s) <= 0):
+            if s.shape != (P.shape[1] - bool(base_marker),) or not np.all(np.isfinite(s)) or s[0] <= 0 or np.any(np.diff(s) <= 0):
                 raise ValueError(
-                    f"arc_lengths must be {P.shape[1]} increasing rest arc lengths > 0 [m], one per marker; got {s!r}"
+                    f"arc_lengths must be {P.shape[1] - bool(base_marker)} increasing rest arc lengths > 0 [m], one per "
+                    f"marker (the base marker excluded); got {s!r}"
                 )
+        if base_marker and P.shape[1] < 2:
+            raise ValueError(f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)")
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
         )
+        base_at = None
+        if base_marker:
+            if not np.any(np.all(np.isfinite(cleaned[:, 0]), axis=1)):
+                raise ValueError("positions: the base marker (positions[:, 0]) has no valid sample")
+            base_at = np.nanmedian(cleaned[:, 0], axis=0)
+            if plane is None:  # the base marker belongs to the body's plane
+                plane = MarkerPlane.fit(cleaned, normal)
+            cleaned, P = cleaned[:, 1:], P[:, 1:]
         ok = np.all(np.isfinite(cleaned), axis=2)
         if ok.sum() < 3:
             raise ValueError(f"positions has only {int(ok.sum())} valid marker samples; need at least 3")
@@ -416,6 +432,8 @@ class PoseTrajectory:
         )
         if arc_lengths is not None:
             meta["marker_arc_lengths"] = np.asarray(arc_lengths, dtype=float)
+        if base_at is not None:
+            meta["base_marker"] = base_at
         obj.metadata = meta
         return obj
 

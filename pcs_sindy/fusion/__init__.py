@@ -50,6 +50,9 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "position_fusion": [
             "fuse_position_segments",
             "marker_geometry",
+            "shared_marker_plane",
+            "on_plane",
+            "recorded_base_position",
             "choose_position_threshold",
             "position_strain_trajectories",
             "positions_in_user_frame",

@@ -42,7 +42,13 @@ from tqdm.auto import tqdm
 from ..core.kinematics import SEED_Q_MAX, forward_kinematics, se2_compose
 from ..core.metrics import distributed_errors
 from ..core.saving import PersistenceMixin
-from ..core.trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
+from ..core.trajectory import (
+    MarkerPlane,
+    PoseTrajectory,
+    StrainTrajectory,
+    as_pose_trajectories,
+    as_strain_trajectories,
+)
 from ..core.validation import Check, Interval, Options, validate_parameters
 from .chain_geometry import (
     chain_poses,
@@ -57,6 +63,9 @@ from .position_fusion import (
     choose_position_threshold,
     fuse_position_segments,
     marker_geometry,
+    on_plane,
+    recorded_base_position,
+    shared_marker_plane,
     position_strain_trajectories,
     positions_in_user_frame,
 )
@@ -80,6 +89,13 @@ def _two_positive(value: Any) -> bool:
 
 def _whole_at_least_one(value: Any) -> bool:
     return not isinstance(value, (bool, np.bool_)) and int(value) == value and value >= 1
+
+
+def _finite_vector(value: Any) -> bool:
+    if isinstance(value, str):
+        return False
+    v = np.asarray(value, dtype=float)
+    return v.ndim == 1 and v.size >= 1 and bool(np.all(np.isfinite(v)))
 
 
 def _nonzero_int(value: Any) -> bool:
@@ -150,6 +166,15 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         the work goes to that backend (e.g. a Dask or Ray cluster).
     progress : bool, default False
         Show tqdm progress bars.
+    shared_plane : bool, default True
+        Positions-only recordings: project every recording passed to :meth:`fit` on one plane
+        fitted to all of them (recordings of one set-up, e.g. static holds, which have no motion
+        of their own to fit a plane to), and recordings passed to :meth:`transform` on it too
+        (:attr:`plane_`).  False: each recording keeps the plane ``from_positions`` gave it.
+    marker_offsets : "fit", sequence of float or None, default None
+        Positions-only recordings: each marker's distance [m] from the backbone along its
+        cross-section's in-plane normal (markers on the skin of a thick body), given, or
+        ``"fit"`` (one per marker, shared by all frames, :attr:`marker_offsets_`); None: on the backbone.
 
     Attributes
     ----------
@@ -198,6 +223,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         Standard errors of the fitted base pose and arc lengths (positions-only fits).
     position_rms_ : float
         RMS position residual of the geometry fit [m] (positions-only fits).
+    marker_offsets_, marker_offsets_std_ : ndarray, shape (N,)
+        The markers' distances off the backbone (given, fitted or zeros) and their standard
+        errors (positions-only fits).
+    plane_ : MarkerPlane or None
+        The plane shared by the recordings (positions-only fits with ``shared_plane``); stored as
+        ``plane_origin_`` and ``plane_axes_``.
 
     Examples
     --------
@@ -221,6 +252,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         max_refine_frames: int = 500,
         n_jobs: int | None = None,
         progress: bool = False,
+        shared_plane: bool = True,
+        marker_offsets: str | Sequence[float] | None = None,
     ) -> None:
         self.threshold = threshold
         self.q_max = q_max
@@ -235,6 +268,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.max_refine_frames = max_refine_frames
         self.n_jobs = n_jobs
         self.progress = progress
+        self.shared_plane = shared_plane
+        self.marker_offsets = marker_offsets
 
     # -- validation: the table read by validate_parameters in fit and transform, and by model files
     _parameter_constraints: dict = {
@@ -252,6 +287,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         "max_refine_frames": [Check(_whole_at_least_one, "an integer >= 1")],
         "n_jobs": [None, Check(_nonzero_int, "a non-zero integer (joblib's convention)")],
         "progress": "no_validation",
+        "shared_plane": "no_validation",
+        "marker_offsets": [None, Options(("fit",)), Check(_finite_vector, "'fit', None or finite distances [m]")],
     }
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
@@ -363,6 +400,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.positions_only_ = False
         return self
 
+    @property
+    def plane_(self) -> MarkerPlane | None:
+        """The plane shared by positions-only recordings (``shared_plane``), else None."""
+        origin = getattr(self, "plane_origin_", None)
+        return None if origin is None else MarkerPlane(origin, self.plane_axes_)
+
     @staticmethod
     def _positions_only(X: Any) -> bool:
         trajs = as_pose_trajectories(X)
@@ -384,7 +427,23 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
         q_max = check_q_max(self.q_max)
         bend = None if self.scaling == "data" else float(q_max[0])
-        geometry = marker_geometry(trajs, int(self.max_refine_frames))
+        offsets = self.marker_offsets
+        if offsets is not None and not isinstance(offsets, str):
+            offsets = np.asarray(offsets, dtype=float)
+            if offsets.shape != (trajs[0].n_markers,):
+                raise ValueError(
+                    f"marker_offsets must be 'fit', None or {trajs[0].n_markers} distances [m], one per marker; "
+                    f"got {self.marker_offsets!r}"
+                )
+        self.plane_origin_ = self.plane_axes_ = None
+        if self.shared_plane:
+            plane = shared_marker_plane(trajs)
+            self.plane_origin_, self.plane_axes_ = plane.origin.copy(), plane.axes.copy()
+            trajs = [on_plane(tr, plane) for tr in trajs]
+        base_position = recorded_base_position(trajs)
+        geometry = marker_geometry(
+            trajs, int(self.max_refine_frames), offsets=offsets, base_position=base_position
+        )
         if isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
             h, choice = choose_position_threshold(
@@ -414,6 +473,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.base_pose_ = fit["base_pose"]
         self.base_pose_std_ = fit["base_pose_std"]
         self.position_rms_ = fit["rms"]
+        self.marker_offsets_ = fit["offsets"]
+        self.marker_offsets_std_ = fit["offsets_std"]
         self.positions_only_ = True
         return self
 
@@ -505,8 +566,16 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             if trajs[0].n_markers != self.n_markers_:
                 raise ValueError(f"X has {trajs[0].n_markers} markers; the fusion was fitted with {self.n_markers_}")
+            plane = self.plane_
+            if plane is not None:
+                trajs = [on_plane(tr, plane) for tr in trajs]
             return position_strain_trajectories(
-                trajs, self.base_pose_, self.segment_lengths_, self.marker_arc_lengths_, self.boundaries_
+                trajs,
+                self.base_pose_,
+                self.segment_lengths_,
+                self.marker_arc_lengths_,
+                self.boundaries_,
+                getattr(self, "marker_offsets_", None),
             )
         trajs, chains, bases = self._chains(X)
         if chains[0].shape[1] - 1 != self.n_markers_:
@@ -606,7 +675,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             rec = PoseTrajectory(se2_compose(base[:, None, :], local), st.t, metadata=dict(st.metadata))
             positions = positions_in_user_frame(st, rec.poses)
             if positions is not None:  # positions-only input: markers back in the user's (3-D) frame
-                rec.positions, rec.plane, rec.plane_positions = positions, st.metadata["plane"], rec.poses[:, 1:, :2]
+                plane = st.metadata["plane"]
+                rec.positions, rec.plane, rec.plane_positions = positions, plane, plane.to_plane(positions)
             out.append(rec)
         return out
 

@@ -19,22 +19,25 @@ carry marker positions in a plane, no orientations and no base.  This module
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.trajectory import PoseTrajectory, StrainTrajectory
+from ..core.trajectory import MarkerPlane, PoseTrajectory, StrainTrajectory
 from .merging import merge_runs
-from ..core.kinematics import forward_kinematics
-from .position_fit import fit_marker_geometry, fit_position_strains
+from .position_fit import fit_marker_geometry, fit_position_strains, marker_positions_jacobian
 from .threshold_selection import AUTO_THRESHOLDS, SweepRow, choice_from_sweep
 
 __all__ = [
     "fuse_position_segments",
     "choose_position_threshold",
     "marker_geometry",
+    "shared_marker_plane",
+    "on_plane",
+    "recorded_base_position",
     "position_strain_trajectories",
     "positions_in_user_frame",
     "tendon_sides",
@@ -43,6 +46,43 @@ __all__ = [
 
 #: active strains of every segment of a positions-only fusion: bending
 BENDING_ONLY = (True, False, False)
+
+
+def shared_marker_plane(trajs: Sequence[PoseTrajectory]) -> MarkerPlane:
+    """One plane for positions-only recordings of one set-up: fitted to all their markers (and base markers).
+
+    A single recording keeps its own plane.  The normal points to the side of the first
+    recording's (so the sign of the curvatures stays the capture's convention).
+    """
+    if len(trajs) == 1 or trajs[0].plane.dim == 2:
+        return trajs[0].plane
+    points = [tr.positions.reshape(-1, tr.positions.shape[-1]) for tr in trajs]
+    points += [np.atleast_2d(tr.metadata["base_marker"]) for tr in trajs if "base_marker" in tr.metadata]
+    return MarkerPlane.fit(np.concatenate(points, axis=0), normal=trajs[0].plane.normal)
+
+
+def on_plane(tr: PoseTrajectory, plane: MarkerPlane) -> PoseTrajectory:
+    """The positions-only recording ``tr`` projected on ``plane`` (a shallow copy; ``tr`` is unchanged)."""
+    if tr.plane is plane:
+        return tr
+    out = copy.copy(tr)
+    out.plane = plane
+    out.plane_positions = plane.to_plane(tr.positions)
+    out.metadata = dict(tr.metadata)
+    return out
+
+
+def recorded_base_position(trajs: Sequence[PoseTrajectory]) -> NDArray[np.float64] | None:
+    """In-plane position of the recorded base marker (``from_positions(base_marker=True)``), or None.
+
+    Recordings of one set-up share the clamp: their base markers are averaged; all or none must have one.
+    """
+    has = ["base_marker" in tr.metadata for tr in trajs]
+    if not any(has):
+        return None
+    if not all(has):
+        raise ValueError("X: give base_marker=True to PoseTrajectory.from_positions for every recording, or none")
+    return np.mean([tr.plane.to_plane(np.asarray(tr.metadata["base_marker"], dtype=float)) for tr in trajs], axis=0)
 
 
 def _known_arc_lengths(trajs: Sequence[PoseTrajectory]) -> NDArray[np.float64] | None:
@@ -125,15 +165,22 @@ def choose_position_threshold(
             # the RMS marker error of the segmentation's own strains for the fitted base, on the geometry's frames
             s = geometry["s"]
             lengths = np.diff(s[np.concatenate([[0], boundaries])])
-            q, _ = fit_position_strains(frames, geometry["geo"]["base_pose"], lengths, s[1:])
-            pose = forward_kinematics(q, lengths, s[1:], base_pose=geometry["geo"]["base_pose"])
-            scores[key] = float(np.sqrt(np.nanmean(np.sum((pose[..., :2] - frames) ** 2, axis=2))))
+            base, d = geometry["geo"]["base_pose"], geometry["offsets"]
+            q, _ = fit_position_strains(frames, base, lengths, s[1:], offsets=d)
+            pos, _ = marker_positions_jacobian(q[:, 0::3], lengths, s[1:], base, d)
+            scores[key] = float(np.sqrt(np.nanmean(np.sum((pos - frames) ** 2, axis=2))))
         rows.append(SweepRow(float(h), len(key), scores[key], scores[key]))
         bounds.append(np.asarray(key))
     return choice_from_sweep(rows, bounds, rule=rule, error="e_p_dist")
 
 
-def marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[str, Any]:
+def marker_geometry(
+    trajs: Sequence[PoseTrajectory],
+    max_frames: int,
+    *,
+    offsets: str | ArrayLike | None = None,
+    base_position: ArrayLike | None = None,
+) -> dict[str, Any]:
     """Marker arc lengths (given or fitted) and the base pose of positions-only recordings.
 
     Both come from a uniformly bending robot (:func:`fit_marker_geometry` with
@@ -141,19 +188,35 @@ def marker_geometry(trajs: Sequence[PoseTrajectory], max_frames: int) -> dict[st
     orientation only when the curvature is shared along the body (with a curvature per
     spacing any pattern of displacements fits a base anywhere near the first marker).
 
+    ``offsets`` (``"fit"``, N distances or None) places the markers off the backbone and
+    ``base_position`` (in-plane, e.g. of a recorded base marker) fixes the base's position
+    (see :func:`fit_marker_geometry`).
+
     Returns
     -------
     dict
         ``geo`` (the fit), ``s`` (N + 1,) arc lengths with the base, ``given``, ``arc_std`` (N,),
+        ``offsets`` (N,) as given or fitted, ``fit_offsets``, ``base_position``,
         ``frames`` (F, N, 2) the in-plane positions of the frames used (at most ``max_frames``,
         evenly over all recordings).
     """
     known = _known_arc_lengths(trajs)
     planar = [tr.plane_positions for tr in trajs]
-    geo = fit_marker_geometry(planar, known, max_frames=max_frames, curvatures="uniform")
+    geo = fit_marker_geometry(
+        planar, known, max_frames=max_frames, curvatures="uniform", offsets=offsets, base_position=base_position
+    )
     arc_std = np.zeros(planar[0].shape[1]) if known is not None else np.asarray(geo["std"])[3:]
     s = np.concatenate([[0.0], geo["arc_lengths"]])
-    return {"geo": geo, "s": s, "given": known is not None, "arc_std": arc_std, "frames": _frames(planar, max_frames)}
+    return {
+        "geo": geo,
+        "s": s,
+        "given": known is not None,
+        "arc_std": arc_std,
+        "frames": _frames(planar, max_frames),
+        "offsets": np.asarray(geo["offsets"], dtype=float),
+        "fit_offsets": isinstance(offsets, str),
+        "base_position": None if base_position is None else np.asarray(base_position, dtype=float),
+    }
 
 
 def _frames(planar: Sequence[NDArray[np.float64]], max_frames: int) -> NDArray[np.float64]:
@@ -187,7 +250,9 @@ def _merge(
         kappa = None if curvatures is None else curvatures.get(key)
         if kappa is None:
             lengths = np.diff(s[np.concatenate([[0], boundaries])])
-            kappa = fit_position_strains(frames, geo["base_pose"], lengths, s[1:])[0][:, 0::3]
+            kappa = fit_position_strains(frames, geo["base_pose"], lengths, s[1:], offsets=geometry["offsets"])[0][
+                :, 0::3
+            ]
             if curvatures is not None:
                 curvatures[key] = kappa
         if bend_scale is None:
@@ -217,7 +282,13 @@ def _fused(
         planar = [tr.plane_positions for tr in trajs]
         group = np.searchsorted(boundaries, np.arange(1, N + 1))
         geo = fit_marker_geometry(
-            planar, s[1:], max_frames=max_frames, curvatures=group, initial_base_pose=geo["base_pose"]
+            planar,
+            s[1:],
+            max_frames=max_frames,
+            curvatures=group,
+            initial_base_pose=geo["base_pose"],
+            base_position=geometry["base_position"],
+            offsets="fit" if geometry["fit_offsets"] else geometry["offsets"],
         )
         std = np.asarray(geo["std"])
     return {
@@ -226,6 +297,8 @@ def _fused(
         "base_pose_std": std[:3],
         "arc_lengths_std": np.zeros(N) if geometry["given"] else geometry["arc_std"],
         "rms": float(geo["rms"]),
+        "offsets": np.asarray(geo["offsets"], dtype=float),
+        "offsets_std": np.asarray(geo["offsets_std"], dtype=float),
         "boundaries": boundaries,
         "segment_lengths": np.diff(s[np.concatenate([[0], boundaries])]),
         "history": history,
@@ -239,13 +312,19 @@ def position_strain_trajectories(
     segment_lengths: NDArray[np.float64],
     arc_lengths: NDArray[np.float64],
     boundaries: NDArray[np.intp],
+    offsets: NDArray[np.float64] | None = None,
 ) -> list[StrainTrajectory]:
-    """Bending-only strain trajectories of positions-only recordings for a fitted segmentation."""
+    """Bending-only strain trajectories of positions-only recordings for a fitted segmentation.
+
+    ``offsets`` (N,) are the markers' distances off the backbone (carried in
+    ``metadata["marker_offsets"]`` for :func:`positions_in_user_frame`).
+    """
+    d = np.zeros(arc_lengths.size - 1) if offsets is None else np.asarray(offsets, dtype=float)
     out = []
     m = segment_lengths.size
     active = np.tile(np.array(BENDING_ONLY), (m, 1))
     for tr in trajs:
-        q, estimated = fit_position_strains(tr.plane_positions, base_pose, segment_lengths, arc_lengths[1:])
+        q, estimated = fit_position_strains(tr.plane_positions, base_pose, segment_lengths, arc_lengths[1:], offsets=d)
         meta = dict(tr.metadata)
         meta.update(
             marker_arc_lengths=arc_lengths.copy(),
@@ -253,6 +332,7 @@ def position_strain_trajectories(
             boundaries=np.asarray(boundaries).copy(),
             shape_fit="positions",
             plane=tr.plane,
+            marker_offsets=d.copy(),
             estimated=estimated,
         )
         out.append(
@@ -273,7 +353,12 @@ def positions_in_user_frame(st: StrainTrajectory, poses: NDArray[np.float64]) ->
     plane = st.metadata.get("plane")
     if plane is None:
         return None
-    return plane.from_plane(poses[:, 1:, :2])
+    xy = poses[:, 1:, :2]
+    d = st.metadata.get("marker_offsets")
+    if d is not None and np.any(np.asarray(d) != 0):  # markers off the backbone, along the cross-section normal
+        th = poses[:, 1:, 2]
+        xy = xy + np.asarray(d, dtype=float)[None, :, None] * np.stack([np.cos(th), np.sin(th)], axis=-1)
+    return plane.from_plane(xy)
 
 
 def tendon_sides(strains: Sequence[StrainTrajectory], inputs: Sequence[NDArray[np.float64]]) -> list[int]:
