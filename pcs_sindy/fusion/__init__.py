@@ -51,6 +51,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "fuse_position_segments",
             "marker_geometry",
             "shared_marker_plane",
+            "base_axis_planes",
             "on_plane",
             "recorded_base_position",
             "choose_position_threshold",

@@ -62,6 +62,7 @@ from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
     choose_position_threshold,
     fuse_position_segments,
+    base_axis_planes,
     marker_geometry,
     on_plane,
     recorded_base_position,
@@ -166,11 +167,15 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         the work goes to that backend (e.g. a Dask or Ray cluster).
     progress : bool, default False
         Show tqdm progress bars.
-    shared_plane : bool, default True
+    shared_plane : bool or "base_axis", default True
         Positions-only recordings: project every recording passed to :meth:`fit` on one plane
         fitted to all of them (recordings of one set-up, e.g. static holds, which have no motion
         of their own to fit a plane to), and recordings passed to :meth:`transform` on it too
-        (:attr:`plane_`).  False: each recording keeps the plane ``from_positions`` gave it.
+        (:attr:`plane_`).  ``"base_axis"``: one plane per recording, all containing one axis
+        through the recorded base marker (:func:`~pcs_sindy.fusion.position_fusion.base_axis_planes`;
+        a robot whose tendons pull at different angles bends in a plane that turns with the
+        loads); :meth:`transform` then keeps each recording's plane.  False: each recording keeps
+        the plane ``from_positions`` gave it.
     marker_offsets : "fit", sequence of float or None, default None
         Positions-only recordings: each marker's distance [m] from the backbone along its
         cross-section's in-plane normal (markers on the skin of a thick body), given, or
@@ -227,8 +232,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         The markers' distances off the backbone (given, fitted or zeros) and their standard
         errors (positions-only fits).
     plane_ : MarkerPlane or None
-        The plane shared by the recordings (positions-only fits with ``shared_plane``); stored as
+        The plane shared by the recordings (positions-only fits with ``shared_plane=True``); stored as
         ``plane_origin_`` and ``plane_axes_``.
+    plane_base_axis_ : ndarray (3, 3) or None
+        With ``shared_plane="base_axis"``: the common axis, its point (the base marker) and the side
+        the planes' normals point to.
 
     Examples
     --------
@@ -287,7 +295,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         "max_refine_frames": [Check(_whole_at_least_one, "an integer >= 1")],
         "n_jobs": [None, Check(_nonzero_int, "a non-zero integer (joblib's convention)")],
         "progress": "no_validation",
-        "shared_plane": "no_validation",
+        "shared_plane": ["boolean", Options(("base_axis",))],
         "marker_offsets": [None, Options(("fit",)), Check(_finite_vector, "'fit', None or finite distances [m]")],
     }
 
@@ -435,8 +443,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                     f"marker_offsets must be 'fit', None or {trajs[0].n_markers} distances [m], one per marker; "
                     f"got {self.marker_offsets!r}"
                 )
-        self.plane_origin_ = self.plane_axes_ = None
-        if self.shared_plane:
+        self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
+        if self.shared_plane == "base_axis":
+            planes, axis, origin, side = base_axis_planes(trajs)
+            self.plane_base_axis_ = np.stack([axis, origin, side])
+            trajs = [on_plane(tr, plane) for tr, plane in zip(trajs, planes)]
+        elif self.shared_plane:
             plane = shared_marker_plane(trajs)
             self.plane_origin_, self.plane_axes_ = plane.origin.copy(), plane.axes.copy()
             trajs = [on_plane(tr, plane) for tr in trajs]
@@ -569,6 +581,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             plane = self.plane_
             if plane is not None:
                 trajs = [on_plane(tr, plane) for tr in trajs]
+            elif getattr(self, "plane_base_axis_", None) is not None:
+                planes = base_axis_planes(trajs, *self.plane_base_axis_)[0]
+                trajs = [on_plane(tr, p) for tr, p in zip(trajs, planes)]
             return position_strain_trajectories(
                 trajs,
                 self.base_pose_,

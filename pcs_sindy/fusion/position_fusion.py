@@ -36,6 +36,7 @@ __all__ = [
     "choose_position_threshold",
     "marker_geometry",
     "shared_marker_plane",
+    "base_axis_planes",
     "on_plane",
     "recorded_base_position",
     "position_strain_trajectories",
@@ -59,6 +60,82 @@ def shared_marker_plane(trajs: Sequence[PoseTrajectory]) -> MarkerPlane:
     points = [tr.positions.reshape(-1, tr.positions.shape[-1]) for tr in trajs]
     points += [np.atleast_2d(tr.metadata["base_marker"]) for tr in trajs if "base_marker" in tr.metadata]
     return MarkerPlane.fit(np.concatenate(points, axis=0), normal=trajs[0].plane.normal)
+
+
+def base_axis_planes(
+    trajs: Sequence[PoseTrajectory],
+    axis: ArrayLike | None = None,
+    origin: ArrayLike | None = None,
+    side: ArrayLike | None = None,
+) -> tuple[list[MarkerPlane], NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """One plane per recording, all through the recorded base marker and one common axis there.
+
+    A clamped robot driven by tendons at different angles around its body bends, for each
+    combination of loads, in its own plane, but every such plane contains the clamp's axis.
+    The axis ``a`` minimises the total squared out-of-plane distance of all recordings' markers
+    when each recording's plane is the best plane containing ``a`` (its normal the least
+    principal direction of the markers' spread across ``a``).  Each plane's in-plane axes are
+    ``(a x n, a)``: the robot at rest points along ``+y = a``, and the normals all point to the
+    side of the first recording's (the sign of the curvatures is shared).
+
+    Needs ``base_marker`` in every recording's metadata (:meth:`PoseTrajectory.from_positions`)
+    unless ``axis``, ``origin`` and ``side`` (a fitted set-up's, for more recordings) are given.
+
+    Returns
+    -------
+    planes : list of MarkerPlane
+    axis, origin, side : ndarray (3,)
+        The common axis, the point it passes through, and the direction the normals point to.
+    """
+    from scipy.optimize import minimize
+
+    if trajs[0].plane.dim != 3:
+        raise ValueError("shared_plane='base_axis' needs 3-D positions")
+    if origin is None:
+        if any("base_marker" not in tr.metadata for tr in trajs):
+            raise ValueError("shared_plane='base_axis' needs a recorded base marker (from_positions(base_marker=True))")
+        origin = np.mean([np.asarray(tr.metadata["base_marker"], dtype=float) for tr in trajs], axis=0)
+    origin = np.asarray(origin, dtype=float)
+    clouds = []
+    for tr in trajs:
+        P = tr.positions.reshape(-1, 3)
+        clouds.append(P[np.all(np.isfinite(P), axis=1)] - origin)
+
+    def normals(a):
+        out = []
+        for X in clouds:
+            Xp = X - np.outer(X @ a, a)  # spread across the axis
+            w, v = np.linalg.eigh(Xp.T @ Xp + np.outer(a, a) * 1e12 * max(1.0, float(np.sum(Xp**2))))
+            out.append(v[:, 0])
+        return out
+
+    def cost(angles):
+        a = _unit(angles)
+        return sum(float(np.sum((X @ n) ** 2)) for X, n in zip(clouds, normals(a)))
+
+    if axis is None:
+        # start: from the base marker to the markers' mean position
+        start = np.mean(np.concatenate(clouds), axis=0)
+        start = start / np.linalg.norm(start)
+        x0 = np.array([np.arccos(np.clip(start[2], -1, 1)), np.arctan2(start[1], start[0])])
+        a = _unit(minimize(cost, x0, method="Nelder-Mead", options={"xatol": 1e-6, "fatol": 1e-14}).x)
+    else:
+        a = np.asarray(axis, dtype=float) / np.linalg.norm(axis)
+    ns = normals(a)
+    ref = trajs[0].plane.normal if side is None else np.asarray(side, dtype=float)
+    ref = ref - (ref @ a) * a
+    planes = []
+    for n in ns:
+        if np.linalg.norm(ref) > 1e-9 and n @ ref < 0:
+            n = -n
+        u = np.cross(a, n)
+        planes.append(MarkerPlane(origin, np.stack([u, a], axis=1)))
+    return planes, a, origin, ref
+
+
+def _unit(angles: NDArray[np.float64]) -> NDArray[np.float64]:
+    th, ph = angles
+    return np.array([np.sin(th) * np.cos(ph), np.sin(th) * np.sin(ph), np.cos(th)])
 
 
 def on_plane(tr: PoseTrajectory, plane: MarkerPlane) -> PoseTrajectory:
