@@ -377,13 +377,20 @@ class PoseTrajectory:
             raise ValueError("positions contains inf; use NaN for missing samples")
         if arc_lengths is not None:
             s = np.asarray(arc_lengths, dtype=float)
-            if s.shape != (P.shape[1] - bool(base_marker),) or not np.all(np.isfinite(s)) or s[0] <= 0 or np.any(np.diff(s) <= 0):
+            if (
+                s.shape != (P.shape[1] - bool(base_marker),)
+                or not np.all(np.isfinite(s))
+                or s[0] <= 0
+                or np.any(np.diff(s) <= 0)
+            ):
                 raise ValueError(
-                    f"arc_lengths must be {P.shape[1] - bool(base_marker)} increasing rest arc lengths > 0 [m], one per "
-                    f"marker (the base marker excluded); got {s!r}"
+                    f"arc_lengths must be {P.shape[1] - bool(base_marker)} increasing rest arc lengths > 0 [m], "
+                    f"one per marker (the base marker excluded); got {s!r}"
                 )
         if base_marker and P.shape[1] < 2:
-            raise ValueError(f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)")
+            raise ValueError(
+                f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)"
+            )
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
         )

@@ -60,15 +60,15 @@ from .chain_geometry import (
 from .input_checks import check_marker_chain
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
+    base_axis_planes,
     choose_position_threshold,
     fuse_position_segments,
-    base_axis_planes,
     marker_geometry,
     on_plane,
-    recorded_base_position,
-    shared_marker_plane,
     position_strain_trajectories,
     positions_in_user_frame,
+    recorded_base_position,
+    shared_marker_plane,
 )
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
 from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
@@ -453,9 +453,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             self.plane_origin_, self.plane_axes_ = plane.origin.copy(), plane.axes.copy()
             trajs = [on_plane(tr, plane) for tr in trajs]
         base_position = recorded_base_position(trajs)
-        geometry = marker_geometry(
-            trajs, int(self.max_refine_frames), offsets=offsets, base_position=base_position
-        )
+        geometry = marker_geometry(trajs, int(self.max_refine_frames), offsets=offsets, base_position=base_position)
         if isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
             h, choice = choose_position_threshold(

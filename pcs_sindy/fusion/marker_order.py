@@ -46,8 +46,8 @@ def _as_recordings(positions: ArrayLike | Sequence[ArrayLike]) -> tuple[list[NDA
 def find_base_marker(positions: ArrayLike | Sequence[ArrayLike]) -> list[int]:
     """Column of the base marker in each recording: the marker that stays put.
 
-    Within a recording the score of a marker is how much it moves (RMS distance from its
-    median); over several recordings it adds, for each other recording, the distance to the
+    Within a recording the score of a marker is how much it moves (median distance from its
+    median position); over several recordings it adds, for each other recording, the distance to the
     nearest marker there (the base is at the same place in all of them, the other markers
     move with the load).  The marker of least score is the base.
 
@@ -65,7 +65,8 @@ def find_base_marker(positions: ArrayLike | Sequence[ArrayLike]) -> list[int]:
     medians = [np.nanmedian(p, axis=0) for p in recs]  # (N, D) each
     out = []
     for r, (p, m) in enumerate(zip(recs, medians)):
-        score = np.sqrt(np.nanmean(np.sum((p - m) ** 2, axis=2), axis=0))
+        # median distance from the median position: robust to the frames where a tracker swapped labels
+        score = np.nanmedian(np.linalg.norm(p - m, axis=2), axis=0)
         for r2, m2 in enumerate(medians):
             if r2 != r:
                 score = score + np.nanmin(np.linalg.norm(m[:, None, :] - m2[None, :, :], axis=2), axis=1)

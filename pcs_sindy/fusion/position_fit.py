@@ -316,7 +316,9 @@ def fit_marker_geometry(
     if fit_d:
         x0[cuts[3] : cuts[4]] = d0 / scale
     if n_glob:
-        res = least_squares(residuals, x0, jac=jacobian, x_scale="jac", method="trf", max_nfev=100, ftol=1e-12, xtol=1e-12)
+        res = least_squares(
+            residuals, x0, jac=jacobian, x_scale="jac", method="trf", max_nfev=100, ftol=1e-12, xtol=1e-12
+        )
         x = res.x
     else:
         x = x0
