@@ -282,3 +282,27 @@ def test_base_pose_with_the_arc_lengths_given():
     )
     fusion = KinematicFusion().fit(tr)
     np.testing.assert_allclose(fusion.base_pose_, [0.05, 0.02, -0.3], atol=1e-3)
+
+
+def test_a_fixed_segment_count_for_position_data():
+    planar, _ = _three_curvatures()
+    P = np.concatenate([planar, np.zeros(planar.shape[:2] + (1,))], axis=2)
+    tr = PoseTrajectory.from_positions(P, dt=0.01, arc_lengths=[0.1, 0.2, 0.3])
+    for n in (1, 2, 3):
+        fusion = KinematicFusion(n_segments=n).fit(tr)
+        assert fusion.n_segments_ == n and fusion.threshold_ is None
+        assert fusion.threshold_choice_["rule"] == "n_segments"
+        assert np.sum(fusion.segment_lengths_) == pytest.approx(0.3)
+    # the first two spacings bend alike: two segments merge them, not the last two
+    assert KinematicFusion(n_segments=2).fit(tr).boundaries_.tolist() == [2, 3]
+    with pytest.raises(ValueError, match="n_segments"):
+        KinematicFusion(n_segments=4).fit(tr)
+
+
+def _three_curvatures(T=500):
+    t = np.arange(T) * 0.01
+    k1 = 6 * np.sin(2.3 * t)
+    kappa = np.stack([k1, k1, -4 * np.cos(1.7 * t)], axis=1)
+    s = np.array([0.1, 0.2, 0.3])
+    pose = forward_kinematics(bending_strains(kappa), [0.1, 0.1, 0.1], s, (0.0, 0.0, 0.2))
+    return pose[..., :2], kappa

@@ -180,11 +180,16 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         Positions-only recordings: each marker's distance [m] from the backbone along its
         cross-section's in-plane normal (markers on the skin of a thick body), given, or
         ``"fit"`` (one per marker, shared by all frames, :attr:`marker_offsets_`); None: on the backbone.
+    n_segments : int, optional
+        Positions-only recordings: fuse into this many segments (the closest adjacent segments merge
+        one by one) instead of by ``threshold`` - e.g. the count chosen by held-out prediction.
+        Then :attr:`threshold_` is None and :attr:`threshold_choice_` ``{"rule": "n_segments", ...}``.
 
     Attributes
     ----------
-    threshold_ : float
-        The merge threshold used: ``threshold`` when it is a number, else the chosen one.
+    threshold_ : float or None
+        The merge threshold used: ``threshold`` when it is a number, else the chosen one; None
+        when ``n_segments`` fixed the segment count.
     threshold_choice_ : dict
         Why: ``{"rule": "given"}`` for a number; for a rule the record of
         :func:`~pcs_sindy.fusion.threshold_selection.choose_threshold`
@@ -260,8 +265,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         max_refine_frames: int = 500,
         n_jobs: int | None = None,
         progress: bool = False,
-        shared_plane: bool = True,
+        shared_plane: bool | str = True,
         marker_offsets: str | Sequence[float] | None = None,
+        n_segments: int | None = None,
     ) -> None:
         self.threshold = threshold
         self.q_max = q_max
@@ -278,6 +284,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.progress = progress
         self.shared_plane = shared_plane
         self.marker_offsets = marker_offsets
+        self.n_segments = n_segments
 
     # -- validation: the table read by validate_parameters in fit and transform, and by model files
     _parameter_constraints: dict = {
@@ -297,6 +304,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         "progress": "no_validation",
         "shared_plane": ["boolean", Options(("base_axis",))],
         "marker_offsets": [None, Options(("fit",)), Check(_finite_vector, "'fit', None or finite distances [m]")],
+        "n_segments": [None, Interval(Integral, 1, None, closed="left")],
     }
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
@@ -352,6 +360,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         validate_parameters(self)
         if self._positions_only(X):
             return self._fit_positions(X)
+        if self.n_segments is not None:
+            raise ValueError(
+                f"n_segments={self.n_segments!r} applies to positions-only recordings; for pose recordings "
+                "give a threshold (threshold_sweep shows the segment count of each)"
+            )
         _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
         total, source, std = self._rest_length(X, chains)
@@ -454,14 +467,23 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             trajs = [on_plane(tr, plane) for tr in trajs]
         base_position = recorded_base_position(trajs)
         geometry = marker_geometry(trajs, int(self.max_refine_frames), offsets=offsets, base_position=base_position)
-        if isinstance(self.threshold, str):
+        if self.n_segments is not None:
+            h, choice = None, {"rule": "n_segments", "n_segments": int(self.n_segments), "h": None}
+        elif isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
             h, choice = choose_position_threshold(
                 trajs, bend, int(self.max_refine_frames), rule=rule, geometry=geometry
             )
         else:
             h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
-        fit = fuse_position_segments(trajs, h, bend, int(self.max_refine_frames), geometry=geometry)
+        fit = fuse_position_segments(
+            trajs,
+            float("inf") if h is None else h,
+            bend,
+            int(self.max_refine_frames),
+            geometry=geometry,
+            n_segments=None if self.n_segments is None else int(self.n_segments),
+        )
         self.threshold_ = h
         self.threshold_choice_ = choice
         s = fit["arc_lengths"]

@@ -178,6 +178,7 @@ def fuse_position_segments(
     max_frames: int = 300,
     refit_base: bool = True,
     geometry: dict[str, Any] | None = None,
+    n_segments: int | None = None,
 ) -> dict[str, Any]:
     """Base pose, marker arc lengths and the fused segmentation of positions-only recordings.
 
@@ -197,6 +198,9 @@ def fuse_position_segments(
         fused segment), so that the model's own shape, not the finer initial one, matches the markers.
     geometry : dict, optional
         The marker geometry already fitted (:func:`marker_geometry`), e.g. by a threshold sweep.
+    n_segments : int, optional
+        Merge the closest adjacent segments until this many remain (``threshold`` is not used),
+        e.g. the count chosen by held-out prediction.
 
     Returns
     -------
@@ -207,7 +211,11 @@ def fuse_position_segments(
     """
     if geometry is None:
         geometry = marker_geometry(trajs, max_frames)
-    boundaries, history, bend_scale = _merge(trajs, geometry, threshold, bend_scale)
+    if n_segments is not None and not 1 <= n_segments <= geometry["s"].size - 1:
+        raise ValueError(
+            f"n_segments must be in [1, {geometry['s'].size - 1}] (one per marker at most); got {n_segments}"
+        )
+    boundaries, history, bend_scale = _merge(trajs, geometry, threshold, bend_scale, n_segments=n_segments)
     return _fused(trajs, geometry, boundaries, history, bend_scale, max_frames, refit_base)
 
 
@@ -311,18 +319,20 @@ def _merge(
     threshold: float,
     bend_scale: float | None,
     curvatures: dict[tuple[int, ...], NDArray[np.float64]] | None = None,
+    n_segments: int | None = None,
 ) -> tuple[NDArray[np.intp], list[dict[str, Any]], float]:
     """Algorithm 1 on the bending strains between markers: segment end markers, history, curvature scale.
 
     ``curvatures`` (segmentation -> fitted curvatures) is filled and reused across calls, so a sweep over
-    thresholds fits each segmentation's strains once.
+    thresholds fits each segmentation's strains once.  With ``n_segments`` the threshold is not used:
+    the closest adjacent pair merges, one per iteration, until ``n_segments`` remain.
     """
     geo, s = geometry["geo"], geometry["s"]
     N = s.size - 1
     boundaries = np.arange(1, N + 1)
     history: list[dict[str, Any]] = []
     frames = geometry["frames"]  # Algorithm 1's mean distances, on the evenly spread frames of the geometry fit
-    while boundaries.size > 1:
+    while boundaries.size > (1 if n_segments is None else n_segments):
         key = tuple(int(b) for b in boundaries)
         kappa = None if curvatures is None else curvatures.get(key)
         if kappa is None:
@@ -335,7 +345,11 @@ def _merge(
         if bend_scale is None:
             bend_scale = float(np.percentile(np.abs(kappa), 99.0)) or 1.0
         distances = np.mean(np.abs(np.diff(kappa, axis=1)), axis=0) / bend_scale
-        groups = merge_runs(distances, threshold)
+        if n_segments is None:
+            groups = merge_runs(distances, threshold)
+        else:
+            k = int(np.argmin(distances))
+            groups = [[i] for i in range(k)] + [[k, k + 1]] + [[i] for i in range(k + 2, boundaries.size)]
         history.append({"boundaries": boundaries.copy(), "distances": distances, "groups": groups})
         if len(groups) == boundaries.size:
             break
