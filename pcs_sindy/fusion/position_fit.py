@@ -257,14 +257,7 @@ def fit_marker_geometry(
             return state["solved"]
         b, sv, d = unpack(x)
         lengths = np.diff(np.concatenate([[0.0], sv[ends]]))
-        q, _ = fit_position_strains(P, b, lengths, sv, tol=1e-9 * scale, offsets=d)
-        if state["q"] is not None:
-            # a frame's curvatures may have several local minima: keep, per frame, the better of a fresh
-            # start and the previous solution, so the reduced residual is a function of the globals
-            q2, _ = fit_position_strains(P, b, lengths, sv, q0=state["q"], tol=1e-9 * scale, offsets=d)
-            c1 = np.nansum((marker_positions_jacobian(q[:, 0::3], lengths, sv, b, d)[0] - P) ** 2, axis=(1, 2))
-            c2 = np.nansum((marker_positions_jacobian(q2[:, 0::3], lengths, sv, b, d)[0] - P) ** 2, axis=(1, 2))
-            q = np.where((c2 < c1)[:, None], q2, q)
+        q, _ = fit_position_strains(P, b, lengths, sv, q0=state["q"], tol=1e-9 * scale, offsets=d)
         state["q"] = q
         kappa = q[:, 0::3]
         pos, Jk, pose = marker_positions_jacobian(kappa, lengths, sv, b, d, with_theta=True)

@@ -268,10 +268,14 @@ def marker_geometry(
 ) -> dict[str, Any]:
     """Marker arc lengths (given or fitted) and the base pose of positions-only recordings.
 
-    Both come from a uniformly bending robot (:func:`fit_marker_geometry` with
-    ``curvatures="uniform"``): the curves the markers sweep fix the base's distance and
-    orientation only when the curvature is shared along the body (with a curvature per
-    spacing any pattern of displacements fits a base anywhere near the first marker).
+    The curves the markers sweep fix the base's distance only given how the curvature is
+    distributed along the body (with a curvature per spacing any pattern of displacements fits
+    a base anywhere near the first marker; a uniformly bending model puts the base too far when
+    the bending concentrates near the tip, too near when it concentrates near the base).  So
+    the arc lengths, unless given, are the mean of those of a uniform bending and of every split
+    of the markers into two curvatures (:func:`fit_marker_geometry`), and their standard errors
+    add the spread between these models to the statistical ones; the base pose is then fitted
+    for those arc lengths with a uniform bending.
 
     ``offsets`` (``"fit"``, N distances or None) places the markers off the backbone and
     ``base_position`` (in-plane, e.g. of a recorded base marker) fixes the base's position
@@ -281,26 +285,41 @@ def marker_geometry(
     -------
     dict
         ``geo`` (the fit), ``s`` (N + 1,) arc lengths with the base, ``given``, ``arc_std`` (N,),
-        ``offsets`` (N,) as given or fitted, ``fit_offsets``, ``base_position``,
+        ``offsets`` (N,) as given or fitted, ``fit_offsets``, ``base_position``, ``models`` (the fits
+        averaged: ``curvatures``, ``arc_lengths``, ``std``, ``rms``, ...),
         ``frames`` (F, N, 2) the in-plane positions of the frames used (at most ``max_frames``,
         evenly over all recordings).
     """
     known = _known_arc_lengths(trajs)
     planar = [tr.plane_positions for tr in trajs]
-    geo = fit_marker_geometry(
-        planar, known, max_frames=max_frames, curvatures="uniform", offsets=offsets, base_position=base_position
-    )
-    arc_std = np.zeros(planar[0].shape[1]) if known is not None else np.asarray(geo["std"])[3:]
+    N = planar[0].shape[1]
+    kw = {"max_frames": max_frames, "offsets": offsets, "base_position": base_position}
+    arc_std = np.zeros(N)
+    models: list[dict[str, Any]] = []
+    if known is None:
+        # where the bending concentrates is not seen by a few positions, and the base's distance depends on
+        # it: average the arc lengths of a uniform bending and of every split into two curvatures, the
+        # spread between them (model uncertainty) added to their standard errors
+        groups: list[Any] = ["uniform"] + [(np.arange(N) >= k).astype(int) for k in range(1, N)]
+        for g in groups:
+            f = fit_marker_geometry(planar, None, curvatures=g, **kw)
+            models.append({"curvatures": g if isinstance(g, str) else g.tolist(), **f})
+        arcs = np.array([f["arc_lengths"] for f in models])
+        stat = np.array([np.asarray(f["std"])[3:] for f in models])
+        known = arcs.mean(axis=0)
+        arc_std = np.sqrt(np.mean(stat**2, axis=0) + (arcs.var(axis=0, ddof=1) if len(models) > 1 else 0.0))
+    geo = fit_marker_geometry(planar, known, curvatures="uniform", **kw)
     s = np.concatenate([[0.0], geo["arc_lengths"]])
     return {
         "geo": geo,
         "s": s,
-        "given": known is not None,
+        "given": not models,
         "arc_std": arc_std,
         "frames": _frames(planar, max_frames),
         "offsets": np.asarray(geo["offsets"], dtype=float),
         "fit_offsets": isinstance(offsets, str),
         "base_position": None if base_position is None else np.asarray(base_position, dtype=float),
+        "models": models,
     }
 
 
