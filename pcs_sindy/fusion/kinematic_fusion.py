@@ -76,6 +76,9 @@ from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
 __all__ = ["KinematicFusion", "threshold_sweep"]
 
 _SHAPE_FITS = ("end_pose", "least_squares")
+#: frames (at most) of the positions-only geometry fits: the base, arc lengths and offsets are a few
+#: numbers that 300 evenly spread frames determine to well within their model uncertainty
+POSITION_GEOMETRY_FRAMES = 300
 _SCALINGS = ("q_max", "data")
 
 
@@ -226,7 +229,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         (:mod:`pcs_sindy.fusion.position_fusion`; ``min_segment_markers``, ``shape_fit``,
         ``refine_boundaries``, ``merge``, ``pose_std`` and ``fixed_base`` do not apply,
         ``scaling="data"`` scales by the 99th percentile of the initial curvatures,
-        ``max_refine_frames`` bounds the frames of the geometry fit), the strain trajectories
+        ``max_refine_frames`` (at most 300) bounds the frames of the geometry fit), the strain trajectories
         have only bending strains active, and :meth:`inverse_transform` returns the markers
         in the user's frame as ``.positions`` (3-D in, 3-D out).
     base_pose_std_, marker_arc_lengths_std_ : ndarray
@@ -466,21 +469,20 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             self.plane_origin_, self.plane_axes_ = plane.origin.copy(), plane.axes.copy()
             trajs = [on_plane(tr, plane) for tr in trajs]
         base_position = recorded_base_position(trajs)
-        geometry = marker_geometry(trajs, int(self.max_refine_frames), offsets=offsets, base_position=base_position)
+        frames = min(int(self.max_refine_frames), POSITION_GEOMETRY_FRAMES)
+        geometry = marker_geometry(trajs, frames, offsets=offsets, base_position=base_position)
         if self.n_segments is not None:
             h, choice = None, {"rule": "n_segments", "n_segments": int(self.n_segments), "h": None}
         elif isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
-            h, choice = choose_position_threshold(
-                trajs, bend, int(self.max_refine_frames), rule=rule, geometry=geometry
-            )
+            h, choice = choose_position_threshold(trajs, bend, frames, rule=rule, geometry=geometry)
         else:
             h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
         fit = fuse_position_segments(
             trajs,
             float("inf") if h is None else h,
             bend,
-            int(self.max_refine_frames),
+            frames,
             geometry=geometry,
             n_segments=None if self.n_segments is None else int(self.n_segments),
         )
