@@ -340,7 +340,7 @@ class PoseTrajectory:
         (:class:`MarkerPlane`); the out-of-plane RMS is reported in
         ``metadata["out_of_plane_rms"]`` (and the in-plane motion RMS in
         ``metadata["motion_rms"]``), with a warning when it exceeds
-        ``WOBBLE_WARNING`` (0.2) of the motion.  Frozen samples and jumps are
+        ``WOBBLE_WARNING`` (0.2) of the motion (and 1 mm).  Frozen samples and jumps are
         detected (:func:`clean_marker_tracks`) and set missing (NaN);
         ``KinematicFusion`` fits the robot's fixed base pose and, unless given,
         the markers' rest arc lengths from such recordings.
@@ -416,7 +416,8 @@ class PoseTrajectory:
         oop = float(np.sqrt(np.nanmean(plane.distance(cleaned) ** 2))) if plane.dim == 3 else 0.0
         dev = inplane - np.nanmean(inplane, axis=0, keepdims=True)
         motion = float(np.sqrt(np.nanmean(np.sum(dev**2, axis=2))))
-        if plane.dim == 3 and oop > WOBBLE_WARNING * motion:
+        # static recordings (holds) have noise-level motion: their out-of-plane noise says nothing
+        if plane.dim == 3 and oop > WOBBLE_WARNING * motion and oop > MIN_JUMP:
             warnings.warn(
                 f"positions: out-of-plane RMS {1e3 * oop:.3g} mm is {oop / max(motion, 1e-300):.2f} of the in-plane "
                 f"motion RMS {1e3 * motion:.3g} mm; a planar model will miss that part of the motion",
