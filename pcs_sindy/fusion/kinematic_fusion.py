@@ -233,12 +233,13 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         have only bending strains active, and :meth:`inverse_transform` returns the markers
         in the user's frame as ``.positions`` (3-D in, 3-D out).
     base_pose_std_, marker_arc_lengths_std_ : ndarray
-        Standard errors of the fitted base pose and arc lengths (positions-only fits).
-    position_rms_ : float
-        RMS position residual of the geometry fit [m] (positions-only fits).
-    marker_offsets_, marker_offsets_std_ : ndarray, shape (N,)
+        Standard errors of the fitted base pose and arc lengths (positions-only fits; for pose
+        recordings the arc lengths' follow from :attr:`total_length_std_` and ``base_pose_std_`` is None).
+    position_rms_ : float or None
+        RMS position residual of the geometry fit [m] (positions-only fits; None for poses).
+    marker_offsets_, marker_offsets_std_ : ndarray, shape (N,), or None
         The markers' distances off the backbone (given, fitted or zeros) and their standard
-        errors (positions-only fits).
+        errors (positions-only fits; None for poses).
     plane_ : MarkerPlane or None
         The plane shared by the recordings (positions-only fits with ``shared_plane=True``); stored as
         ``plane_origin_`` and ``plane_axes_``.
@@ -361,6 +362,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         y : ignored
         """
         validate_parameters(self)
+        X = as_pose_trajectories(X)  # converted once: every step below gets these recordings
         if self._positions_only(X):
             return self._fit_positions(X)
         if self.n_segments is not None:
@@ -421,6 +423,12 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.n_segments_ = int(boundaries.size)
         all_bases = np.concatenate(bases)
         self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
+        # the attributes of a positions-only fit exist here too, so both kinds of fit look alike
+        self.marker_arc_lengths_std_ = s / max(total, 1e-300) * std  # the markers are spread over the length
+        self.base_pose_std_ = None
+        self.position_rms_ = None
+        self.marker_offsets_ = self.marker_offsets_std_ = None
+        self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
         self.positions_only_ = False
         return self
 
@@ -592,8 +600,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         reproduces the poses in the input frame.
         """
         check_is_fitted(self, "segment_lengths_")
+        X = as_pose_trajectories(X)
         if getattr(self, "positions_only_", False) or self._positions_only(X):
-            trajs = as_pose_trajectories(X)
+            trajs = X
             if not getattr(self, "positions_only_", False) or not self._positions_only(trajs):
                 raise ValueError(
                     "X and the fit must both be positions-only recordings (PoseTrajectory.from_positions) or both poses"
