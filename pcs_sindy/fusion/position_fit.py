@@ -142,6 +142,7 @@ def fit_marker_geometry(
     initial_base_pose: ArrayLike | None = None,
     base_position: ArrayLike | None = None,
     offsets: str | ArrayLike | None = None,
+    initial_offsets: ArrayLike | None = None,
 ) -> dict[str, NDArray[np.float64] | float]:
     """Fixed base pose and rest arc lengths of position-only markers.
 
@@ -178,6 +179,8 @@ def fit_marker_geometry(
         Each marker's distance [m] from the backbone along its cross-section's in-plane normal
         (see :func:`fit_position_strains`): given, or ``"fit"`` (one per marker, shared by all
         frames); default 0.
+    initial_offsets : array_like, shape (N,), optional
+        Where the fit of the offsets starts (default 0), e.g. those of a coarser fit.
 
     Returns
     -------
@@ -225,6 +228,8 @@ def fit_marker_geometry(
     if fit_d and offsets != "fit":
         raise ValueError(f"offsets must be 'fit', None or {N} distances [m]; got {offsets!r}")
     d0 = np.zeros(N) if offsets is None or fit_d else np.asarray(offsets, dtype=float).reshape(-1)
+    if fit_d and initial_offsets is not None:
+        d0 = np.asarray(initial_offsets, dtype=float).reshape(-1)
     if d0.shape != (N,) or not np.all(np.isfinite(d0)):
         raise ValueError(f"offsets must be 'fit', None or {N} finite distances [m]; got {offsets!r}")
     # blocks of the global unknowns: base x, y; base angle; log gaps; offsets

@@ -399,6 +399,7 @@ def _fused(
             initial_base_pose=geo["base_pose"],
             base_position=geometry["base_position"],
             offsets="fit" if geometry["fit_offsets"] else geometry["offsets"],
+            initial_offsets=geometry["offsets"],
         )
         std = np.asarray(geo["std"])
     return {
