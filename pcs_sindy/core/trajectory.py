@@ -166,16 +166,30 @@ def clean_marker_tracks(
     jump_threshold: float | None = None,
     jump_factor: float = 10.0,
     window: int = 9,
+    consistency: float | None = 5.0,
 ) -> tuple[NDArray[np.float64], dict[str, int]]:
     """Mark frozen samples and jumps of marker tracks as missing (NaN).
 
     A sample is *frozen* when every coordinate of a marker equals the previous
     sample's within ``frozen_tol`` (trackers repeat the last value when they
-    lose a marker; real, noisy measurements never repeat exactly).  A sample
-    is a *jump* when it lies farther than the threshold from the running
-    median (``window`` samples) of its track: ``jump_threshold`` [m], or by
+    lose a marker; real, noisy measurements never repeat exactly).
+
+    A sample is a *jump* when it lies farther than a limit from the running
+    median (``window`` samples) of its track - ``jump_threshold`` [m], or by
     default ``jump_factor * sigma * sqrt(D)`` (at least 1 mm) with ``sigma``
-    the noise level estimated robustly from the track's second differences.
+    the noise level estimated robustly from the track's second differences -
+    **and**, with ``consistency`` (the default) and at least two markers, the
+    other markers do not move alike at that sample.  The markers of one body
+    accelerate together: genuine fast motion (a step of the actuators, or a
+    late sample of the capture) takes every marker off its running median at
+    once, each in proportion to how much that marker moves (its RMS speed),
+    whereas a tracker glitch takes one marker off alone.  So a sample of marker
+    ``i`` is a jump only when its deviation exceeds ``consistency`` times the
+    largest deviation of a valid other marker at that sample, each deviation
+    (plus three noise levels) divided by its marker's RMS speed.  Samples where
+    no other marker is valid are judged by the limit alone only for a single
+    marker; otherwise they are kept (no evidence either way).
+    ``consistency=None`` judges every track alone (flags fast motion too).
 
     Parameters
     ----------
@@ -187,6 +201,9 @@ def clean_marker_tracks(
     window : int, default 9
         Odd width of the running median: bursts of up to ``window // 2``
         samples are caught.
+    consistency : float or None, default 5.0
+        Factor (> 1) by which a jump must exceed what the other markers' motion at
+        the same sample explains.
 
     Returns
     -------
@@ -205,32 +222,46 @@ def clean_marker_tracks(
         raise ValueError(f"jump_threshold must be a distance > 0 in metres or None; got {jump_threshold!r}")
     if isinstance(window, bool) or int(window) != window or window < 3 or window % 2 == 0:
         raise ValueError(f"window must be an odd integer >= 3; got {window!r}")
+    if consistency is not None and not (np.isfinite(consistency) and consistency > 1):
+        raise ValueError(f"consistency must be a factor > 1 or None; got {consistency!r}")
     missing0 = ~np.all(np.isfinite(P), axis=2)
     P[missing0] = np.nan
     frozen = np.zeros(P.shape[:2], dtype=bool)
     frozen[1:] = np.all(np.abs(np.diff(P, axis=0)) <= frozen_tol, axis=2)  # NaN compares False
     # a run of repeats keeps its first (the last real) value: compare with the previous sample
     P[frozen] = np.nan
-    jumps = np.zeros_like(frozen)
-    T = P.shape[0]
+    T, N, D = P.shape
     idx = np.arange(T)
-    for i in range(P.shape[1]):
+    dist = np.zeros((T, N))
+    limit = np.full(N, np.inf)
+    sigma = np.zeros(N)
+    speed = np.full(N, np.nan)
+    usable = np.zeros((T, N), dtype=bool)
+    for i in range(N):
         ok = np.all(np.isfinite(P[:, i]), axis=1)
         if ok.sum() < window:
             continue
-        filled = np.stack([np.interp(idx, idx[ok], P[ok, i, c]) for c in range(P.shape[2])], axis=1)
+        filled = np.stack([np.interp(idx, idx[ok], P[ok, i, c]) for c in range(D)], axis=1)
         med = median_filter(filled, size=(int(window), 1), mode="nearest")
-        dist = np.linalg.norm(filled - med, axis=1)
-        if jump_threshold is None:
-            # noise scale from second differences (white noise: sqrt(6) sigma per coordinate), robust to jumps
-            d2 = np.abs(np.diff(filled[ok], n=2, axis=0))
-            sigma = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
-            if sigma <= 0:
-                continue
-            limit = max(jump_factor * sigma * np.sqrt(P.shape[2]), MIN_JUMP)
-        else:
-            limit = float(jump_threshold)
-        jumps[:, i] = ok & (dist > limit)
+        dist[:, i] = np.linalg.norm(filled - med, axis=1)
+        usable[:, i] = ok
+        # noise scale from second differences (white noise: sqrt(6) sigma per coordinate), robust to jumps
+        d2 = np.abs(np.diff(filled[ok], n=2, axis=0))
+        sigma[i] = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
+        speed[i] = float(np.sqrt(np.mean(np.sum(np.diff(filled[ok], axis=0) ** 2, axis=1))))
+        if jump_threshold is not None:
+            limit[i] = float(jump_threshold)
+        elif sigma[i] > 0:
+            limit[i] = max(jump_factor * sigma[i] * np.sqrt(D), MIN_JUMP)
+    jumps = usable & (dist > limit)
+    if consistency is not None and N > 1:
+        # each marker's deviation in units of its own motion; a jump stands out from every other valid marker
+        scale = np.where(np.isfinite(speed) & (speed > 0), speed, np.inf)
+        z = np.where(usable, (dist + 3.0 * sigma) / scale, -np.inf)
+        for i in range(N):
+            others = np.max(np.delete(z, i, axis=1), axis=1)
+            explained = np.isfinite(others) & (dist[:, i] <= consistency * scale[i] * others)
+            jumps[:, i] &= ~explained & np.isfinite(others)
     P[jumps] = np.nan
     counts = {"missing": int(missing0.sum()), "frozen": int((frozen & ~missing0).sum()), "jumps": int(jumps.sum())}
     return P, counts
@@ -301,6 +332,7 @@ class PoseTrajectory:
         jump_factor: float = 10.0,
         normal: ArrayLike | None = None,
         plane: MarkerPlane | None = None,
+        base_marker: bool = False,
     ) -> PoseTrajectory:
         """A positions-only recording: marker positions without orientations or base.
 
@@ -308,7 +340,7 @@ class PoseTrajectory:
         (:class:`MarkerPlane`); the out-of-plane RMS is reported in
         ``metadata["out_of_plane_rms"]`` (and the in-plane motion RMS in
         ``metadata["motion_rms"]``), with a warning when it exceeds
-        ``WOBBLE_WARNING`` (0.2) of the motion.  Frozen samples and jumps are
+        ``WOBBLE_WARNING`` (0.2) of the motion (and 1 mm).  Frozen samples and jumps are
         detected (:func:`clean_marker_tracks`) and set missing (NaN);
         ``KinematicFusion`` fits the robot's fixed base pose and, unless given,
         the markers' rest arc lengths from such recordings.
@@ -333,6 +365,10 @@ class PoseTrajectory:
         plane : MarkerPlane, optional
             Project on this plane instead of fitting one: give the ``.plane`` of the
             recording a fusion was fitted on to transform more recordings of the same set-up.
+        base_marker : bool, default False
+            ``positions[:, 0]`` is a marker on the clamped base: its median position (in the
+            user's frame, ``metadata["base_marker"]``) fixes the base position of the fusion, and
+            the trajectory's markers are the others (``n_markers = N - 1``).
         """
         P = np.asarray(positions, dtype=float)
         if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
@@ -341,13 +377,31 @@ class PoseTrajectory:
             raise ValueError("positions contains inf; use NaN for missing samples")
         if arc_lengths is not None:
             s = np.asarray(arc_lengths, dtype=float)
-            if s.shape != (P.shape[1],) or not np.all(np.isfinite(s)) or s[0] <= 0 or np.any(np.diff(s) <= 0):
+            if (
+                s.shape != (P.shape[1] - bool(base_marker),)
+                or not np.all(np.isfinite(s))
+                or s[0] <= 0
+                or np.any(np.diff(s) <= 0)
+            ):
                 raise ValueError(
-                    f"arc_lengths must be {P.shape[1]} increasing rest arc lengths > 0 [m], one per marker; got {s!r}"
+                    f"arc_lengths must be {P.shape[1] - bool(base_marker)} increasing rest arc lengths > 0 [m], "
+                    f"one per marker (the base marker excluded); got {s!r}"
                 )
+        if base_marker and P.shape[1] < 2:
+            raise ValueError(
+                f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)"
+            )
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
         )
+        base_at = None
+        if base_marker:
+            if not np.any(np.all(np.isfinite(cleaned[:, 0]), axis=1)):
+                raise ValueError("positions: the base marker (positions[:, 0]) has no valid sample")
+            base_at = np.nanmedian(cleaned[:, 0], axis=0)
+            if plane is None:  # the base marker belongs to the body's plane
+                plane = MarkerPlane.fit(cleaned, normal)
+            cleaned, P = cleaned[:, 1:], P[:, 1:]
         ok = np.all(np.isfinite(cleaned), axis=2)
         if ok.sum() < 3:
             raise ValueError(f"positions has only {int(ok.sum())} valid marker samples; need at least 3")
@@ -362,7 +416,8 @@ class PoseTrajectory:
         oop = float(np.sqrt(np.nanmean(plane.distance(cleaned) ** 2))) if plane.dim == 3 else 0.0
         dev = inplane - np.nanmean(inplane, axis=0, keepdims=True)
         motion = float(np.sqrt(np.nanmean(np.sum(dev**2, axis=2))))
-        if plane.dim == 3 and oop > WOBBLE_WARNING * motion:
+        # static recordings (holds) have noise-level motion: their out-of-plane noise says nothing
+        if plane.dim == 3 and oop > WOBBLE_WARNING * motion and oop > MIN_JUMP:
             warnings.warn(
                 f"positions: out-of-plane RMS {1e3 * oop:.3g} mm is {oop / max(motion, 1e-300):.2f} of the in-plane "
                 f"motion RMS {1e3 * motion:.3g} mm; a planar model will miss that part of the motion",
@@ -385,6 +440,8 @@ class PoseTrajectory:
         )
         if arc_lengths is not None:
             meta["marker_arc_lengths"] = np.asarray(arc_lengths, dtype=float)
+        if base_at is not None:
+            meta["base_marker"] = base_at
         obj.metadata = meta
         return obj
 

@@ -42,7 +42,13 @@ from tqdm.auto import tqdm
 from ..core.kinematics import SEED_Q_MAX, forward_kinematics, se2_compose
 from ..core.metrics import distributed_errors
 from ..core.saving import PersistenceMixin
-from ..core.trajectory import PoseTrajectory, StrainTrajectory, as_pose_trajectories, as_strain_trajectories
+from ..core.trajectory import (
+    MarkerPlane,
+    PoseTrajectory,
+    StrainTrajectory,
+    as_pose_trajectories,
+    as_strain_trajectories,
+)
 from ..core.validation import Check, Interval, Options, validate_parameters
 from .chain_geometry import (
     chain_poses,
@@ -54,10 +60,15 @@ from .chain_geometry import (
 from .input_checks import check_marker_chain
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
+    base_axis_planes,
     choose_position_threshold,
     fuse_position_segments,
+    marker_geometry,
+    on_plane,
     position_strain_trajectories,
     positions_in_user_frame,
+    recorded_base_position,
+    shared_marker_plane,
 )
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
 from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
@@ -65,6 +76,9 @@ from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
 __all__ = ["KinematicFusion", "threshold_sweep"]
 
 _SHAPE_FITS = ("end_pose", "least_squares")
+#: frames (at most) of the positions-only geometry fits: the base, arc lengths and offsets are a few
+#: numbers that 300 evenly spread frames determine to well within their model uncertainty
+POSITION_GEOMETRY_FRAMES = 300
 _SCALINGS = ("q_max", "data")
 
 
@@ -79,6 +93,13 @@ def _two_positive(value: Any) -> bool:
 
 def _whole_at_least_one(value: Any) -> bool:
     return not isinstance(value, (bool, np.bool_)) and int(value) == value and value >= 1
+
+
+def _finite_vector(value: Any) -> bool:
+    if isinstance(value, str):
+        return False
+    v = np.asarray(value, dtype=float)
+    return v.ndim == 1 and v.size >= 1 and bool(np.all(np.isfinite(v)))
 
 
 def _nonzero_int(value: Any) -> bool:
@@ -149,11 +170,29 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         the work goes to that backend (e.g. a Dask or Ray cluster).
     progress : bool, default False
         Show tqdm progress bars.
+    shared_plane : bool or "base_axis", default True
+        Positions-only recordings: project every recording passed to :meth:`fit` on one plane
+        fitted to all of them (recordings of one set-up, e.g. static holds, which have no motion
+        of their own to fit a plane to), and recordings passed to :meth:`transform` on it too
+        (:attr:`plane_`).  ``"base_axis"``: one plane per recording, all containing one axis
+        through the recorded base marker (:func:`~pcs_sindy.fusion.position_fusion.base_axis_planes`;
+        a robot whose tendons pull at different angles bends in a plane that turns with the
+        loads); :meth:`transform` then keeps each recording's plane.  False: each recording keeps
+        the plane ``from_positions`` gave it.
+    marker_offsets : "fit", sequence of float or None, default None
+        Positions-only recordings: each marker's distance [m] from the backbone along its
+        cross-section's in-plane normal (markers on the skin of a thick body), given, or
+        ``"fit"`` (one per marker, shared by all frames, :attr:`marker_offsets_`); None: on the backbone.
+    n_segments : int, optional
+        Positions-only recordings: fuse into this many segments (the closest adjacent segments merge
+        one by one) instead of by ``threshold`` - e.g. the count chosen by held-out prediction.
+        Then :attr:`threshold_` is None and :attr:`threshold_choice_` ``{"rule": "n_segments", ...}``.
 
     Attributes
     ----------
-    threshold_ : float
-        The merge threshold used: ``threshold`` when it is a number, else the chosen one.
+    threshold_ : float or None
+        The merge threshold used: ``threshold`` when it is a number, else the chosen one; None
+        when ``n_segments`` fixed the segment count.
     threshold_choice_ : dict
         Why: ``{"rule": "given"}`` for a number; for a rule the record of
         :func:`~pcs_sindy.fusion.threshold_selection.choose_threshold`
@@ -190,13 +229,23 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         (:mod:`pcs_sindy.fusion.position_fusion`; ``min_segment_markers``, ``shape_fit``,
         ``refine_boundaries``, ``merge``, ``pose_std`` and ``fixed_base`` do not apply,
         ``scaling="data"`` scales by the 99th percentile of the initial curvatures,
-        ``max_refine_frames`` bounds the frames of the geometry fit), the strain trajectories
+        ``max_refine_frames`` (at most 300) bounds the frames of the geometry fit), the strain trajectories
         have only bending strains active, and :meth:`inverse_transform` returns the markers
         in the user's frame as ``.positions`` (3-D in, 3-D out).
     base_pose_std_, marker_arc_lengths_std_ : ndarray
-        Standard errors of the fitted base pose and arc lengths (positions-only fits).
-    position_rms_ : float
-        RMS position residual of the geometry fit [m] (positions-only fits).
+        Standard errors of the fitted base pose and arc lengths (positions-only fits; for pose
+        recordings the arc lengths' follow from :attr:`total_length_std_` and ``base_pose_std_`` is None).
+    position_rms_ : float or None
+        RMS position residual of the geometry fit [m] (positions-only fits; None for poses).
+    marker_offsets_, marker_offsets_std_ : ndarray, shape (N,), or None
+        The markers' distances off the backbone (given, fitted or zeros) and their standard
+        errors (positions-only fits; None for poses).
+    plane_ : MarkerPlane or None
+        The plane shared by the recordings (positions-only fits with ``shared_plane=True``); stored as
+        ``plane_origin_`` and ``plane_axes_``.
+    plane_base_axis_ : ndarray (3, 3) or None
+        With ``shared_plane="base_axis"``: the common axis, its point (the base marker) and the side
+        the planes' normals point to.
 
     Examples
     --------
@@ -220,6 +269,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         max_refine_frames: int = 500,
         n_jobs: int | None = None,
         progress: bool = False,
+        shared_plane: bool | str = True,
+        marker_offsets: str | Sequence[float] | None = None,
+        n_segments: int | None = None,
     ) -> None:
         self.threshold = threshold
         self.q_max = q_max
@@ -234,6 +286,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.max_refine_frames = max_refine_frames
         self.n_jobs = n_jobs
         self.progress = progress
+        self.shared_plane = shared_plane
+        self.marker_offsets = marker_offsets
+        self.n_segments = n_segments
 
     # -- validation: the table read by validate_parameters in fit and transform, and by model files
     _parameter_constraints: dict = {
@@ -251,6 +306,9 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         "max_refine_frames": [Check(_whole_at_least_one, "an integer >= 1")],
         "n_jobs": [None, Check(_nonzero_int, "a non-zero integer (joblib's convention)")],
         "progress": "no_validation",
+        "shared_plane": ["boolean", Options(("base_axis",))],
+        "marker_offsets": [None, Options(("fit",)), Check(_finite_vector, "'fit', None or finite distances [m]")],
+        "n_segments": [None, Interval(Integral, 1, None, closed="left")],
     }
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
@@ -304,8 +362,14 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         y : ignored
         """
         validate_parameters(self)
+        X = as_pose_trajectories(X)  # converted once: every step below gets these recordings
         if self._positions_only(X):
             return self._fit_positions(X)
+        if self.n_segments is not None:
+            raise ValueError(
+                f"n_segments={self.n_segments!r} applies to positions-only recordings; for pose recordings "
+                "give a threshold (threshold_sweep shows the segment count of each)"
+            )
         _, chains, bases = self._chains(X)
         n_markers = chains[0].shape[1] - 1
         total, source, std = self._rest_length(X, chains)
@@ -359,8 +423,20 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.n_segments_ = int(boundaries.size)
         all_bases = np.concatenate(bases)
         self.base_pose_ = np.median(all_bases, axis=0)  # the clamped base of the recordings, for single frames
+        # the attributes of a positions-only fit exist here too, so both kinds of fit look alike
+        self.marker_arc_lengths_std_ = s / max(total, 1e-300) * std  # the markers are spread over the length
+        self.base_pose_std_ = None
+        self.position_rms_ = None
+        self.marker_offsets_ = self.marker_offsets_std_ = None
+        self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
         self.positions_only_ = False
         return self
+
+    @property
+    def plane_(self) -> MarkerPlane | None:
+        """The plane shared by positions-only recordings (``shared_plane``), else None."""
+        origin = getattr(self, "plane_origin_", None)
+        return None if origin is None else MarkerPlane(origin, self.plane_axes_)
 
     @staticmethod
     def _positions_only(X: Any) -> bool:
@@ -383,12 +459,41 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
         q_max = check_q_max(self.q_max)
         bend = None if self.scaling == "data" else float(q_max[0])
-        if isinstance(self.threshold, str):
+        offsets = self.marker_offsets
+        if offsets is not None and not isinstance(offsets, str):
+            offsets = np.asarray(offsets, dtype=float)
+            if offsets.shape != (trajs[0].n_markers,):
+                raise ValueError(
+                    f"marker_offsets must be 'fit', None or {trajs[0].n_markers} distances [m], one per marker; "
+                    f"got {self.marker_offsets!r}"
+                )
+        self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
+        if self.shared_plane == "base_axis":
+            planes, axis, origin, side = base_axis_planes(trajs)
+            self.plane_base_axis_ = np.stack([axis, origin, side])
+            trajs = [on_plane(tr, plane) for tr, plane in zip(trajs, planes)]
+        elif self.shared_plane:
+            plane = shared_marker_plane(trajs)
+            self.plane_origin_, self.plane_axes_ = plane.origin.copy(), plane.axes.copy()
+            trajs = [on_plane(tr, plane) for tr in trajs]
+        base_position = recorded_base_position(trajs)
+        frames = min(int(self.max_refine_frames), POSITION_GEOMETRY_FRAMES)
+        geometry = marker_geometry(trajs, frames, offsets=offsets, base_position=base_position)
+        if self.n_segments is not None:
+            h, choice = None, {"rule": "n_segments", "n_segments": int(self.n_segments), "h": None}
+        elif isinstance(self.threshold, str):
             rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
-            h, choice = choose_position_threshold(trajs, bend, int(self.max_refine_frames), rule=rule)
+            h, choice = choose_position_threshold(trajs, bend, frames, rule=rule, geometry=geometry)
         else:
             h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
-        fit = fuse_position_segments(trajs, h, bend, int(self.max_refine_frames))
+        fit = fuse_position_segments(
+            trajs,
+            float("inf") if h is None else h,
+            bend,
+            frames,
+            geometry=geometry,
+            n_segments=None if self.n_segments is None else int(self.n_segments),
+        )
         self.threshold_ = h
         self.threshold_choice_ = choice
         s = fit["arc_lengths"]
@@ -410,6 +515,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.base_pose_ = fit["base_pose"]
         self.base_pose_std_ = fit["base_pose_std"]
         self.position_rms_ = fit["rms"]
+        self.marker_offsets_ = fit["offsets"]
+        self.marker_offsets_std_ = fit["offsets_std"]
         self.positions_only_ = True
         return self
 
@@ -493,16 +600,28 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         reproduces the poses in the input frame.
         """
         check_is_fitted(self, "segment_lengths_")
+        X = as_pose_trajectories(X)
         if getattr(self, "positions_only_", False) or self._positions_only(X):
-            trajs = as_pose_trajectories(X)
+            trajs = X
             if not getattr(self, "positions_only_", False) or not self._positions_only(trajs):
                 raise ValueError(
                     "X and the fit must both be positions-only recordings (PoseTrajectory.from_positions) or both poses"
                 )
             if trajs[0].n_markers != self.n_markers_:
                 raise ValueError(f"X has {trajs[0].n_markers} markers; the fusion was fitted with {self.n_markers_}")
+            plane = self.plane_
+            if plane is not None:
+                trajs = [on_plane(tr, plane) for tr in trajs]
+            elif getattr(self, "plane_base_axis_", None) is not None:
+                planes = base_axis_planes(trajs, *self.plane_base_axis_)[0]
+                trajs = [on_plane(tr, p) for tr, p in zip(trajs, planes)]
             return position_strain_trajectories(
-                trajs, self.base_pose_, self.segment_lengths_, self.marker_arc_lengths_, self.boundaries_
+                trajs,
+                self.base_pose_,
+                self.segment_lengths_,
+                self.marker_arc_lengths_,
+                self.boundaries_,
+                getattr(self, "marker_offsets_", None),
             )
         trajs, chains, bases = self._chains(X)
         if chains[0].shape[1] - 1 != self.n_markers_:
@@ -602,7 +721,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             rec = PoseTrajectory(se2_compose(base[:, None, :], local), st.t, metadata=dict(st.metadata))
             positions = positions_in_user_frame(st, rec.poses)
             if positions is not None:  # positions-only input: markers back in the user's (3-D) frame
-                rec.positions, rec.plane, rec.plane_positions = positions, st.metadata["plane"], rec.poses[:, 1:, :2]
+                plane = st.metadata["plane"]
+                rec.positions, rec.plane, rec.plane_positions = positions, plane, plane.to_plane(positions)
             out.append(rec)
         return out
 

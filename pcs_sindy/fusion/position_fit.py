@@ -26,9 +26,8 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares
-from scipy.sparse import lil_matrix
 
-from ..core.kinematics import forward_kinematics, forward_kinematics_jacobian
+from ..core.kinematics import forward_kinematics_jacobian
 
 __all__ = ["fit_marker_geometry", "fit_position_strains", "bending_strains"]
 
@@ -61,6 +60,70 @@ def _initial_geometry(P: NDArray[np.float64], arc_lengths: NDArray | None) -> tu
     return np.array([base_xy[0], base_xy[1], theta]), s
 
 
+def marker_positions_jacobian(
+    kappa: ArrayLike,
+    lengths: ArrayLike,
+    s: ArrayLike,
+    base_pose: ArrayLike,
+    offsets: ArrayLike | None = None,
+    *,
+    with_theta: bool = False,
+):
+    """In-plane marker positions (T, N, 2) of a bending-only robot and their Jacobian (T, N, 2, m).
+
+    A marker at arc length ``s_i`` sits ``offsets[i]`` off the backbone along the cross-section's
+    in-plane normal ``(cos theta, sin theta)``.  With ``with_theta`` the backbone poses
+    (T, N, 3) are returned too.
+    """
+    lengths = np.asarray(lengths, dtype=float)
+    pose, jac = forward_kinematics_jacobian(bending_strains(kappa), lengths, s, base_pose=base_pose)
+    jac = jac[..., 0::3]  # (T, N, 3, m)
+    pos, J = pose[..., :2], jac[..., :2, :]
+    if offsets is not None and np.any(np.asarray(offsets) != 0):
+        d = np.asarray(offsets, dtype=float)
+        c, sn = np.cos(pose[..., 2]), np.sin(pose[..., 2])
+        pos = pos + d[:, None] * np.stack([c, sn], axis=-1)
+        J = J + (d[:, None] * np.stack([-sn, c], axis=-1))[..., None] * jac[..., 2:3, :]
+    return (pos, J, pose) if with_theta else (pos, J)
+
+
+def _chord_curvatures(
+    P: NDArray[np.float64], base: NDArray[np.float64], lengths: NDArray[np.float64], s: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """Curvatures (T, m) to start from: segment by segment, from the chord to its last marker.
+
+    A circular arc of length ``l`` turns its tangent by twice the angle between its start tangent and its
+    chord, so each segment's curvature follows from where its last marker lies seen from the segment's
+    start pose (propagated through the previous segments); exact for markers on the model, and a start
+    close to the least-squares solution otherwise.  Frames missing that marker start straight there.
+    """
+    T = P.shape[0]
+    m = lengths.size
+    ends = np.cumsum(lengths)
+    starts = ends - lengths
+    kappa = np.zeros((T, m))
+    x = np.full(T, base[0])
+    y = np.full(T, base[1])
+    th = np.full(T, base[2])
+    for j in range(m):
+        inside = np.flatnonzero((s > starts[j] + 1e-12 * ends[-1]) & (s <= ends[j] * (1 + 1e-12)))
+        if inside.size:
+            i = inside[-1]
+            sigma = s[i] - starts[j]
+            dx, dy = P[:, i, 0] - x, P[:, i, 1] - y
+            # angle of the chord from the tangent (-sin th, cos th), counter-clockwise
+            phi = np.arctan2(-(dx * np.cos(th) + dy * np.sin(th)), -dx * np.sin(th) + dy * np.cos(th))
+            k = 2.0 * phi / sigma
+            kappa[:, j] = np.where(np.isfinite(k), k, 0.0)
+        u = kappa[:, j] * lengths[j]
+        # segment end in its start frame: (-(1 - cos u)/kappa, sin u / kappa)
+        ex = -lengths[j] * np.where(np.abs(u) > 1e-8, (1.0 - np.cos(u)) / np.where(u == 0, 1.0, u), u / 2.0)
+        ey = lengths[j] * np.where(np.abs(u) > 1e-8, np.sin(u) / np.where(u == 0, 1.0, u), 1.0)
+        x, y = x + np.cos(th) * ex - np.sin(th) * ey, y + np.sin(th) * ex + np.cos(th) * ey
+        th = th + u
+    return kappa
+
+
 def _check_plane_positions(positions: Sequence[ArrayLike]) -> list[NDArray[np.float64]]:
     out = [np.asarray(p, dtype=float) for p in positions]
     n = {p.shape[1] if p.ndim == 3 else -1 for p in out}
@@ -76,6 +139,10 @@ def fit_marker_geometry(
     max_frames: int = 300,
     base_pose: ArrayLike | None = None,
     curvatures: str | ArrayLike = "uniform",
+    initial_base_pose: ArrayLike | None = None,
+    base_position: ArrayLike | None = None,
+    offsets: str | ArrayLike | None = None,
+    initial_offsets: ArrayLike | None = None,
 ) -> dict[str, NDArray[np.float64] | float]:
     """Fixed base pose and rest arc lengths of position-only markers.
 
@@ -102,12 +169,27 @@ def fit_marker_geometry(
     curvatures : {"uniform", "per_segment"} or array_like of int, default "uniform"
         Or the index (0, 1, ...) of the curvature of each of the N marker spacings, e.g.
         ``[0, 0, 1]`` for a segment over the first two spacings and one over the third.
+    initial_base_pose : array_like, shape (3,), optional
+        Where the fit of the base pose starts (default: a straight robot through the markers'
+        mean positions); e.g. the base of a uniformly bending fit, since with a curvature per
+        spacing the base's orientation is only weakly seen by positions.
+    base_position : array_like, shape (2,), optional
+        A known base position (a marker on the clamp): only the base's orientation is fitted.
+    offsets : "fit" or array_like, shape (N,), optional
+        Each marker's distance [m] from the backbone along its cross-section's in-plane normal
+        (see :func:`fit_position_strains`): given, or ``"fit"`` (one per marker, shared by all
+        frames); default 0.
+    initial_offsets : array_like, shape (N,), optional
+        Where the fit of the offsets starts (default 0), e.g. those of a coarser fit.
 
     Returns
     -------
     dict
         ``base_pose`` (3,), ``arc_lengths`` (N,), ``rms`` (position residual
-        RMS [m]), ``std`` (standard errors of base pose and arc lengths, (3 + N,)).
+        RMS [m]), ``std`` (standard errors of base pose and arc lengths, (3 + N,); a sandwich
+        estimate over blocks of consecutive frames, as the residuals are correlated model error;
+        0 for what was given), ``offsets`` (N,) and ``offsets_std`` (N,), ``curvatures`` (F, groups)
+        of the frames used.
     """
     recs = _check_plane_positions(positions)
     P = np.concatenate(recs, axis=0)
@@ -121,6 +203,8 @@ def fit_marker_geometry(
     b0, s0 = _initial_geometry(P, None if arc_lengths is None else np.asarray(arc_lengths, dtype=float))
     if base_pose is not None:
         b0 = np.asarray(base_pose, dtype=float).reshape(3)
+    elif initial_base_pose is not None:
+        b0 = np.asarray(initial_base_pose, dtype=float).reshape(3)
     if isinstance(curvatures, str):
         if curvatures not in ("uniform", "per_segment"):
             raise ValueError(f"curvatures must be 'uniform', 'per_segment' or indices; got {curvatures!r}")
@@ -132,66 +216,154 @@ def fit_marker_geometry(
                 f"curvatures must be {N} non-decreasing indices from 0 in steps of 0 or 1; got {curvatures!r}"
             )
     nk = int(group[-1]) + 1
-    fit_base = base_pose is None
+    if base_position is not None:
+        bp = np.asarray(base_position, dtype=float).reshape(-1)
+        if bp.shape != (2,) or not np.all(np.isfinite(bp)):
+            raise ValueError(f"base_position must be 2 finite in-plane coordinates [m]; got {base_position!r}")
+        b0 = np.array([bp[0], bp[1], b0[2]])
+    fit_xy = base_pose is None and base_position is None
+    fit_th = base_pose is None
     fit_s = arc_lengths is None
-    mask = np.all(np.isfinite(P), axis=2)  # (F, N)
-    target = np.where(mask[..., None], P, 0.0)
-    # global parameters: base (3) when fitted, log of the gaps (N) when fitted; then F x N curvatures
-    n_glob = 3 * fit_base + N * fit_s
+    fit_d = isinstance(offsets, str)
+    if fit_d and offsets != "fit":
+        raise ValueError(f"offsets must be 'fit', None or {N} distances [m]; got {offsets!r}")
+    d0 = np.zeros(N) if offsets is None or fit_d else np.asarray(offsets, dtype=float).reshape(-1)
+    if fit_d and initial_offsets is not None:
+        d0 = np.asarray(initial_offsets, dtype=float).reshape(-1)
+    if d0.shape != (N,) or not np.all(np.isfinite(d0)):
+        raise ValueError(f"offsets must be 'fit', None or {N} finite distances [m]; got {offsets!r}")
+    # blocks of the global unknowns: base x, y; base angle; log gaps; offsets
+    sizes = [2 * fit_xy, 1 * fit_th, N * fit_s, N * fit_d]
+    cuts = np.cumsum([0] + sizes)
+    n_glob = int(cuts[-1])
     scale = max(float(s0[-1]), 1e-3)
+    ends = np.flatnonzero(np.diff(np.append(group, nk)))  # last marker of each curvature group
+    mask = np.all(np.isfinite(P), axis=2)  # (F, N)
+    W = np.repeat(mask, 2, axis=1).astype(float)
+    target = np.where(mask[..., None], P, 0.0)
+    # variable projection: the globals are fitted by least squares on the residual left after every
+    # frame's curvatures are solved for them (a batched solve, warm-started)
+    state: dict = {"q": None}
 
     def unpack(x):
-        k = 0
-        b = b0
-        if fit_base:
-            b = x[:3] * np.array([scale, scale, 1.0])
-            k = 3
-        s = s0
+        b, sv, d = b0.copy(), s0, d0
+        if fit_xy:
+            b[:2] = x[cuts[0] : cuts[1]] * scale
+        if fit_th:
+            b[2] = x[cuts[1]]
         if fit_s:
-            s = np.cumsum(np.exp(x[k : k + N])) * scale
-        kappa = x[n_glob:].reshape(F, nk)[:, group] / scale
-        return b, s, kappa
+            sv = np.cumsum(np.exp(x[cuts[2] : cuts[3]])) * scale
+        if fit_d:
+            d = x[cuts[3] : cuts[4]] * scale
+        return b, sv, d
+
+    def solve(x):
+        if state.get("x") is not None and np.array_equal(state["x"], x):
+            return state["solved"]
+        b, sv, d = unpack(x)
+        lengths = np.diff(np.concatenate([[0.0], sv[ends]]))
+        q, _ = fit_position_strains(P, b, lengths, sv, q0=state["q"], tol=1e-9 * scale, offsets=d)
+        state["q"] = q
+        kappa = q[:, 0::3]
+        pos, Jk, pose = marker_positions_jacobian(kappa, lengths, sv, b, d, with_theta=True)
+        state["x"], state["solved"] = np.array(x, copy=True), (b, sv, d, pos, Jk, pose)
+        return state["solved"]
 
     def residuals(x):
-        b, s, kappa = unpack(x)
-        lengths = np.diff(np.concatenate([[0.0], s]))
-        pose = forward_kinematics(bending_strains(kappa), lengths, s, base_pose=b)
-        r = (pose[..., :2] - target) * mask[..., None]
-        return r.reshape(-1) / scale
+        pos = solve(x)[3]
+        return ((pos - target) * mask[..., None]).reshape(-1) / scale
 
-    x0 = []
-    if fit_base:
-        x0 += list(b0 / np.array([scale, scale, 1.0]))
+    def jacobian(x):
+        b, sv, d, p, Jk, pose = solve(x)
+        backbone = pose[..., :2]
+        theta = pose[..., 2]
+        normal = np.stack([np.cos(theta), np.sin(theta)], axis=-1)
+        cols = []
+        if fit_xy:
+            cols += [np.broadcast_to([1.0, 0.0], p.shape) * scale, np.broadcast_to([0.0, 1.0], p.shape) * scale]
+        if fit_th:  # rotation of the whole body about the base
+            rel = p - b[:2]
+            cols.append(np.stack([-rel[..., 1], rel[..., 0]], axis=-1))
+        if fit_s:  # lengthening gap j moves the markers beyond along the tangent at s_j, turning them by kappa
+            tangent = np.stack([-np.sin(theta), np.cos(theta)], axis=-1)
+            kap = state["q"][:, 0::3][:, group]  # (F, N) curvature at each marker's spacing
+            gaps = np.diff(np.concatenate([[0.0], sv]))
+            for j in range(N):
+                rel = p - backbone[:, j : j + 1]
+                col = tangent[:, j : j + 1] + kap[:, j, None, None] * np.stack([-rel[..., 1], rel[..., 0]], axis=-1)
+                cols.append(col * (np.arange(N) >= j)[None, :, None] * gaps[j])
+        if fit_d:
+            for j in range(N):
+                cols.append(normal * (np.arange(N) == j)[None, :, None] * scale)
+        Jg = np.stack(cols, axis=-1) * mask[..., None, None]  # (F, N, 2, n_glob)
+        Jg = Jg.reshape(F, 2 * N, n_glob) / scale
+        Jk = Jk.reshape(F, 2 * N, nk) * W[..., None] / scale
+        # project out what each frame's curvatures absorb (the Schur complement of the frame blocks)
+        A = np.einsum("fia,fib->fab", Jk, Jk) + 1e-12 * np.eye(nk)
+        B = np.einsum("fia,fig->fag", Jk, Jg)
+        Jr = Jg - np.einsum("fia,fag->fig", Jk, np.linalg.solve(A, B))
+        return Jr.reshape(2 * F * N, n_glob)
+
+    x0 = np.zeros(n_glob)
+    if fit_xy:
+        x0[cuts[0] : cuts[1]] = b0[:2] / scale
+    if fit_th:
+        x0[cuts[1]] = b0[2]
     if fit_s:
-        x0 += list(np.log(np.diff(np.concatenate([[0.0], s0])) / scale))
-    x0 = np.concatenate([np.asarray(x0, dtype=float), np.zeros(F * nk)])
-    sparsity = lil_matrix((2 * F * N, x0.size), dtype=int)
-    sparsity[:, :n_glob] = 1
-    for f in range(F):
-        rows = slice(2 * N * f, 2 * N * (f + 1))
-        sparsity[rows, n_glob + nk * f : n_glob + nk * (f + 1)] = 1
-    res = least_squares(residuals, x0, jac_sparsity=sparsity, x_scale="jac", method="trf", max_nfev=200)
-    b, s, _ = unpack(res.x)
-    dof = max(int(mask.sum()) * 2 - x0.size, 1)
-    rms = float(np.sqrt(np.sum(res.fun**2) / mask.sum() / 2)) * scale
-    std = np.full(n_glob, np.nan)
+        x0[cuts[2] : cuts[3]] = np.log(np.diff(np.concatenate([[0.0], s0])) / scale)
+    if fit_d:
+        x0[cuts[3] : cuts[4]] = d0 / scale
     if n_glob:
-        J = res.jac.toarray() if hasattr(res.jac, "toarray") else np.asarray(res.jac)
-        sigma2 = np.sum(res.fun**2) / dof
-        try:
-            cov = np.linalg.pinv(J.T @ J)[:n_glob, :n_glob] * sigma2
-        except np.linalg.LinAlgError:
-            cov = np.full((n_glob, n_glob), np.nan)
-        # back to physical units: base x, y in metres; arc lengths s_i = scale sum_{j<=i} exp(x_j)
+        res = least_squares(
+            residuals, x0, jac=jacobian, x_scale="jac", method="trf", max_nfev=100, ftol=1e-12, xtol=1e-12
+        )
+        x = res.x
+    else:
+        x = x0
+    fun = residuals(x)
+    b, sv, d = unpack(x)
+    n_obs = int(mask.sum()) * 2
+    dof = max(n_obs - n_glob - F * nk, 1)
+    rms = float(np.sqrt(np.sum(fun**2) / max(n_obs, 1))) * scale
+    std_glob = np.zeros(n_glob)
+    if n_glob:
+        J = jacobian(x)
+        r = residuals(x)
+        bread = np.linalg.pinv(J.T @ J)
+        # sandwich covariance over blocks of consecutive frames: the residuals are model error, correlated
+        # between the markers of a frame and over neighbouring frames, not independent noise
+        n_blocks = int(min(F, max(2, round(np.sqrt(F)))))
+        block = np.arange(F) * n_blocks // F
+        score = np.einsum("fig,fi->fg", J.reshape(F, 2 * N, n_glob), r.reshape(F, 2 * N))
+        per_block = np.stack([score[block == k].sum(axis=0) for k in range(n_blocks)])
+        meat = per_block.T @ per_block * n_blocks / max(n_blocks - 1, 1)
+        cov = bread @ meat @ bread
+        cov = np.maximum(cov, bread * np.sum(r**2) / dof)  # never below the white-noise covariance
+        # back to physical units: base x, y and offsets in metres; arc lengths s_i = scale sum_{j<=i} exp(x_j)
         units = np.eye(n_glob)
-        if fit_base:
-            units[0, 0] = units[1, 1] = scale
+        units[cuts[0] : cuts[1], cuts[0] : cuts[1]] *= scale
+        units[cuts[3] : cuts[4], cuts[3] : cuts[4]] *= scale
         if fit_s:
-            gaps = np.diff(np.concatenate([[0.0], s]))
-            k = 3 * fit_base
-            units[k:, k:] = np.tril(np.ones((N, N))) * gaps[None, :]
-        std = np.sqrt(np.clip(np.diag(units @ cov @ units.T), 0.0, None))
-    return {"base_pose": np.asarray(b, dtype=float), "arc_lengths": np.asarray(s, dtype=float), "rms": rms, "std": std}
+            gaps = np.diff(np.concatenate([[0.0], sv]))
+            units[cuts[2] : cuts[3], cuts[2] : cuts[3]] = np.tril(np.ones((N, N))) * gaps[None, :]
+        std_glob = np.sqrt(np.clip(np.diag(units @ cov @ units.T), 0.0, None))
+    std = np.zeros(3 + N)
+    if fit_xy:
+        std[:2] = std_glob[cuts[0] : cuts[1]]
+    if fit_th:
+        std[2] = std_glob[cuts[1]]
+    if fit_s:
+        std[3:] = std_glob[cuts[2] : cuts[3]]
+    offsets_std = std_glob[cuts[3] : cuts[4]] if fit_d else np.zeros(N)
+    return {
+        "base_pose": np.asarray(b, dtype=float),
+        "arc_lengths": np.asarray(sv, dtype=float),
+        "rms": rms,
+        "std": std,
+        "offsets": np.asarray(d, dtype=float),
+        "offsets_std": offsets_std,
+        "curvatures": state["q"][:, 0::3],
+    }
 
 
 def fit_position_strains(
@@ -202,6 +374,8 @@ def fit_position_strains(
     *,
     q0: ArrayLike | None = None,
     max_iter: int = 30,
+    tol: float = 1e-7,
+    offsets: ArrayLike | None = None,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Bending strains of every frame from in-plane marker positions.
 
@@ -216,6 +390,11 @@ def fit_position_strains(
     q0 : array_like, shape (T, 3m), optional
         Start; default straight.
     max_iter : int, default 30
+    tol : float, default 1e-7
+        A frame has converged when a step moves none of its markers by more than ``tol`` [m].
+    offsets : array_like, shape (N,), optional
+        Distance [m] of each marker from the backbone along its cross-section's in-plane
+        normal ``(cos theta, sin theta)`` (markers on the skin of a thick body); default 0.
 
     Returns
     -------
@@ -235,32 +414,46 @@ def fit_position_strains(
     mask = np.all(np.isfinite(P), axis=2)
     W = np.repeat(mask, 2, axis=1).astype(float)  # (T, 2N)
     target = np.where(mask[..., None], P, 0.0).reshape(T, 2 * N)
-    kappa = np.zeros((T, m)) if q0 is None else np.asarray(q0, dtype=float).reshape(T, m, 3)[..., 0].copy()
-    lam = np.full(T, 1e-3)
+    if q0 is None:
+        kappa = _chord_curvatures(P, base, lengths, s)
+    else:
+        kappa = np.asarray(q0, dtype=float).reshape(T, m, 3)[..., 0].copy()
 
-    def evaluate(k):
-        pose, jac = forward_kinematics_jacobian(bending_strains(k), lengths, s, base_pose=base)
-        r = (pose[..., :2].reshape(T, 2 * N) - target) * W
-        J = jac[:, :, :2, 0::3].reshape(T, 2 * N, m) * W[..., None]
+    d = np.zeros(N) if offsets is None else np.asarray(offsets, dtype=float).reshape(N)
+
+    def evaluate(rows, k):
+        pose, jac = marker_positions_jacobian(k, lengths, s, base, d)
+        r = (pose.reshape(rows.size, 2 * N) - target[rows]) * W[rows]
+        J = jac.reshape(rows.size, 2 * N, m) * W[rows][..., None]
         return r, J
 
-    r, J = evaluate(kappa)
+    # Levenberg-Marquardt per frame; only the frames not yet converged are evaluated again
+    active = np.arange(T)
+    lam = np.full(T, 1e-3)
+    r, J = evaluate(active, kappa)
     cost = np.sum(r**2, axis=1)
     eye = np.eye(m)
     for _ in range(max_iter):
+        if active.size == 0:
+            break
         JtJ = np.einsum("tia,tib->tab", J, J)
         g = np.einsum("tia,ti->ta", J, r)
         diag = np.einsum("taa->ta", JtJ)
-        A = JtJ + lam[:, None, None] * diag[:, :, None] * eye + 1e-12 * eye  # unseen curvatures stay put
+        A = JtJ + lam[active, None, None] * diag[:, :, None] * eye + 1e-12 * eye  # unseen curvatures stay put
         step = -np.linalg.solve(A, g[..., None])[..., 0]
-        r_new, J_new = evaluate(kappa + step)
+        J_old = J
+        r_new, J_new = evaluate(active, kappa[active] + step)
         c_new = np.sum(r_new**2, axis=1)
         better = c_new <= cost
-        kappa[better] += step[better]
+        kappa[active[better]] += step[better]
         r[better], J[better], cost[better] = r_new[better], J_new[better], c_new[better]
-        lam = np.clip(np.where(better, lam * 0.3, lam * 10.0), 1e-12, 1e12)
-        if np.max(np.abs(step[better]), initial=0.0) < 1e-10 and np.all(better):
-            break
+        lam[active] = np.clip(np.where(better, lam[active] * 0.3, lam[active] * 10.0), 1e-12, 1e12)
+        # converged: the step moves no marker by more than tol (curvatures the markers hardly see converge
+        # slowly and matter as little), or the damping has grown so large that nothing moves
+        moved = np.max(np.abs(np.einsum("tia,ta->ti", J_old, step)), axis=1)
+        done = (moved < tol) | (lam[active] >= 1e12)
+        keep = ~done
+        active, r, J, cost = active[keep], r[keep], J[keep], cost[keep]
     # curvature j is seen by the valid markers beyond the start of segment j; frames that do not see it
     # (or have fewer valid coordinates than curvatures) get it interpolated in time
     starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])

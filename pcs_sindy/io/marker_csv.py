@@ -12,7 +12,10 @@ conversion by hand, given the marker names in base-to-tip order:
 * Vicon Nexus CSV: ``Trajectories``, the rate, a row of ``Subject:Marker`` names
   over every third column, ``Frame, Sub Frame, X, Y, Z, ...`` and a units row (``mm``);
 * Qualisys QTM TSV: header lines (``MARKER_NAMES`` ...), then a row ``Frame  Time  M1 X  M1 Y  M1 Z ...``
-  (tab-separated; the delimiter is detected).
+  (tab-separated; the delimiter is detected);
+* the axis letter before the marker name, e.g. ``ID,x1,y1,z1,x2,...,phi1`` (marker names ``"1"``, ``"2"``);
+* no header at all (``markers=5``): a frame index, a time column, then x, y, z of every marker,
+  unlabelled; the markers are the last ``3 * markers`` columns unless ``columns`` says where.
 
 Missing samples (empty cells, ``NaN``) are NaN.  A frame/sample index column,
 when present, places each row: skipped indices become NaN rows.  Time stamps
@@ -39,7 +42,7 @@ __all__ = ["MarkerData", "read_marker_csv", "UNITS"]
 #: length units accepted by read_marker_csv and their size in metres
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "meters": 1.0, "millimeters": 1e-3, "centimeters": 1e-2}
 _AXES = ("x", "y", "z")
-_FRAME_NAMES = ("frame", "frame #", "frame number", "sample", "index", "sample index")
+_FRAME_NAMES = ("frame", "frame #", "frame number", "sample", "index", "sample index", "id")
 
 
 @dataclass
@@ -95,6 +98,12 @@ def _split_name_axis(cell: str) -> tuple[str, str] | None:
     return (m.group(1), m.group(2)) if m else None
 
 
+def _split_axis_name(cell: str) -> tuple[str, str] | None:
+    """``('1', 'x')`` from ``x1``, ``X_1``, ``x.disk1`` (the axis letter first); None otherwise."""
+    m = re.fullmatch(r"([xyz])[\s_:.\-]*(.+)", _norm(cell))
+    return (m.group(2), m.group(1)) if m else None
+
+
 def _number(cell: str) -> float:
     c = cell.strip()
     if c == "" or c.lower() in ("nan", "na", "null", "-"):
@@ -115,19 +124,20 @@ def _numeric_row(row: list[str]) -> bool:
 
 def _find_columns(header: list[list[str]], markers: Sequence[str]) -> tuple[dict[str, list[int]], int]:
     """Columns of every marker's X, Y, Z and the index of the row naming the axes."""
-    # layout 1: one row with combined names (M1_X)
-    for r, row in enumerate(header):
-        found: dict[str, list[int]] = {}
-        for name in markers:
-            cols = {}
-            for j, cell in enumerate(row):
-                sa = _split_name_axis(cell)
-                if sa and (sa[0] == name.lower() or sa[0].endswith(":" + name.lower())):
-                    cols.setdefault(sa[1], j)
-            if len(cols) == 3:
-                found[name] = [cols[a] for a in _AXES]
-        if len(found) == len(markers):
-            return found, r
+    # layout 1: one row with combined names, the name first (M1_X) or the axis first (x1)
+    for split in (_split_name_axis, _split_axis_name):
+        for r, row in enumerate(header):
+            found: dict[str, list[int]] = {}
+            for name in markers:
+                cols = {}
+                for j, cell in enumerate(row):
+                    sa = split(cell)
+                    if sa and (sa[0] == name.lower() or sa[0].endswith(":" + name.lower())):
+                        cols.setdefault(sa[1], j)
+                if len(cols) == 3:
+                    found[name] = [cols[a] for a in _AXES]
+            if len(found) == len(markers):
+                return found, r
     # layout 2: a row of bare axes (X, Y, Z) under a row of names (Motive, Vicon), names forward-filled
     for r, row in enumerate(header):
         axes = [_norm(c) for c in row]
@@ -170,32 +180,70 @@ def _detect_units(header: list[list[str]]) -> str | None:
     return None
 
 
+def _unnamed_columns(
+    path: Path, first_row: list[str], n: int, columns: Sequence[int] | None
+) -> tuple[dict[str, list[int]], list[str]]:
+    """x, y, z columns of ``n`` unnamed markers (``m0``, ``m1``, ...) and empty column names."""
+    width = len(first_row)
+    if columns is None:
+        if 3 * n > width:
+            raise DataFileError(f"{path}: markers={n} needs {3 * n} columns; the data rows have {width}")
+        starts = [width - 3 * n + 3 * k for k in range(n)]
+    else:
+        starts = [int(c) for c in columns]
+        if len(starts) != n or any(c != int(c) for c in columns):
+            raise DataFileError(f"{path}: columns must give the x column of each of the {n} markers; got {columns!r}")
+        bad = [c for c in starts if not 0 <= c <= width - 3]
+        if bad:
+            raise DataFileError(f"{path}: columns {bad} leave no room for x, y, z in the {width} columns")
+    return {f"m{k}": [c, c + 1, c + 2] for k, c in enumerate(starts)}, [""] * width
+
+
+def _is_index_column(rows: list[list[str]], j: int) -> bool:
+    try:
+        v = np.array([float(r[j]) for r in rows[: min(len(rows), 50)] if r and r[j].strip()])
+    except (ValueError, IndexError):
+        return False
+    return v.size > 1 and bool(np.all(v == np.round(v)) and np.all(np.diff(v) > 0))
+
+
 def read_marker_csv(
     path: str | Path,
-    markers: Sequence[str],
+    markers: Sequence[str] | int,
     *,
     rate: float,
     units: str | None = None,
-    inputs: Sequence[str] | None = None,
-    frame_column: str | None = "auto",
+    inputs: Sequence[str | int] | None = None,
+    frame_column: str | int | None = "auto",
+    columns: Sequence[int] | None = None,
 ) -> MarkerData:
     """Read marker positions (and input columns) from a motion-capture CSV/TSV export.
 
     Parameters
     ----------
     path : str or Path
-    markers : sequence of str
+    markers : sequence of str or int
         Marker (or rigid-body) names, ordered base to tip, the base not
-        included, as the file names them (``Subject:`` prefixes are matched too).
+        included, as the file names them (``Subject:`` prefixes are matched too;
+        ``"1"`` matches ``x1, y1, z1``).  An int: the number of unnamed markers of a
+        file without a header (or whose header does not name them), read from
+        ``columns``; they are named ``"m0"``, ``"m1"``, ... in column order, which is
+        the file's, not necessarily base to tip (see
+        :func:`pcs_sindy.fusion.order_markers`).
     rate : float
         Nominal sample rate [Hz]; samples are ``1 / rate`` apart.
     units : {"m", "mm", "cm"}, optional
         Length units of the file; by default read from the file (Motive's
         ``Length Units``, Vicon's units row), else an error asks for them.
-    inputs : sequence of str, optional
-        Names of columns holding the inputs (e.g. servo angles), in order.
-    frame_column : str, "auto" or None
-        Column of the sample index; ``"auto"`` looks for ``Frame``/``Sample``/``Index``.
+    inputs : sequence of str or int, optional
+        Names (or 0-based positions) of columns holding the inputs (e.g. servo angles), in order.
+    frame_column : str, int, "auto" or None
+        Column of the sample index (name or 0-based position); ``"auto"`` looks for
+        ``Frame``/``Sample``/``Index``/``ID`` and, in a file without a header, takes the
+        first column when it holds increasing integers.
+    columns : sequence of int, optional
+        With ``markers`` an int: the 0-based column of each marker's x (its y and z
+        follow).  Default: the last ``3 * markers`` columns.
 
     Returns
     -------
@@ -209,8 +257,14 @@ def read_marker_csv(
     path = Path(path)
     if not (isinstance(rate, (int, float)) and np.isfinite(rate) and rate > 0):
         raise DataFileError(f"{path}: rate must be a sample rate > 0 in Hz; got {rate!r}")
-    if isinstance(markers, str) or len(markers) < 1:
+    unnamed = isinstance(markers, (int, np.integer)) and not isinstance(markers, bool)
+    if unnamed:
+        if markers < 1:
+            raise DataFileError(f"{path}: markers must be a number of markers >= 1 or a list of names; got {markers!r}")
+    elif isinstance(markers, str) or len(markers) < 1:
         raise DataFileError(f"{path}: markers must be a list of marker names, base to tip; got {markers!r}")
+    if columns is not None and not unnamed:
+        raise DataFileError(f"{path}: columns={columns!r} applies to unnamed markers only (markers=<int>)")
     if units is not None and units.lower() not in UNITS:
         raise DataFileError(f"{path}: units must be one of {sorted(set(UNITS))}; got {units!r}")
     text = path.read_text(encoding="utf-8-sig")
@@ -222,26 +276,44 @@ def read_marker_csv(
     )
     if first_data is None:
         raise DataFileError(f"{path}: no numeric data rows")
-    try:
-        cols, axis_row = _find_columns(rows[:first_data], list(markers))
-    except ValueError as err:
-        raise DataFileError(f"{path}: {err}") from None
-    names = [_norm(c) for c in rows[axis_row]]
+    if unnamed:
+        cols, names = _unnamed_columns(path, rows[first_data], int(markers), columns)
+        markers = list(cols)
+        header_row: list[str] = rows[first_data - 1] if first_data else []
+    else:
+        try:
+            cols, axis_row = _find_columns(rows[:first_data], list(markers))
+        except ValueError as err:
+            raise DataFileError(f"{path}: {err}") from None
+        header_row = rows[axis_row]
+        names = [_norm(c) for c in header_row]
     unit = units.lower() if units is not None else _detect_units(rows[:first_data])
     if unit is None:
         raise DataFileError(f"{path}: the file does not say its length units; give units='mm' or units='m'")
+    width_data = len(rows[first_data])
     in_cols = []
     for name in inputs or []:
-        hits = [j for row in rows[:first_data] for j, c in enumerate(row) if _norm(c) == name.lower()]
+        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+            if not 0 <= name < width_data:
+                raise DataFileError(f"{path}: input column {name!r} is not one of the {width_data} columns")
+            in_cols.append(int(name))
+            continue
+        hits = [j for row in rows[:first_data] for j, c in enumerate(row) if _norm(c) == str(name).lower()]
         if not hits:
-            raise DataFileError(f"{path}: no input column named {name!r}; header cells: {rows[axis_row]}")
+            raise DataFileError(f"{path}: no input column named {name!r}; header cells: {header_row}")
         in_cols.append(hits[0])
     frame_col = None
     if frame_column == "auto":
         frame_col = next((j for j, c in enumerate(names) if c in _FRAME_NAMES), None)
+        if frame_col is None and first_data == 0 and _is_index_column(rows, 0):
+            frame_col = 0  # a file without a header: a leading column of increasing integers is the frame
+    elif isinstance(frame_column, (int, np.integer)) and not isinstance(frame_column, bool):
+        if not 0 <= frame_column < width_data:
+            raise DataFileError(f"{path}: frame_column {frame_column!r} is not one of the {width_data} columns")
+        frame_col = int(frame_column)
     elif frame_column is not None:
         if frame_column.lower() not in names:
-            raise DataFileError(f"{path}: no frame column {frame_column!r} in {rows[axis_row]}")
+            raise DataFileError(f"{path}: no frame column {frame_column!r} in {header_row}")
         frame_col = names.index(frame_column.lower())
     data = [row for row in rows[first_data:] if any(c.strip() for c in row)]
     width = max(max(c) for c in cols.values()) + 1
