@@ -35,10 +35,11 @@ from typing import Any
 import cv2
 import numpy as np
 from numpy.typing import NDArray
+from scipy.ndimage import median_filter
 from tqdm.auto import tqdm
 
 from ..core.camera import Camera, camera_extras, camera_json_path, read_camera_json
-from ..core.trajectory import PoseTrajectory, clean_marker_tracks
+from ..core.trajectory import PoseTrajectory
 from .chain import link_chains, track, wrap_half_pi
 from .frame_source import FrameSource
 from .markers import AREA, AXIS, LONG, PIXELS, SHORT
@@ -461,23 +462,41 @@ def _reduced_params(p: dict[str, Any], red: int) -> dict[str, Any]:
     return q
 
 
+#: A marker whose offset from its neighbours' chain jumps by more than this many noise levels (and at
+#: least :data:`OUTLIER_MIN` metres) from its running median is flagged as off its track.
+OUTLIER_FACTOR = 10.0
+OUTLIER_MIN = 1e-3
+
+
 def _track_outliers(poses: NDArray[np.float64], valid: NDArray[np.bool_]) -> dict[int, list[int]]:
     """Frames whose markers lie far off their own track: ``{frame: [markers, 1-based]}``.
 
     A marker detected at the wrong place (a merged blob split wrongly, a reflection) still makes a
-    complete frame; it shows as a sample far from its track's running median while the other markers
-    stay on theirs (:func:`~pcs_sindy.core.trajectory.clean_marker_tracks`, jumps of at least 1 mm
-    and ten noise levels).  Only extracted frames are judged.
+    complete frame.  Judged on each marker's offset from its chain neighbours (its position minus the
+    mean of the two beside it; the tip against the line through the two before it), which the whole
+    body's motion, however fast, barely changes from frame to frame: a sample of that offset farther
+    than ``OUTLIER_FACTOR`` noise levels (at least ``OUTLIER_MIN``) from its running median over 9
+    frames, and farther than its neighbours', flags the marker.  Only extracted frames are judged.
     """
-    xy = np.array(poses[:, 1:, :2], dtype=float)
-    xy[~valid] = np.nan
-    if xy.shape[0] < 9:
+    xy = np.array(poses[:, :, :2], dtype=float)  # base first
+    T, n = xy.shape[:2]
+    if T < 9 or n < 3:
         return {}
-    cleaned, _ = clean_marker_tracks(xy)
-    repeated = np.zeros(xy.shape[:2], dtype=bool)  # a still robot filmed twice: the same place, not a jump
-    repeated[1:] = np.all(np.diff(xy, axis=0) == 0, axis=2)
-    off = np.isnan(cleaned).any(axis=2) & valid[:, None] & ~repeated
-    return {int(k): [int(i) + 1 for i in np.flatnonzero(off[k])] for k in np.flatnonzero(off.any(axis=1))}
+    offset = np.empty((T, n - 1, 2))
+    offset[:, :-1] = xy[:, 1:-1] - 0.5 * (xy[:, :-2] + xy[:, 2:])
+    offset[:, -1] = xy[:, -1] - 2.0 * xy[:, -2] + xy[:, -3]
+    good = np.flatnonzero(valid)
+    if good.size < 9:
+        return {}
+    med = median_filter(offset[good], size=(9, 1, 1), mode="nearest")
+    dev = np.linalg.norm(offset[good] - med, axis=2)  # (frames, markers)
+    d2 = np.abs(np.diff(offset[good], n=2, axis=0))
+    sigma = 1.4826 * np.median(d2, axis=(0, 2)) / np.sqrt(6.0)  # per marker, robust to the outliers
+    limit = np.maximum(OUTLIER_FACTOR * sigma * np.sqrt(2.0), OUTLIER_MIN)
+    padded = np.pad(dev, ((0, 0), (1, 1)))
+    largest = (dev >= padded[:, :-2]) & (dev >= padded[:, 2:])  # a marker off moves its neighbours' offsets by half
+    off = (dev > limit) & largest
+    return {int(good[k]): [int(i) + 1 for i in np.flatnonzero(off[k])] for k in np.flatnonzero(off.any(axis=1))}
 
 
 #: With ``on_missing="auto"``, runs of at most this many consecutive frames that cannot be
