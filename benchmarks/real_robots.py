@@ -120,8 +120,10 @@ def pcs_tentacle(train_holds: list[np.ndarray], train_loads: np.ndarray, test_lo
     (today's ``from_positions`` takes body markers only) and comes back as the training holds' mean; the
     marker arc lengths are the source's (given); one plane for all holds (fitted on them together, since
     a static hold has no motion to fit one from); the tendon inputs are the loads / 0.0325 m as in the
-    source; ``formulation="static"`` with ``LearnedActuation(2)`` and a nominal mass; ``equilibrium`` at
-    the held-out inputs started from the nearest training hold's strains.
+    source; ``formulation="static"`` with ``LearnedActuation(2, terms=("u",))`` (one gain per input and
+    strain: with the default ``("u", "u*q")`` the static regression is rank-deficient on these holds,
+    19 of 22 unknowns, since a hold's ``u*q`` columns nearly repeat the stiffness columns) and a nominal
+    mass; ``equilibrium`` at the held-out inputs started from the nearest training hold's strains.
     """
     from pcs_sindy.core import PoseTrajectory, StrainTrajectory
     from pcs_sindy.fusion import KinematicFusion
@@ -140,7 +142,7 @@ def pcs_tentacle(train_holds: list[np.ndarray], train_loads: np.ndarray, test_lo
         for s, load in zip(strains, train_loads, strict=True)
     ]
     model = EulerLagrangeRegressor(
-        formulation="static", actuation=LearnedActuation(2), library=PhysicalPCSLibrary(mass=NOMINAL_MASS)
+        formulation="static", actuation=LearnedActuation(2, terms=("u",)), library=PhysicalPCSLibrary(mass=NOMINAL_MASS)
     ).fit(strains, inputs)
     nearest = int(np.argmin(np.linalg.norm(np.asarray(train_loads) - test_load, axis=1)))
     q = model.equilibrium(np.asarray(test_load) / TENTACLE_INPUT_RADIUS, strains[nearest].q.mean(axis=0))
@@ -342,6 +344,18 @@ def run_tentacle(folder: Path, frames: int | None, pcs: bool = True) -> dict:
 
 
 # ================================================================================ plots
+def save_small_png(fig: Any, path: Path) -> None:
+    """A PNG of few colours (the plots are line art): committed plots stay well under 150 KB."""
+    import io
+
+    from PIL import Image
+
+    buf = io.BytesIO()
+    fig.savefig(buf, dpi=72, format="png")
+    buf.seek(0)
+    Image.open(buf).convert("RGB").quantize(colors=128).save(path, optimize=True)
+
+
 def plot_trunk(res: dict, path: Path) -> None:
     import matplotlib
 
@@ -350,7 +364,7 @@ def plot_trunk(res: dict, path: Path) -> None:
 
     tip, half, dt = res["tip"], res["half"], res["dt"]
     t = np.arange(tip.shape[0] - half) * dt + half * dt
-    step = max(1, int(np.ceil(t.size / 1500)))  # small PNGs: ~30 Hz still shows the ~1.5 Hz ringing
+    step = max(1, int(np.ceil(t.size / 1200)))  # small PNGs: >= 16 Hz still shows the ~1.5 Hz ringing
     t, tip = t[::step], tip[half::step]
     half = 0
     res = {**res, "predictions": {k: v[::step] for k, v in res["predictions"].items()}}
@@ -372,7 +386,7 @@ def plot_trunk(res: dict, path: Path) -> None:
     axes[0].legend(fontsize=7, ncol=4, loc="upper right")
     axes[0].set_title(f"Trunk, {res['name']}", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=72)
+    save_small_png(fig, path)
     plt.close(fig)
 
 
@@ -412,7 +426,7 @@ def plot_tentacle(res: dict, path: Path) -> None:
     axes.ravel()[0].legend(fontsize=6)
     fig.suptitle("Tentacle: held-out hold, predicted vs measured markers (plane of all holds) [mm]", fontsize=9)
     fig.tight_layout()
-    fig.savefig(path, dpi=72)
+    save_small_png(fig, path)
     plt.close(fig)
 
 
@@ -476,7 +490,12 @@ def table(trunk: list[dict], three_d: dict | None, rest: dict | None, tent: dict
             vals = " | ".join("—" if not np.isfinite(e[m][i]) else f"{e[m][i]:.1f}" for m in e)
             lines.append(f"| {h.name} | {h.loads[0]:.2f}, {h.loads[1]:.2f} | {vals} |")
         means = " | ".join(
-            f"**{np.mean(e[m]):.1f}**" if np.all(np.isfinite(e[m])) else f"— ({int(np.sum(~np.isfinite(e[m])))} failed)"
+            f"**{np.mean(e[m]):.1f}**"
+            if np.all(np.isfinite(e[m]))
+            else f"{np.mean(np.asarray(e[m])[np.isfinite(e[m])]):.1f} over the {int(np.sum(np.isfinite(e[m])))} "
+            f"predicted ({int(np.sum(~np.isfinite(e[m])))} failed)"
+            if np.any(np.isfinite(e[m]))
+            else f"— ({len(e[m])} failed)"
             for m in e
         )
         lines.append(f"| mean | | {means} |")
@@ -508,7 +527,7 @@ def main(argv: list[str] | None = None) -> dict:
     if (tdir / TRUNK_3D_FILE).is_file():
         commanded = tdir / TRUNK_3D_INPUTS if (tdir / TRUNK_3D_INPUTS).is_file() else None
         three_d = run_trunk_file(tdir / TRUNK_3D_FILE, n_rows, pcs=not args.no_pcs, commanded=commanded)
-        print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm" for n, e, _ in three_d["rows"]), flush=True)
+        print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d["rows"]), flush=True)
     if (tdir / TRUNK_REST_FILE).is_file():
         rest = rest_file(tdir / TRUNK_REST_FILE)
     if (root / "tentacle").is_dir():

@@ -98,12 +98,15 @@ def test_pcs_recipe_runs_on_a_few_seconds_of_the_trunk_and_stays_bounded(tmp_pat
         from real_robots import pcs_trunk
     finally:
         sys.path.remove(str(BENCHMARKS))
-    _, cols = csv_slice(real_file("trunk", STEP_FILE), 600, tmp_path)
-    P, u = disks(cols), np.stack([cols[p] for p in PHIS], axis=1)
+    # 4 s from 4 s on: the training half holds the step at 5 s and its ringing
+    _, cols = csv_slice(real_file("trunk", STEP_FILE), 800, tmp_path)
+    P, u = disks(cols)[400:], np.stack([cols[p] for p in PHIS], axis=1)[400:]
     half = P.shape[0] // 2
     try:
         tip = pcs_trunk(P[:half], u[:half], P[half:], u[half:], 0.01)
     except Exception as err:  # noqa: BLE001
+        # today: on seconds of data the regression has fewer rows than unknowns; on the 50 s halves of the
+        # benchmark the fitted mass matrix is singular at the first state (docs/real_robots.md)
         pytest.xfail(
             "today's documented path (LearnedActuation with a nominal mass) cannot fit or roll out the Trunk "
             f"(issue 25): {type(err).__name__}: {str(err).splitlines()[0][:200]}"
