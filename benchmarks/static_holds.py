@@ -43,7 +43,7 @@ from tqdm.auto import tqdm
 
 from pcs_sindy.core import StrainTrajectory, forward_kinematics
 from pcs_sindy.core.simulate_contract import SimulationError
-from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.identification import EulerLagrangeRegressor, LinearLoadInterpolator, PolynomialLoadMap
 from pcs_sindy.models import TendonActuation
 from pcs_sindy.simulation import Tendons
 from pcs_sindy.simulation.dynamics import PCSRobot
@@ -177,17 +177,13 @@ def shape_fit(points: np.ndarray, lengths: np.ndarray, q0: np.ndarray) -> np.nda
 
 
 def baselines(inputs: np.ndarray, tips: np.ndarray, h: int) -> tuple[np.ndarray, np.ndarray]:
-    """The tip of hold ``h`` by (i) interpolating its sweep's neighbouring loads, (ii) a quadratic in the load."""
+    """The tip of hold ``h`` by (i) interpolating its sweep's neighbouring loads (linear extrapolation from the
+    two nearest beyond the last), (ii) a quadratic in the load; both from the sweep's other holds."""
     sweep = np.r_[0, np.arange(1, 8)] if h <= 7 else np.r_[0, np.arange(8, 15)]
-    loads = inputs[sweep].sum(axis=1)
     others = sweep[sweep != h]
-    f = inputs[h].sum()
-    k = int(np.flatnonzero(sweep == h)[0])
-    lo, hi = (k - 1, k + 1) if k < len(sweep) - 1 else (k - 2, k - 1)
-    w = (f - loads[lo]) / (loads[hi] - loads[lo])
-    interp = (1 - w) * tips[sweep[lo]] + w * tips[sweep[hi]]
-    coef = np.polyfit(inputs[others].sum(axis=1), tips[others], 2)
-    return interp, np.array([np.polyval(coef[:, j], f) for j in range(2)])
+    loads, f = inputs[others].sum(axis=1), inputs[h].sum()
+    interp = LinearLoadInterpolator().fit(loads, tips[others]).predict(f)[0]
+    return interp, PolynomialLoadMap(degree=2).fit(loads, tips[others]).predict(f)[0]
 
 
 class Candidate:
