@@ -1,0 +1,509 @@
+"""Static holds of a tendon-driven rod in 3-D: markers of held loads -> a stiffness / gravity / tendon model.
+
+A tendon-driven soft robot held still under constant tendon loads rests where its elastic moment
+balances the tendons' and gravity's.  Two tendons that are *not* on opposite sides of the backbone
+(the common case of a two-tendon tentacle: their sum bends the body one way, their difference the
+other) bend it out of any single plane, so the holds of one set-up do not share a plane.  This
+module models the robot in 3-D:
+
+* ``n_segments`` constant-curvature segments, bending only (two curvatures per segment, about the
+  body's x and y axes; no torsion, no stretch);
+* an elastic moment ``k_i L_i w_i`` per segment (``k_i`` the bending stiffness ``E I``);
+* tendons that end at the tip: a tendon at a constant offset ``r`` from the backbone gives every
+  segment the same body-frame moment per unit load, ``L_i b_t`` (``b_t`` the tendon's moment arm
+  rotated by 90 deg, learnt as a 2-vector per tendon);
+* gravity: a uniform weight per unit length ``gamma`` along ``-vertical``;
+* markers at arc lengths ``s_j`` with offsets ``c_j`` in the cross-section (markers glued ~2 cm off
+  the backbone), and a fixed base (a recorded base marker is a point of the rigid base).
+
+Fitting, :meth:`StaticShapeRegressor.fit` on the holds' mean marker positions ``(H, M, 3)``:
+
+1. the geometry (base pose, marker arc lengths and offsets) with free curvatures per hold, by least
+   squares on the markers (the kinematic fit; its RMS is ``shape_rms_``);
+2. the static parameters ``k``, ``b``, ``gamma`` from the equilibrium equations at the fitted
+   curvatures (linear and homogeneous: the smallest right singular vector; its singular values
+   say which combinations the holds determine), then
+3. by output error: each training hold's equilibrium, its markers against the measured ones
+   (:func:`scipy.optimize.least_squares`).
+
+Scale convention: equilibria depend on ``k``, ``b`` and ``gamma`` only up to one common factor; the
+fit reports them with the tendons' mean moment arm ``|b_t|`` equal to ``tendon_offset`` (the loads in
+the user's units), which the identifiability report states.  Parameters the holds cannot determine
+(more stiffness segments than the holds resolve, gravity on nearly straight holds) are tied or
+dropped and reported in :attr:`StaticShapeRegressor.dropped_`, never silently fixed.
+"""
+
+from __future__ import annotations
+
+import warnings
+from numbers import Integral, Real
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+from scipy.optimize import least_squares, minimize
+from scipy.spatial.transform import Rotation
+from sklearn.base import BaseEstimator
+from sklearn.utils._param_validation import Interval, StrOptions
+from sklearn.utils.validation import check_is_fitted
+
+__all__ = ["StaticShapeRegressor", "order_markers", "cc_points"]
+
+#: quadrature points per segment for the weight's potential
+_N_QUAD = 8
+
+
+def _rodrigues(w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) of rotation vectors ``w`` (..., 3) whose z component is 0."""
+    theta = np.linalg.norm(w, axis=-1)[..., None, None]
+    K = np.zeros(w.shape[:-1] + (3, 3))
+    K[..., 0, 2], K[..., 1, 2] = w[..., 1], -w[..., 0]
+    K[..., 2, 0], K[..., 2, 1] = -w[..., 1], w[..., 0]
+    # sin(t)/t and (1 - cos t)/t^2, both smooth at 0
+    a = np.sinc(theta / np.pi)
+    b = 0.5 * np.sinc(theta / (2 * np.pi)) ** 2
+    return np.eye(3) + a * K + b * (K @ K)
+
+
+def _cc_step(w: NDArray[np.float64], sigma: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Local rotation (..., 3, 3) and displacement (..., 3) after arc ``sigma`` of curvature ``w = (wx, wy)``."""
+    wv = np.zeros(np.broadcast_shapes(w.shape[:-1], np.shape(sigma)) + (3,))
+    wv[..., :2] = w[..., :2] * np.asarray(sigma)[..., None]
+    theta = np.linalg.norm(wv, axis=-1)
+    sig = np.broadcast_to(sigma, theta.shape)
+    R = _rodrigues(wv)
+    # displacement: int_0^sigma exp(s w^) e_z ds
+    c1 = sig * np.sinc(theta / np.pi)  # sin(t)/k
+    c2 = sig * 0.5 * np.sinc(theta / (2 * np.pi)) ** 2  # (1 - cos t)/(k t) * t = (1 - cos t)/t^2 * sigma
+    d = np.zeros_like(wv)
+    d[..., 0] = c2 * wv[..., 1]
+    d[..., 1] = -c2 * wv[..., 0]
+    d[..., 2] = c1
+    return R, d
+
+
+def cc_points(
+    w: ArrayLike, lengths: ArrayLike, s: ArrayLike, base_R: ArrayLike | None = None, base_p: ArrayLike | None = None
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Backbone frames of a 3-D piecewise-constant-curvature rod (bending only) at arc lengths ``s``.
+
+    Parameters
+    ----------
+    w : array_like, shape (m, 2)
+        Curvatures of the segments about the body x and y axes [1/m].
+    lengths : array_like, shape (m,)
+        Segment lengths [m].
+    s : array_like, shape (k,)
+        Arc lengths from the base; beyond the tip the last segment continues.
+    base_R, base_p : array_like, optional
+        Base orientation (3, 3) (its z column the base tangent) and position (3,); default identity, 0.
+
+    Returns
+    -------
+    R : ndarray, shape (k, 3, 3)
+    p : ndarray, shape (k, 3)
+    """
+    w = np.asarray(w, dtype=float).reshape(-1, 2)
+    L = np.asarray(lengths, dtype=float)
+    s = np.asarray(s, dtype=float)
+    R0 = np.eye(3) if base_R is None else np.asarray(base_R, dtype=float)
+    p0 = np.zeros(3) if base_p is None else np.asarray(base_p, dtype=float)
+    ends = np.cumsum(L)
+    starts = ends - L
+    Rs, ds = _cc_step(w, L)
+    Rk, pk = [R0], [p0]
+    for i in range(L.size - 1):
+        pk.append(pk[-1] + Rk[-1] @ ds[i])
+        Rk.append(Rk[-1] @ Rs[i])
+    Rk, pk = np.asarray(Rk), np.asarray(pk)
+    seg = np.clip(np.searchsorted(ends, s, side="left"), 0, L.size - 1)
+    seg = np.where(s < 0, 0, seg)
+    Rl, dl = _cc_step(w[seg], s - starts[seg])
+    R = Rk[seg] @ Rl
+    p = pk[seg] + np.einsum("kij,kj->ki", Rk[seg], dl)
+    return R, p
+
+
+def order_markers(positions: ArrayLike, base: ArrayLike | None = None) -> NDArray[np.intp]:
+    """Order unlabelled markers of static holds from the base along the body.
+
+    Parameters
+    ----------
+    positions : array_like, shape (H, M, 3)
+        Each hold's mean marker positions, in any order per hold.
+    base : array_like, shape (3,), optional
+        The base marker's position; default: the marker position that every hold shares (the one
+        least far from some marker in every hold: the base does not move between holds).
+
+    Returns
+    -------
+    ndarray of int, shape (H, M)
+        Per hold the marker indices from the base to the tip: the base, then repeatedly the nearest
+        remaining marker (markers along a body are each other's nearest neighbours as long as the
+        body does not fold back within a marker spacing).
+    """
+    P = np.asarray(positions, dtype=float)
+    if P.ndim != 3 or P.shape[2] != 3:
+        raise ValueError(f"positions must have shape (H, M, 3); got {P.shape}")
+    if base is None:
+        spread = [max(np.min(np.linalg.norm(P[h] - P[0, j], axis=1)) for h in range(P.shape[0])) for j in range(P.shape[1])]
+        base = P[0, int(np.argmin(spread))]
+    base = np.asarray(base, dtype=float)
+    out = np.empty(P.shape[:2], dtype=np.intp)
+    for h in range(P.shape[0]):
+        first = int(np.argmin(np.linalg.norm(P[h] - base, axis=1)))
+        chain, rest = [first], [k for k in range(P.shape[1]) if k != first]
+        while rest:
+            k = min(rest, key=lambda k: np.linalg.norm(P[h, k] - P[h, chain[-1]]))
+            chain.append(k)
+            rest.remove(k)
+        out[h] = chain
+    return out
+
+
+class StaticShapeRegressor(BaseEstimator):
+    """Identify a 3-D static model of a tendon-driven rod from the markers of held loads.
+
+    Parameters
+    ----------
+    n_segments : int, default 3
+        Constant-curvature segments of equal length.  Their bending stiffnesses are tied when the
+        holds cannot tell them apart (see ``dropped_``).
+    length : float or None, default None
+        The body's length [m] from its base; default: the tip marker's fitted arc length.
+    marker_arc_lengths : array_like of shape (M - 1,) or None, default None
+        Arc lengths [m] of the markers after the base marker; default: fitted.
+    tendon_offset : float, default 0.02
+        The scale convention: the tendons' mean moment arm [m] (the loads in the user's units).
+        Equilibria do not depend on it; the stiffness and weight are reported in its units.
+    vertical : array_like of shape (3,), default (0, 1, 0)
+        Up in the capture frame (gravity acts along ``-vertical``; its sign is identified, so a
+        hanging robot is fine too).
+    gravity : bool, default True
+        Model the body's weight (dropped, and said so, when the holds do not determine it).
+    rank_tol : float, default 1e-3
+        Relative singular value below which a combination of static parameters counts as
+        undetermined by the holds.
+
+    Attributes
+    ----------
+    base_position_ : ndarray (3,)
+    base_rotation_ : ndarray (3, 3)
+        Columns: body x, body y, base tangent in the capture frame.
+    marker_arc_lengths_ : ndarray (M - 1,)
+    marker_offsets_ : ndarray (M - 1, 2)
+        Each body marker's offset from the backbone in the cross-section [m].
+    segment_lengths_ : ndarray (n_segments,)
+    stiffness_ : ndarray (n_segments,)
+        Bending stiffness per segment under the scale convention.
+    tendon_arms_ : ndarray (p, 2)
+        Body-frame moment per unit load of each tendon (its offset rotated by 90 deg).
+    weight_ : float
+        Weight per unit length along ``-vertical`` under the scale convention.
+    dropped_ : list of str
+        Parameters tied or dropped because the holds did not determine them.
+    singular_values_ : ndarray
+        Relative singular values of the equilibrium equations at the fitted curvatures.
+    shape_rms_ : float
+        RMS marker error [m] of the kinematic fit (free curvatures per hold).
+    fit_rms_ : float
+        RMS marker error [m] of the training holds' equilibria.
+    input_range_ : ndarray (2, p)
+        Smallest and largest training load per tendon.
+    """
+
+    _parameter_constraints: dict = {
+        "n_segments": [Interval(Integral, 1, None, closed="left")],
+        "length": [Interval(Real, 0, None, closed="neither"), None],
+        "marker_arc_lengths": ["array-like", None],
+        "tendon_offset": [Interval(Real, 0, None, closed="neither")],
+        "vertical": ["array-like"],
+        "gravity": ["boolean"],
+        "rank_tol": [Interval(Real, 0, 1, closed="neither")],
+    }
+
+    def __init__(
+        self,
+        n_segments: int = 3,
+        *,
+        length: float | None = None,
+        marker_arc_lengths: ArrayLike | None = None,
+        tendon_offset: float = 0.02,
+        vertical: ArrayLike = (0.0, 1.0, 0.0),
+        gravity: bool = True,
+        rank_tol: float = 1e-3,
+    ) -> None:
+        self.n_segments = n_segments
+        self.length = length
+        self.marker_arc_lengths = marker_arc_lengths
+        self.tendon_offset = tendon_offset
+        self.vertical = vertical
+        self.gravity = gravity
+        self.rank_tol = rank_tol
+
+    # ---------------------------------------------------------------- geometry
+    def _unpack_geometry(self, g: NDArray[np.float64], n_markers: int) -> dict[str, Any]:
+        """Geometry from its parameter vector: base shift (3), base rotation vector (3), the markers'
+        arc-length increments (unless given) and their offsets along the body x axis (one direction
+        for all markers: glued along one face; the roll about the base tangent is its gauge)."""
+        nb = n_markers - 1
+        k = 6
+        if self._s_given is None:
+            s = np.cumsum(g[k : k + nb])
+            k += nb
+        else:
+            s = self._s_given
+        offs = np.zeros((nb, 2))
+        offs[:, 0] = g[k : k + nb]
+        k += nb
+        L = self.length if self.length is not None else s[-1]
+        return {
+            "p": self._base + g[:3],
+            "R": Rotation.from_rotvec(g[3:6]).as_matrix(),
+            "s": s,
+            "offsets": offs,
+            "lengths": np.full(self.n_segments, L / self.n_segments),
+            "n": k,
+        }
+
+    @staticmethod
+    def _markers(w: NDArray[np.float64], geo: dict[str, Any]) -> NDArray[np.float64]:
+        R, p = cc_points(w, geo["lengths"], geo["s"], geo["R"], geo["p"])
+        return p + R[:, :, 0] * geo["offsets"][:, :1] + R[:, :, 1] * geo["offsets"][:, 1:]
+
+    def _fit_geometry(self, P: NDArray[np.float64]) -> tuple[dict[str, Any], NDArray[np.float64], float]:
+        H, M, _ = P.shape
+        m = self.n_segments
+        base = P[:, 0].mean(axis=0)
+        up = np.asarray(self.vertical, dtype=float)
+        up = up / np.linalg.norm(up)
+        z = P[:, 1].mean(axis=0) - base
+        z = z / np.linalg.norm(z)
+        rot0 = Rotation.align_vectors(z[None], np.array([[0.0, 0.0, 1.0]]))[0].as_rotvec()
+        chords = np.linalg.norm(np.diff(P, axis=1), axis=2).mean(axis=0)
+        self._base = base
+        self._base_marker = base.copy()
+        span = float(np.linalg.norm(P[:, -1] - base, axis=1).max())
+        g0, lo, hi = [np.zeros(3), rot0], [np.full(3, -0.1 * span), rot0 - np.pi], [np.full(3, 0.1 * span), rot0 + np.pi]
+        if self._s_given is None:
+            g0.append(chords)
+            lo.append(np.full(M - 1, 1e-3 * span))
+            hi.append(np.full(M - 1, 2.0 * span))
+        g0.append(np.zeros(M - 1))
+        lo.append(np.full(M - 1, -0.2 * span))
+        hi.append(np.full(M - 1, 0.2 * span))
+        g0, lo, hi = (np.concatenate(v) for v in (g0, lo, hi))
+        n_geo = g0.size
+        body = P[:, 1:]
+        w_max = 4 * np.pi / span  # two turns over the body
+        lo = np.r_[lo, np.full(H * m * 2, -w_max)]
+        hi = np.r_[hi, np.full(H * m * 2, w_max)]
+
+        def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            geo = self._unpack_geometry(x[:n_geo], M)
+            W = x[n_geo:].reshape(H, m, 2)
+            return np.concatenate([(self._markers(W[h], geo) - body[h]).ravel() for h in range(H)])
+
+        # each hold's curvatures move only its own markers: a sparse Jacobian
+        sparsity = np.zeros((H * (M - 1) * 3, n_geo + H * m * 2), dtype=bool)
+        sparsity[:, :n_geo] = True
+        for h in range(H):
+            sparsity[h * (M - 1) * 3 : (h + 1) * (M - 1) * 3, n_geo + h * m * 2 : n_geo + (h + 1) * m * 2] = True
+        # start each hold bent towards its tip: the bending direction in the base's cross-section
+        R0 = Rotation.from_rotvec(rot0).as_matrix()
+        w0 = np.zeros((H, m, 2))
+        for h in range(H):
+            d = R0.T @ (P[h, -1] - base)
+            lat = np.hypot(d[0], d[1])
+            kappa = 2 * lat / max(np.sum(d**2), 1e-12)  # the circle through base and tip, tangent at the base
+            w0[h] = kappa * np.array([d[1], -d[0]]) / max(lat, 1e-12)
+        best = least_squares(
+            residual, np.clip(np.r_[g0, w0.ravel()], lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity
+        )
+        geo = self._unpack_geometry(best.x[:n_geo], M)
+        W = best.x[n_geo:].reshape(H, m, 2)
+        rms = float(np.sqrt(np.mean(np.sum(residual(best.x).reshape(-1, 3) ** 2, axis=1))))
+        return geo, W, rms
+
+    # ---------------------------------------------------------------- statics
+    def _weight_potential(self, w: NDArray[np.float64], geo: dict[str, Any]) -> float:
+        """Height of the body's centre of mass times its length (a uniform weight per unit length)."""
+        L = geo["lengths"]
+        frac = (np.arange(_N_QUAD) + 0.5) / _N_QUAD
+        s = (np.cumsum(L) - L)[:, None] + L[:, None] * frac[None, :]
+        _, p = cc_points(w, L, s.ravel(), geo["R"], geo["p"])
+        return float(np.sum((p @ self._up) * np.repeat(L / _N_QUAD, _N_QUAD)))
+
+    def _weight_gradient(self, w: NDArray[np.float64], geo: dict[str, Any]) -> NDArray[np.float64]:
+        """d(potential)/dw (m, 2) by central differences (a smooth function of a handful of curvatures)."""
+        flat = w.ravel()
+        out = np.empty(flat.size)
+        eps = 1e-6
+        for j in range(flat.size):
+            e = np.zeros(flat.size)
+            e[j] = eps
+            out[j] = (self._weight_potential((flat + e).reshape(w.shape), geo) - self._weight_potential((flat - e).reshape(w.shape), geo)) / (2 * eps)
+        return out.reshape(w.shape)
+
+    @staticmethod
+    def _split(theta: NDArray[np.float64], m: int, p: int) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
+        return theta[:m], theta[m : m + 2 * p].reshape(p, 2), float(theta[-1])
+
+    def _equilibrium(self, u: NDArray[np.float64], theta: NDArray[np.float64], geo: dict[str, Any], w0: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+        m, p = self.n_segments, u.size
+        k, B, gam = self._split(theta, m, p)
+        L = geo["lengths"]
+        moment = u @ B  # (2,) body-frame moment per unit length
+
+        def energy(x: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
+            w = x.reshape(m, 2)
+            e = 0.5 * np.sum(k * L * np.sum(w**2, axis=1)) - np.sum(L[:, None] * w * moment)
+            g = (k * L)[:, None] * w - L[:, None] * moment
+            if gam != 0.0:
+                e += gam * self._weight_potential(w, geo)
+                g = g + gam * self._weight_gradient(w, geo)
+            return e, g.ravel()
+
+        sol = minimize(energy, np.asarray(w0, dtype=float).ravel(), jac=True, method="BFGS", options={"gtol": 1e-9, "maxiter": 500})
+        g = energy(sol.x)[1]
+        scale = np.max(np.abs(k * L)) * max(np.abs(sol.x).max(), 1.0)
+        return sol.x.reshape(m, 2), bool(np.all(np.isfinite(sol.x)) and np.abs(g).max() <= 1e-5 * scale)
+
+    def _equation_rows(self, W: NDArray[np.float64], U: NDArray[np.float64], geo: dict[str, Any]) -> NDArray[np.float64]:
+        """Rows (H * 2m, m + 2p + 1) of the equilibrium equations, linear in [k, B, gamma]."""
+        H, m, _ = W.shape
+        p = U.shape[1]
+        L = geo["lengths"]
+        rows = []
+        for h in range(H):
+            A = np.zeros((m, 2, m + 2 * p + 1))
+            for i in range(m):
+                A[i, :, i] = L[i] * W[h, i]
+                for t in range(p):
+                    A[i, :, m + 2 * t : m + 2 * t + 2] = -L[i] * U[h, t] * np.eye(2)
+            A[:, :, -1] = self._weight_gradient(W[h], geo) if self.gravity else 0.0
+            rows.append(A.reshape(2 * m, -1))
+        return np.concatenate(rows)
+
+    def fit(self, positions: ArrayLike, inputs: ArrayLike) -> "StaticShapeRegressor":
+        """Fit on the holds' marker positions.
+
+        Parameters
+        ----------
+        positions : array_like, shape (H, M, 3)
+            Each hold's mean marker positions [m] in the capture frame, ordered from the base marker
+            (first) to the tip (see :func:`order_markers`).
+        inputs : array_like, shape (H, p)
+            Each hold's tendon loads.
+
+        Returns
+        -------
+        self
+        """
+        self._validate_params()
+        P = np.asarray(positions, dtype=float)
+        U = np.asarray(inputs, dtype=float)
+        if P.ndim != 3 or P.shape[2] != 3 or P.shape[1] < 3:
+            raise ValueError(f"positions must have shape (H, M, 3) with M >= 3 markers; got {P.shape}")
+        if U.ndim != 2 or U.shape[0] != P.shape[0]:
+            raise ValueError(f"inputs must have shape (H, p) with H = {P.shape[0]} holds; got {U.shape}")
+        if not (np.all(np.isfinite(P)) and np.all(np.isfinite(U))):
+            raise ValueError("positions and inputs must be finite (average each hold over its valid samples)")
+        up = np.asarray(self.vertical, dtype=float)
+        if up.shape != (3,) or not np.linalg.norm(up) > 0:
+            raise ValueError(f"vertical must be a non-zero 3-vector; got {self.vertical!r}")
+        self._up = up / np.linalg.norm(up)
+        self._s_given = None if self.marker_arc_lengths is None else np.asarray(self.marker_arc_lengths, dtype=float)
+        if self._s_given is not None and self._s_given.shape != (P.shape[1] - 1,):
+            raise ValueError(f"marker_arc_lengths must hold {P.shape[1] - 1} values (markers after the base); got {self._s_given.shape}")
+        H, M, _ = P.shape
+        m, p = self.n_segments, U.shape[1]
+        geo, W, self.shape_rms_ = self._fit_geometry(P)
+        self._geo = geo
+        self.base_position_, self.base_rotation_ = geo["p"], geo["R"]
+        self.marker_arc_lengths_, self.marker_offsets_, self.segment_lengths_ = geo["s"], geo["offsets"], geo["lengths"]
+        self.shape_curvatures_ = W
+        self.input_range_ = np.stack([U.min(axis=0), U.max(axis=0)])
+
+        # equation error: the homogeneous system's least singular direction
+        A = self._equation_rows(W, U, geo)
+        norms = np.linalg.norm(A, axis=0)
+        cols = norms > 0
+        As = A[:, cols] / norms[cols]
+        _, sv, vt = np.linalg.svd(As, full_matrices=False)
+        self.singular_values_ = sv / sv[0]
+        self.dropped_ = []
+        theta = np.zeros(A.shape[1])
+        theta[cols] = vt[-1] / norms[cols]
+        if int(np.sum(self.singular_values_ < self.rank_tol)) > 1:
+            # more than the scale is undetermined: tie the stiffnesses to one value and say so
+            self.dropped_.append(f"segment stiffnesses tied (relative singular values {np.round(self.singular_values_[-3:], 6).tolist()})")
+            T = np.zeros((A.shape[1], A.shape[1] - m + 1))
+            T[:m, 0] = 1.0
+            T[m:, 1:] = np.eye(A.shape[1] - m)
+            _, sv2, vt2 = np.linalg.svd(A @ T, full_matrices=False)
+            theta = T @ vt2[-1]
+        if np.sum(theta[:m]) < 0:
+            theta = -theta
+        if np.any(theta[:m] <= 0):
+            warnings.warn(f"equation error gave a non-positive stiffness {theta[:m].tolist()}; starting the output-error fit from equal stiffnesses", stacklevel=2)
+            theta[:m] = np.abs(theta[:m]).mean()
+        theta = theta / np.linalg.norm(theta[m : m + 2 * p].reshape(p, 2), axis=1).mean() * self.tendon_offset
+
+        # output error: the training holds' equilibria against their markers (the stiffness of
+        # segment 0 fixed: the scale's gauge, restored to the convention below)
+        body = P[:, 1:]
+        free = np.ones(theta.size, dtype=bool)
+        free[0] = False
+        if not self.gravity:
+            free[-1] = False
+            theta[-1] = 0.0
+
+        def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            th = theta.copy()
+            th[free] = x
+            out = []
+            for h in range(H):
+                w, ok = self._equilibrium(U[h], th, geo, W[h])
+                out.append((self._markers(w, geo) - body[h]).ravel())
+            return np.concatenate(out)
+
+        lo = np.full(free.sum(), -np.inf)
+        lo[: m - 1] = 1e-6 * theta[0]
+        sol = least_squares(residual, np.maximum(theta[free], lo + 1e-12), bounds=(lo, np.inf), x_scale="jac", diff_step=1e-4)
+        theta[free] = sol.x
+        theta = theta / np.linalg.norm(theta[m : m + 2 * p].reshape(p, 2), axis=1).mean() * self.tendon_offset
+        self.theta_ = theta
+        self.stiffness_, self.tendon_arms_, self.weight_ = self._split(theta, m, p)
+        self.fit_rms_ = float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1))))
+        self._train_inputs, self._train_w = U, np.array([self._equilibrium(U[h], theta, geo, W[h])[0] for h in range(H)])
+        return self
+
+    def equilibrium(self, u: ArrayLike, w0: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Curvatures (n_segments, 2) the model rests at under loads ``u`` (p,), started from the
+        training hold with the nearest loads (or ``w0``)."""
+        check_is_fitted(self, "theta_")
+        u = np.asarray(u, dtype=float)
+        if u.shape != (self._train_inputs.shape[1],) or not np.all(np.isfinite(u)):
+            raise ValueError(f"u must be {self._train_inputs.shape[1]} finite loads; got {u!r}")
+        if np.any(u < self.input_range_[0]) or np.any(u > self.input_range_[1]):
+            warnings.warn(f"loads {u.tolist()} outside the training range {self.input_range_.tolist()}: extrapolating", stacklevel=2)
+        if w0 is None:
+            w0 = self._train_w[int(np.argmin(np.linalg.norm(self._train_inputs - u, axis=1)))]
+        w, ok = self._equilibrium(u, self.theta_, self._geo, np.asarray(w0, dtype=float))
+        if not ok:
+            from pcs_sindy.core.simulate_contract import SimulationError
+
+            raise SimulationError(f"no equilibrium found for loads {u.tolist()}", 0.0, w.ravel())
+        return w
+
+    def predict(self, inputs: ArrayLike) -> NDArray[np.float64]:
+        """Marker positions (H, M, 3) in the capture frame at the equilibria of loads ``inputs`` (H, p);
+        the base marker (index 0) is the fitted base's."""
+        check_is_fitted(self, "theta_")
+        U = np.atleast_2d(np.asarray(inputs, dtype=float))
+        out = []
+        for u in U:
+            body = self._markers(self.equilibrium(u), self._geo)
+            out.append(np.vstack([self._base_marker, body]))
+        return np.asarray(out)
