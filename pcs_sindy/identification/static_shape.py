@@ -41,7 +41,7 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares, minimize
+from scipy.optimize import least_squares, root
 from scipy.spatial.transform import Rotation
 from sklearn.base import BaseEstimator
 from sklearn.utils._param_validation import Interval, StrOptions
@@ -219,6 +219,7 @@ class StaticShapeRegressor(BaseEstimator):
         "tendon_offset": [Interval(Real, 0, None, closed="neither")],
         "vertical": ["array-like"],
         "gravity": ["boolean"],
+        "base": [StrOptions({"vertical", "free"})],
         "rank_tol": [Interval(Real, 0, 1, closed="neither")],
     }
 
@@ -232,6 +233,7 @@ class StaticShapeRegressor(BaseEstimator):
         vertical: ArrayLike = (0.0, 1.0, 0.0),
         gravity: bool = True,
         rank_tol: float = 1e-3,
+        base: str = "vertical",
     ) -> None:
         self.n_segments = n_segments
         self.length = length
@@ -240,6 +242,7 @@ class StaticShapeRegressor(BaseEstimator):
         self.vertical = vertical
         self.gravity = gravity
         self.rank_tol = rank_tol
+        self.base = base
 
     # ---------------------------------------------------------------- geometry
     def _unpack_geometry(self, g: NDArray[np.float64], n_markers: int) -> dict[str, Any]:
@@ -247,7 +250,7 @@ class StaticShapeRegressor(BaseEstimator):
         arc-length increments (unless given) and their offsets along the body x axis (one direction
         for all markers: glued along one face; the roll about the base tangent is its gauge)."""
         nb = n_markers - 1
-        k = 6
+        k = 7
         if self._s_given is None:
             s = np.cumsum(g[k : k + nb])
             k += nb
@@ -259,7 +262,7 @@ class StaticShapeRegressor(BaseEstimator):
         L = self.length if self.length is not None else s[-1]
         return {
             "p": self._base + g[:3],
-            "R": Rotation.from_rotvec(g[3:6]).as_matrix(),
+            "R": Rotation.from_rotvec(g[3:6]).as_matrix() @ Rotation.from_rotvec([0.0, 0.0, g[6]]).as_matrix(),
             "s": s,
             "offsets": offs,
             "lengths": np.full(self.n_segments, L / self.n_segments),
@@ -277,14 +280,16 @@ class StaticShapeRegressor(BaseEstimator):
         base = P[:, 0].mean(axis=0)
         up = np.asarray(self.vertical, dtype=float)
         up = up / np.linalg.norm(up)
-        z = P[:, 1].mean(axis=0) - base
-        z = z / np.linalg.norm(z)
-        rot0 = Rotation.align_vectors(z[None], np.array([[0.0, 0.0, 1.0]]))[0].as_rotvec()
+        # the base stands along the vertical from the recorded base marker (a clamped robot); only the roll
+        # about it (the markers' side) is fitted: a free base pose trades off against the arc lengths
+        rot0 = Rotation.align_vectors(self._up[None], np.array([[0.0, 0.0, 1.0]]))[0].as_rotvec()
         chords = np.linalg.norm(np.diff(P, axis=1), axis=2).mean(axis=0)
         self._base = base
         self._base_marker = base.copy()
         span = float(np.linalg.norm(P[:, -1] - base, axis=1).max())
-        g0, lo, hi = [np.zeros(3), rot0], [np.full(3, -0.1 * span), rot0 - np.pi], [np.full(3, 0.1 * span), rot0 + np.pi]
+        tilt = 0.0 if self.base == "vertical" else np.pi / 2
+        shift = 0.0 if self.base == "vertical" else 0.3 * span
+        g0, lo, hi = [np.zeros(3), rot0, [0.0]], [np.full(3, -shift) - 1e-9, rot0 - tilt - 1e-9, [-np.pi]], [np.full(3, shift) + 1e-9, rot0 + tilt + 1e-9, [np.pi]]
         if self._s_given is None:
             g0.append(chords)
             lo.append(np.full(M - 1, 1e-3 * span))
@@ -317,9 +322,15 @@ class StaticShapeRegressor(BaseEstimator):
             lat = np.hypot(d[0], d[1])
             kappa = 2 * lat / max(np.sum(d**2), 1e-12)  # the circle through base and tip, tangent at the base
             w0[h] = kappa * np.array([d[1], -d[0]]) / max(lat, 1e-12)
-        best = least_squares(
-            residual, np.clip(np.r_[g0, w0.ravel()], lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity
-        )
+        # the markers' side of the backbone is not known: start from both, keep the better fit
+        best = None
+        for sign, roll in ((1.0, 0.0), (-1.0, 0.0), (1.0, np.pi / 2), (-1.0, np.pi / 2)):
+            x0 = np.r_[g0, w0.ravel()]
+            x0[6] = roll
+            x0[n_geo - (M - 1) : n_geo] = sign * 0.05 * span
+            sol = least_squares(residual, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity)
+            if best is None or sol.cost < best.cost:
+                best = sol
         geo = self._unpack_geometry(best.x[:n_geo], M)
         W = best.x[n_geo:].reshape(H, m, 2)
         rms = float(np.sqrt(np.mean(np.sum(residual(best.x).reshape(-1, 3) ** 2, axis=1))))
@@ -345,45 +356,62 @@ class StaticShapeRegressor(BaseEstimator):
             out[j] = (self._weight_potential((flat + e).reshape(w.shape), geo) - self._weight_potential((flat - e).reshape(w.shape), geo)) / (2 * eps)
         return out.reshape(w.shape)
 
-    @staticmethod
-    def _split(theta: NDArray[np.float64], m: int, p: int) -> tuple[NDArray[np.float64], NDArray[np.float64], float]:
-        return theta[:m], theta[m : m + 2 * p].reshape(p, 2), float(theta[-1])
+    #: the term sets compared by leave-one-hold-out error over the training holds
+    TERM_SETS = (("tendon", "rest"), ("tendon", "rest", "gravity"), ("tendon",), ("tendon", "gravity"))
 
-    def _equilibrium(self, u: NDArray[np.float64], theta: NDArray[np.float64], geo: dict[str, Any], w0: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
-        m, p = self.n_segments, u.size
-        k, B, gam = self._split(theta, m, p)
-        L = geo["lengths"]
-        moment = u @ B  # (2,) body-frame moment per unit length
-
-        def energy(x: NDArray[np.float64]) -> tuple[float, NDArray[np.float64]]:
-            w = x.reshape(m, 2)
-            e = 0.5 * np.sum(k * L * np.sum(w**2, axis=1)) - np.sum(L[:, None] * w * moment)
-            g = (k * L)[:, None] * w - L[:, None] * moment
-            if gam != 0.0:
-                e += gam * self._weight_potential(w, geo)
-                g = g + gam * self._weight_gradient(w, geo)
-            return e, g.ravel()
-
-        sol = minimize(energy, np.asarray(w0, dtype=float).ravel(), jac=True, method="BFGS", options={"gtol": 1e-9, "maxiter": 500})
-        g = energy(sol.x)[1]
-        scale = np.max(np.abs(k * L)) * max(np.abs(sol.x).max(), 1.0)
-        return sol.x.reshape(m, 2), bool(np.all(np.isfinite(sol.x)) and np.abs(g).max() <= 1e-5 * scale)
-
-    def _equation_rows(self, W: NDArray[np.float64], U: NDArray[np.float64], geo: dict[str, Any]) -> NDArray[np.float64]:
-        """Rows (H * 2m, m + 2p + 1) of the equilibrium equations, linear in [k, B, gamma]."""
-        H, m, _ = W.shape
-        p = U.shape[1]
-        L = geo["lengths"]
-        rows = []
+    def _design(self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], i: int, terms: tuple[str, ...]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Rows (2H, n_terms) and targets (2H,) of segment ``i``'s equilibrium ``L w = A u + L w0 - c dV/dw``."""
+        H, p = U.shape
+        L = self._geo["lengths"][i]
+        X, y = [], []
         for h in range(H):
-            A = np.zeros((m, 2, m + 2 * p + 1))
-            for i in range(m):
-                A[i, :, i] = L[i] * W[h, i]
-                for t in range(p):
-                    A[i, :, m + 2 * t : m + 2 * t + 2] = -L[i] * U[h, t] * np.eye(2)
-            A[:, :, -1] = self._weight_gradient(W[h], geo) if self.gravity else 0.0
-            rows.append(A.reshape(2 * m, -1))
-        return np.concatenate(rows)
+            for c in range(2):
+                row = [np.eye(2)[c][:, None] * U[h][None, :]]  # A (2, p), row-major
+                parts = [row[0].ravel()]
+                if "rest" in terms:
+                    parts.append(L * np.eye(2)[c])
+                if "gravity" in terms:
+                    parts.append([-G[h, i, c]])
+                X.append(np.concatenate(parts))
+                y.append(L * W[h, i, c])
+        return np.asarray(X), np.asarray(y)
+
+    def _fit_terms(self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], terms: tuple[str, ...]) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
+        """Per-segment coefficients by least squares, and the smallest relative singular value per segment."""
+        coefs, conds = [], []
+        for i in range(self.n_segments):
+            X, y = self._design(W, U, G, i, terms)
+            norms = np.linalg.norm(X, axis=0)
+            norms[norms == 0] = 1.0
+            sv = np.linalg.svd(X / norms, compute_uv=False)
+            conds.append(sv[-1] / sv[0])
+            coefs.append(np.linalg.lstsq(X / norms, y, rcond=None)[0] / norms)
+        return coefs, np.asarray(conds)
+
+    def _solve(self, u: NDArray[np.float64], coefs: list[NDArray[np.float64]], terms: tuple[str, ...], w0: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+        m, p = self.n_segments, u.size
+        L = self._geo["lengths"]
+
+        def F(x: NDArray[np.float64]) -> NDArray[np.float64]:
+            w = x.reshape(m, 2)
+            g = self._weight_gradient(w, self._geo) if "gravity" in terms else None
+            out = []
+            for i, cf in enumerate(coefs):
+                f = cf[: 2 * p].reshape(2, p) @ u
+                k = 2 * p
+                if "rest" in terms:
+                    f = f + L[i] * cf[k : k + 2]
+                    k += 2
+                if "gravity" in terms:
+                    f = f - cf[k] * g[i]
+                out.append(L[i] * w[i] - f)
+            return np.concatenate(out)
+
+        sol = root(F, np.asarray(w0, dtype=float).ravel(), method="hybr", options={"xtol": 1e-12})
+        # the residual is L w minus the loads' (and weight's) share: tolerate 1e-6 of the bending it balances
+        scale = float(np.max(np.abs(L[:, None] * sol.x.reshape(m, 2)), initial=0.0)) + 1e-9
+        ok = bool(np.all(np.isfinite(sol.x)) and np.abs(F(sol.x)).max() <= 1e-6 * scale)
+        return sol.x.reshape(m, 2), ok
 
     def fit(self, positions: ArrayLike, inputs: ArrayLike) -> "StaticShapeRegressor":
         """Fit on the holds' marker positions.
@@ -424,73 +452,82 @@ class StaticShapeRegressor(BaseEstimator):
         self.marker_arc_lengths_, self.marker_offsets_, self.segment_lengths_ = geo["s"], geo["offsets"], geo["lengths"]
         self.shape_curvatures_ = W
         self.input_range_ = np.stack([U.min(axis=0), U.max(axis=0)])
-
-        # equation error: the homogeneous system's least singular direction
-        A = self._equation_rows(W, U, geo)
-        norms = np.linalg.norm(A, axis=0)
-        cols = norms > 0
-        As = A[:, cols] / norms[cols]
-        _, sv, vt = np.linalg.svd(As, full_matrices=False)
-        self.singular_values_ = sv / sv[0]
-        self.dropped_ = []
-        theta = np.zeros(A.shape[1])
-        theta[cols] = vt[-1] / norms[cols]
-        if int(np.sum(self.singular_values_ < self.rank_tol)) > 1:
-            # more than the scale is undetermined: tie the stiffnesses to one value and say so
-            self.dropped_.append(f"segment stiffnesses tied (relative singular values {np.round(self.singular_values_[-3:], 6).tolist()})")
-            T = np.zeros((A.shape[1], A.shape[1] - m + 1))
-            T[:m, 0] = 1.0
-            T[m:, 1:] = np.eye(A.shape[1] - m)
-            _, sv2, vt2 = np.linalg.svd(A @ T, full_matrices=False)
-            theta = T @ vt2[-1]
-        if np.sum(theta[:m]) < 0:
-            theta = -theta
-        if np.any(theta[:m] <= 0):
-            warnings.warn(f"equation error gave a non-positive stiffness {theta[:m].tolist()}; starting the output-error fit from equal stiffnesses", stacklevel=2)
-            theta[:m] = np.abs(theta[:m]).mean()
-        theta = theta / np.linalg.norm(theta[m : m + 2 * p].reshape(p, 2), axis=1).mean() * self.tendon_offset
-
-        # output error: the training holds' equilibria against their markers (the stiffness of
-        # segment 0 fixed: the scale's gauge, restored to the convention below)
+        G = np.array([self._weight_gradient(w, geo) for w in W])
         body = P[:, 1:]
-        free = np.ones(theta.size, dtype=bool)
-        free[0] = False
-        if not self.gravity:
-            free[-1] = False
-            theta[-1] = 0.0
 
-        def residual(x: NDArray[np.float64]) -> NDArray[np.float64]:
-            th = theta.copy()
-            th[free] = x
-            out = []
+        # which terms: the least leave-one-hold-out marker error over the training holds, among the term
+        # sets the holds determine (a set whose equations are rank-deficient is dropped and reported)
+        self.dropped_, self.term_errors_ = [], {}
+        spread: dict[str, float] = {}
+        allowed = [t for t in self.TERM_SETS if self.gravity or "gravity" not in t]
+        for terms in allowed:
+            _, conds = self._fit_terms(W, U, G, terms)
+            if np.any(conds < self.rank_tol):
+                self.dropped_.append(f"{'+'.join(terms)}: rank-deficient (relative singular value {conds.min():.2e})")
+                continue
+            errs = []
             for h in range(H):
-                w, ok = self._equilibrium(U[h], th, geo, W[h])
-                out.append((self._markers(w, geo) - body[h]).ravel())
-            return np.concatenate(out)
-
-        lo = np.full(free.sum(), -np.inf)
-        lo[: m - 1] = 1e-6 * theta[0]
-        sol = least_squares(residual, np.maximum(theta[free], lo + 1e-12), bounds=(lo, np.inf), x_scale="jac", diff_step=1e-4)
-        theta[free] = sol.x
-        theta = theta / np.linalg.norm(theta[m : m + 2 * p].reshape(p, 2), axis=1).mean() * self.tendon_offset
-        self.theta_ = theta
-        self.stiffness_, self.tendon_arms_, self.weight_ = self._split(theta, m, p)
-        self.fit_rms_ = float(np.sqrt(np.mean(np.sum(sol.fun.reshape(-1, 3) ** 2, axis=1))))
-        self._train_inputs, self._train_w = U, np.array([self._equilibrium(U[h], theta, geo, W[h])[0] for h in range(H)])
+                keep = np.arange(H) != h
+                cf, c2 = self._fit_terms(W[keep], U[keep], G[keep], terms)
+                if np.any(c2 < self.rank_tol):
+                    errs.append(np.inf)
+                    continue
+                start = W[keep][int(np.argmin(np.linalg.norm(U[keep] - U[h], axis=1)))]
+                w, ok = self._solve(U[h], cf, terms, start)
+                errs.append(float(np.linalg.norm(self._markers(w, geo) - body[h], axis=1).mean()) if ok else np.inf)
+            self.term_errors_["+".join(terms)] = float(np.mean(errs))
+            spread["+".join(terms)] = float(np.std(errs) / np.sqrt(H)) if np.all(np.isfinite(errs)) else np.inf
+        if not self.term_errors_:
+            raise ValueError(f"the {H} holds determine none of the models {allowed}: {self.dropped_}")
+        # one-standard-error rule: the fewest parameters whose error is within a standard error of the
+        # least (7 holds cannot tell close candidates apart; the smaller model extrapolates more safely)
+        least = min(self.term_errors_, key=self.term_errors_.get)
+        within = [t for t in self.term_errors_ if self.term_errors_[t] <= self.term_errors_[least] + spread[least]]
+        best = min(within, key=lambda t: (self._n_params(t.split("+"), p), self.term_errors_[t]))
+        self.terms_ = tuple(best.split("+"))
+        self.coef_, conds = self._fit_terms(W, U, G, self.terms_)
+        self.singular_values_ = conds
+        self._report_parameters(p)
+        self._train_inputs = U
+        self._train_w = np.array([self._solve(U[h], self.coef_, self.terms_, W[h])[0] for h in range(H)])
+        pred = np.array([self._markers(w, geo) for w in self._train_w])
+        self.fit_rms_ = float(np.sqrt(np.mean(np.sum((pred - body) ** 2, axis=2))))
         return self
+
+    @staticmethod
+    def _n_params(terms: Any, p: int) -> int:
+        """Coefficients per segment of a term set."""
+        return 2 * p + 2 * ("rest" in terms) + ("gravity" in terms)
+
+    def _report_parameters(self, p: int) -> None:
+        """Physical parameters under the scale convention (mean tendon moment arm = ``tendon_offset``)."""
+        m = self.n_segments
+        self.compliance_ = np.array([cf[: 2 * p].reshape(2, p) for cf in self.coef_])  # (m, 2, p): L w per unit load
+        k = 2 * p
+        self.rest_curvature_ = np.array([cf[k : k + 2] for cf in self.coef_]) if "rest" in self.terms_ else np.zeros((m, 2))
+        k += 2 if "rest" in self.terms_ else 0
+        arms = np.linalg.norm(self.compliance_, axis=1).mean(axis=1)  # |B| / k per segment
+        self.stiffness_ = self.tendon_offset / arms  # k with |B| = tendon_offset
+        self.tendon_arms_ = self.compliance_ * self.stiffness_[:, None, None]
+        self.weight_ = np.array([cf[k] for cf in self.coef_]) * self.stiffness_ if "gravity" in self.terms_ else np.zeros(m)
 
     def equilibrium(self, u: ArrayLike, w0: ArrayLike | None = None) -> NDArray[np.float64]:
         """Curvatures (n_segments, 2) the model rests at under loads ``u`` (p,), started from the
         training hold with the nearest loads (or ``w0``)."""
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self, "coef_")
         u = np.asarray(u, dtype=float)
         if u.shape != (self._train_inputs.shape[1],) or not np.all(np.isfinite(u)):
             raise ValueError(f"u must be {self._train_inputs.shape[1]} finite loads; got {u!r}")
         if np.any(u < self.input_range_[0]) or np.any(u > self.input_range_[1]):
             warnings.warn(f"loads {u.tolist()} outside the training range {self.input_range_.tolist()}: extrapolating", stacklevel=2)
         if w0 is None:
-            w0 = self._train_w[int(np.argmin(np.linalg.norm(self._train_inputs - u, axis=1)))]
-        w, ok = self._equilibrium(u, self.theta_, self._geo, np.asarray(w0, dtype=float))
+            starts = [self._train_w[j] for j in np.argsort(np.linalg.norm(self._train_inputs - u, axis=1))]
+        else:
+            starts = [np.asarray(w0, dtype=float)]
+        for start in starts + [np.zeros_like(starts[0])]:  # nearest training hold first, the straight robot last
+            w, ok = self._solve(u, self.coef_, self.terms_, start)
+            if ok:
+                break
         if not ok:
             from pcs_sindy.core.simulate_contract import SimulationError
 
@@ -500,7 +537,7 @@ class StaticShapeRegressor(BaseEstimator):
     def predict(self, inputs: ArrayLike) -> NDArray[np.float64]:
         """Marker positions (H, M, 3) in the capture frame at the equilibria of loads ``inputs`` (H, p);
         the base marker (index 0) is the fitted base's."""
-        check_is_fitted(self, "theta_")
+        check_is_fitted(self, "coef_")
         U = np.atleast_2d(np.asarray(inputs, dtype=float))
         out = []
         for u in U:
