@@ -12,7 +12,8 @@ whose ``forward_model()`` is a :class:`~pcs_sindy.models.ForwardModel`.
 * :mod:`.optimizers` - least squares with the seed's stiffness-threshold sparsification;
 * :mod:`.least_squares` - column-scaled least squares and the material stiffness bounds;
 * :mod:`.variable_projection` - nonlinear actuation parameters (tendon offsets) around the linear fit;
-* :mod:`.identifiability` - standard errors: what the recordings determined.
+* :mod:`.identifiability` - standard errors: what the recordings determined;
+* :mod:`.static_shape` - :class:`StaticShapeRegressor`: static holds of a tendon rod in 3-D, markers to equilibria.
 
 Identification never imports the simulator: the simulator is what checks it.
 """
@@ -38,5 +39,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "variable_projection": ["fit_offsets"],
         "formulations": ["FORMULATIONS", "PreparedRecording"],
         "identifiability": ["strain_excitation"],
+        "static_shape": ["StaticShapeRegressor", "order_markers", "cc_points"],
     },
 )

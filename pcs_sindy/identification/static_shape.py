@@ -328,9 +328,10 @@ class StaticShapeRegressor(BaseEstimator):
             x0 = np.r_[g0, w0.ravel()]
             x0[6] = roll
             x0[n_geo - (M - 1) : n_geo] = sign * 0.05 * span
-            sol = least_squares(residual, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity)
+            sol = least_squares(residual, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity, max_nfev=20)
             if best is None or sol.cost < best.cost:
                 best = sol
+        best = least_squares(residual, best.x, bounds=(lo, hi), jac_sparsity=sparsity, ftol=1e-10, xtol=1e-10, max_nfev=200, x_scale="jac")
         geo = self._unpack_geometry(best.x[:n_geo], M)
         W = best.x[n_geo:].reshape(H, m, 2)
         rms = float(np.sqrt(np.mean(np.sum(residual(best.x).reshape(-1, 3) ** 2, axis=1))))
