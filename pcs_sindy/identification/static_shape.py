@@ -166,7 +166,7 @@ class StaticShapeRegressor(BaseEstimator):
 
     Parameters
     ----------
-    n_segments : int, default 3
+    n_segments : int, default 2
         Constant-curvature segments of equal length.  Their bending stiffnesses are tied when the
         holds cannot tell them apart (see ``dropped_``).
     length : float or None, default None
@@ -225,7 +225,7 @@ class StaticShapeRegressor(BaseEstimator):
 
     def __init__(
         self,
-        n_segments: int = 3,
+        n_segments: int = 2,
         *,
         length: float | None = None,
         marker_arc_lengths: ArrayLike | None = None,
