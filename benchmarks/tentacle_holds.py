@@ -55,7 +55,9 @@ def real_folder() -> Path | None:
 def read_holds(folder: Path) -> tuple[list[str], np.ndarray, np.ndarray]:
     """Each hold's mean marker positions ordered from the base (H, 5, 3) and its loads (H, 2)."""
     names = [n for n in LOADS if (folder / f"{n}.csv").exists()]
-    means = np.array([np.loadtxt(folder / f"{n}.csv", delimiter=",")[:, 2:].reshape(-1, 5, 3).mean(axis=0) for n in names])
+    means = np.array(
+        [np.loadtxt(folder / f"{n}.csv", delimiter=",")[:, 2:].reshape(-1, 5, 3).mean(axis=0) for n in names]
+    )
     positions = np.take_along_axis(means, order_markers(means)[..., None], axis=1)
     return names, positions, np.array([LOADS[n] for n in names])
 
@@ -96,8 +98,12 @@ def main() -> dict[str, list[float]]:
             tip = model.predict(loads[h])[0, -1]
         measured = positions[h, -1]
         errors["PCS static (3-D)"].append(float(np.linalg.norm(tip - measured)))
-        errors["interpolation"].append(float(np.linalg.norm(interpolate(loads[train], positions[train, -1], loads[h]) - measured)))
-        errors["quadratic"].append(float(np.linalg.norm(quadratic(loads[train], positions[train, -1], loads[h]) - measured)))
+        errors["interpolation"].append(
+            float(np.linalg.norm(interpolate(loads[train], positions[train, -1], loads[h]) - measured))
+        )
+        errors["quadratic"].append(
+            float(np.linalg.norm(quadratic(loads[train], positions[train, -1], loads[h]) - measured))
+        )
         inside = bool(np.all(loads[h] >= model.input_range_[0]) and np.all(loads[h] <= model.input_range_[1]))
         rows.append(
             f"| {name} | {loads[h][0]:.2f}, {loads[h][1]:.2f} | {'yes' if inside else 'no'} | "

@@ -113,8 +113,16 @@ def _real_folder() -> Path | None:
 
 @pytest.mark.skipif(_real_folder() is None, reason="the real recordings (../shared/real) are absent")
 def test_real_tentacle_hold_predicted_within_a_centimetre():
-    loads_of = {"u00050010": (0.05, 0.1), "u00100005": (0.1, 0.05), "u001": (0.1, 0.1), "u001002": (0.1, 0.2),
-                "u002001": (0.2, 0.1), "u0015002": (0.15, 0.2), "u0020015": (0.2, 0.15), "u002": (0.2, 0.2)}
+    loads_of = {
+        "u00050010": (0.05, 0.1),
+        "u00100005": (0.1, 0.05),
+        "u001": (0.1, 0.1),
+        "u001002": (0.1, 0.2),
+        "u002001": (0.2, 0.1),
+        "u0015002": (0.15, 0.2),
+        "u0020015": (0.2, 0.15),
+        "u002": (0.2, 0.2),
+    }
     folder = _real_folder()
     files = sorted(folder.glob("m12_*.csv"))
     means = np.array([np.loadtxt(f, delimiter=",")[:, 2:].reshape(-1, 5, 3).mean(axis=0) for f in files])

@@ -8,29 +8,28 @@ module models the robot in 3-D:
 
 * ``n_segments`` constant-curvature segments, bending only (two curvatures per segment, about the
   body's x and y axes; no torsion, no stretch);
-* an elastic moment ``k_i L_i w_i`` per segment (``k_i`` the bending stiffness ``E I``);
-* tendons that end at the tip: a tendon at a constant offset ``r`` from the backbone gives every
-  segment the same body-frame moment per unit load, ``L_i b_t`` (``b_t`` the tendon's moment arm
-  rotated by 90 deg, learnt as a 2-vector per tendon);
-* gravity: a uniform weight per unit length ``gamma`` along ``-vertical``;
-* markers at arc lengths ``s_j`` with offsets ``c_j`` in the cross-section (markers glued ~2 cm off
-  the backbone), and a fixed base (a recorded base marker is a point of the rigid base).
+* per segment ``i`` the equilibrium ``L_i w_i = A_i u + L_i w0_i - c_i dV/dw_i``: the elastic moment
+  ``k_i L_i (w_i - w0_i)`` against the tendons' (tendons ending at the tip give every segment a
+  constant body-frame moment per unit load: ``A_i = B / k_i``, the compliance) and the weight's
+  (``V`` the height of the centre of mass, ``c_i`` the weight over the stiffness);
+* markers at arc lengths ``s_j`` with offsets along one cross-section axis (markers glued ~2 cm off
+  the backbone along one face), a base standing along ``vertical`` at the recorded base marker.
 
 Fitting, :meth:`StaticShapeRegressor.fit` on the holds' mean marker positions ``(H, M, 3)``:
 
-1. the geometry (base pose, marker arc lengths and offsets) with free curvatures per hold, by least
-   squares on the markers (the kinematic fit; its RMS is ``shape_rms_``);
-2. the static parameters ``k``, ``b``, ``gamma`` from the equilibrium equations at the fitted
-   curvatures (linear and homogeneous: the smallest right singular vector; its singular values
-   say which combinations the holds determine), then
-3. by output error: each training hold's equilibrium, its markers against the measured ones
-   (:func:`scipy.optimize.least_squares`).
+1. the geometry (roll about the base tangent, marker arc lengths and offsets) with free curvatures
+   per hold, by bounded least squares on the markers (a short multistart over the markers' side,
+   then refined; its RMS is ``shape_rms_``);
+2. the equilibrium's coefficients per segment by linear least squares at the fitted curvatures, for
+   each term set of :attr:`StaticShapeRegressor.TERM_SETS`; a set whose equations are
+   rank-deficient on the holds is dropped and listed in ``dropped_`` (never a silent arbitrary
+   answer); among the rest, the leave-one-hold-out marker error over the training holds picks the
+   terms, by the one-standard-error rule;
+3. prediction: :meth:`StaticShapeRegressor.equilibrium` solves the equilibrium with
+   :func:`scipy.optimize.root` from the nearest training hold's shape.
 
-Scale convention: equilibria depend on ``k``, ``b`` and ``gamma`` only up to one common factor; the
-fit reports them with the tendons' mean moment arm ``|b_t|`` equal to ``tendon_offset`` (the loads in
-the user's units), which the identifiability report states.  Parameters the holds cannot determine
-(more stiffness segments than the holds resolve, gravity on nearly straight holds) are tied or
-dropped and reported in :attr:`StaticShapeRegressor.dropped_`, never silently fixed.
+Scale convention: equilibria fix only curvature per unit load; ``stiffness_`` is reported for a
+mean tendon moment arm of ``tendon_offset`` with the loads in the user's units.
 """
 
 from __future__ import annotations
@@ -146,7 +145,9 @@ def order_markers(positions: ArrayLike, base: ArrayLike | None = None) -> NDArra
     if P.ndim != 3 or P.shape[2] != 3:
         raise ValueError(f"positions must have shape (H, M, 3); got {P.shape}")
     if base is None:
-        spread = [max(np.min(np.linalg.norm(P[h] - P[0, j], axis=1)) for h in range(P.shape[0])) for j in range(P.shape[1])]
+        spread = [
+            max(np.min(np.linalg.norm(P[h] - P[0, j], axis=1)) for h in range(P.shape[0])) for j in range(P.shape[1])
+        ]
         base = P[0, int(np.argmin(spread))]
     base = np.asarray(base, dtype=float)
     out = np.empty(P.shape[:2], dtype=np.intp)
@@ -175,15 +176,18 @@ class StaticShapeRegressor(BaseEstimator):
         Arc lengths [m] of the markers after the base marker; default: fitted.
     tendon_offset : float, default 0.02
         The scale convention: the tendons' mean moment arm [m] (the loads in the user's units).
-        Equilibria do not depend on it; the stiffness and weight are reported in its units.
+        Equilibria do not depend on it; ``stiffness_`` and ``weight_`` are reported in its units.
     vertical : array_like of shape (3,), default (0, 1, 0)
         Up in the capture frame (gravity acts along ``-vertical``; its sign is identified, so a
         hanging robot is fine too).
     gravity : bool, default True
         Model the body's weight (dropped, and said so, when the holds do not determine it).
     rank_tol : float, default 1e-3
-        Relative singular value below which a combination of static parameters counts as
-        undetermined by the holds.
+        Relative singular value (columns scaled to unit norm) below which a term set's equations
+        count as rank-deficient on the holds.
+    base : {"vertical", "free"}, default "vertical"
+        ``"vertical"``: the base stands along ``vertical`` at the recorded base marker (a clamped
+        robot); ``"free"``: its position may move 0.3 body lengths and its tangent tilt.
 
     Attributes
     ----------
@@ -194,22 +198,31 @@ class StaticShapeRegressor(BaseEstimator):
     marker_offsets_ : ndarray (M - 1, 2)
         Each body marker's offset from the backbone in the cross-section [m].
     segment_lengths_ : ndarray (n_segments,)
+    shape_curvatures_ : ndarray (H, n_segments, 2)
+        The training holds' curvatures of the kinematic fit.
+    terms_ : tuple of str
+        The chosen term set; ``term_errors_`` the leave-one-hold-out mean marker error [m] per set.
+    coef_ : list of ndarray
+        Per segment the equilibrium's coefficients (compliance row-major, rest curvature, weight).
+    compliance_ : ndarray (n_segments, 2, p)
+        ``L_i w_i`` per unit load of each tendon.
+    rest_curvature_ : ndarray (n_segments, 2)
     stiffness_ : ndarray (n_segments,)
-        Bending stiffness per segment under the scale convention.
-    tendon_arms_ : ndarray (p, 2)
-        Body-frame moment per unit load of each tendon (its offset rotated by 90 deg).
-    weight_ : float
-        Weight per unit length along ``-vertical`` under the scale convention.
+        Bending stiffness under the scale convention.
+    tendon_arms_ : ndarray (n_segments, 2, p)
+        Body-frame moment per unit load of each tendon under the scale convention.
+    weight_ : ndarray (n_segments,)
+        Weight per unit length under the scale convention (0 without the gravity term).
     dropped_ : list of str
-        Parameters tied or dropped because the holds did not determine them.
-    singular_values_ : ndarray
-        Relative singular values of the equilibrium equations at the fitted curvatures.
+        Term sets dropped because the holds did not determine them.
+    singular_values_ : ndarray (n_segments,)
+        Smallest relative singular value of the chosen terms' equations per segment.
     shape_rms_ : float
         RMS marker error [m] of the kinematic fit (free curvatures per hold).
     fit_rms_ : float
         RMS marker error [m] of the training holds' equilibria.
     input_range_ : ndarray (2, p)
-        Smallest and largest training load per tendon.
+        Smallest and largest training load per tendon; ``equilibrium`` warns outside it.
     """
 
     _parameter_constraints: dict = {
@@ -289,7 +302,11 @@ class StaticShapeRegressor(BaseEstimator):
         span = float(np.linalg.norm(P[:, -1] - base, axis=1).max())
         tilt = 0.0 if self.base == "vertical" else np.pi / 2
         shift = 0.0 if self.base == "vertical" else 0.3 * span
-        g0, lo, hi = [np.zeros(3), rot0, [0.0]], [np.full(3, -shift) - 1e-9, rot0 - tilt - 1e-9, [-np.pi]], [np.full(3, shift) + 1e-9, rot0 + tilt + 1e-9, [np.pi]]
+        g0, lo, hi = (
+            [np.zeros(3), rot0, [0.0]],
+            [np.full(3, -shift) - 1e-9, rot0 - tilt - 1e-9, [-np.pi]],
+            [np.full(3, shift) + 1e-9, rot0 + tilt + 1e-9, [np.pi]],
+        )
         if self._s_given is None:
             g0.append(chords)
             lo.append(np.full(M - 1, 1e-3 * span))
@@ -328,10 +345,21 @@ class StaticShapeRegressor(BaseEstimator):
             x0 = np.r_[g0, w0.ravel()]
             x0[6] = roll
             x0[n_geo - (M - 1) : n_geo] = sign * 0.05 * span
-            sol = least_squares(residual, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity, max_nfev=20)
+            sol = least_squares(
+                residual, np.clip(x0, lo + 1e-9, hi - 1e-9), bounds=(lo, hi), jac_sparsity=sparsity, max_nfev=20
+            )
             if best is None or sol.cost < best.cost:
                 best = sol
-        best = least_squares(residual, best.x, bounds=(lo, hi), jac_sparsity=sparsity, ftol=1e-10, xtol=1e-10, max_nfev=200, x_scale="jac")
+        best = least_squares(
+            residual,
+            best.x,
+            bounds=(lo, hi),
+            jac_sparsity=sparsity,
+            ftol=1e-10,
+            xtol=1e-10,
+            max_nfev=200,
+            x_scale="jac",
+        )
         geo = self._unpack_geometry(best.x[:n_geo], M)
         W = best.x[n_geo:].reshape(H, m, 2)
         rms = float(np.sqrt(np.mean(np.sum(residual(best.x).reshape(-1, 3) ** 2, axis=1))))
@@ -354,13 +382,18 @@ class StaticShapeRegressor(BaseEstimator):
         for j in range(flat.size):
             e = np.zeros(flat.size)
             e[j] = eps
-            out[j] = (self._weight_potential((flat + e).reshape(w.shape), geo) - self._weight_potential((flat - e).reshape(w.shape), geo)) / (2 * eps)
+            out[j] = (
+                self._weight_potential((flat + e).reshape(w.shape), geo)
+                - self._weight_potential((flat - e).reshape(w.shape), geo)
+            ) / (2 * eps)
         return out.reshape(w.shape)
 
     #: the term sets compared by leave-one-hold-out error over the training holds
     TERM_SETS = (("tendon", "rest"), ("tendon", "rest", "gravity"), ("tendon",), ("tendon", "gravity"))
 
-    def _design(self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], i: int, terms: tuple[str, ...]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def _design(
+        self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], i: int, terms: tuple[str, ...]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Rows (2H, n_terms) and targets (2H,) of segment ``i``'s equilibrium ``L w = A u + L w0 - c dV/dw``."""
         H, p = U.shape
         L = self._geo["lengths"][i]
@@ -377,7 +410,9 @@ class StaticShapeRegressor(BaseEstimator):
                 y.append(L * W[h, i, c])
         return np.asarray(X), np.asarray(y)
 
-    def _fit_terms(self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], terms: tuple[str, ...]) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
+    def _fit_terms(
+        self, W: NDArray[np.float64], U: NDArray[np.float64], G: NDArray[np.float64], terms: tuple[str, ...]
+    ) -> tuple[list[NDArray[np.float64]], NDArray[np.float64]]:
         """Per-segment coefficients by least squares, and the smallest relative singular value per segment."""
         coefs, conds = [], []
         for i in range(self.n_segments):
@@ -389,7 +424,9 @@ class StaticShapeRegressor(BaseEstimator):
             coefs.append(np.linalg.lstsq(X / norms, y, rcond=None)[0] / norms)
         return coefs, np.asarray(conds)
 
-    def _solve(self, u: NDArray[np.float64], coefs: list[NDArray[np.float64]], terms: tuple[str, ...], w0: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
+    def _solve(
+        self, u: NDArray[np.float64], coefs: list[NDArray[np.float64]], terms: tuple[str, ...], w0: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], bool]:
         m, p = self.n_segments, u.size
         L = self._geo["lengths"]
 
@@ -414,7 +451,7 @@ class StaticShapeRegressor(BaseEstimator):
         ok = bool(np.all(np.isfinite(sol.x)) and np.abs(F(sol.x)).max() <= 1e-6 * scale)
         return sol.x.reshape(m, 2), ok
 
-    def fit(self, positions: ArrayLike, inputs: ArrayLike) -> "StaticShapeRegressor":
+    def fit(self, positions: ArrayLike, inputs: ArrayLike) -> StaticShapeRegressor:
         """Fit on the holds' marker positions.
 
         Parameters
@@ -444,9 +481,12 @@ class StaticShapeRegressor(BaseEstimator):
         self._up = up / np.linalg.norm(up)
         self._s_given = None if self.marker_arc_lengths is None else np.asarray(self.marker_arc_lengths, dtype=float)
         if self._s_given is not None and self._s_given.shape != (P.shape[1] - 1,):
-            raise ValueError(f"marker_arc_lengths must hold {P.shape[1] - 1} values (markers after the base); got {self._s_given.shape}")
-        H, M, _ = P.shape
-        m, p = self.n_segments, U.shape[1]
+            raise ValueError(
+                f"marker_arc_lengths must hold {P.shape[1] - 1} values (markers after the base); "
+                f"got {self._s_given.shape}"
+            )
+        H = P.shape[0]
+        p = U.shape[1]
         geo, W, self.shape_rms_ = self._fit_geometry(P)
         self._geo = geo
         self.base_position_, self.base_rotation_ = geo["p"], geo["R"]
@@ -505,12 +545,16 @@ class StaticShapeRegressor(BaseEstimator):
         m = self.n_segments
         self.compliance_ = np.array([cf[: 2 * p].reshape(2, p) for cf in self.coef_])  # (m, 2, p): L w per unit load
         k = 2 * p
-        self.rest_curvature_ = np.array([cf[k : k + 2] for cf in self.coef_]) if "rest" in self.terms_ else np.zeros((m, 2))
+        self.rest_curvature_ = (
+            np.array([cf[k : k + 2] for cf in self.coef_]) if "rest" in self.terms_ else np.zeros((m, 2))
+        )
         k += 2 if "rest" in self.terms_ else 0
         arms = np.linalg.norm(self.compliance_, axis=1).mean(axis=1)  # |B| / k per segment
         self.stiffness_ = self.tendon_offset / arms  # k with |B| = tendon_offset
         self.tendon_arms_ = self.compliance_ * self.stiffness_[:, None, None]
-        self.weight_ = np.array([cf[k] for cf in self.coef_]) * self.stiffness_ if "gravity" in self.terms_ else np.zeros(m)
+        self.weight_ = (
+            np.array([cf[k] for cf in self.coef_]) * self.stiffness_ if "gravity" in self.terms_ else np.zeros(m)
+        )
 
     def equilibrium(self, u: ArrayLike, w0: ArrayLike | None = None) -> NDArray[np.float64]:
         """Curvatures (n_segments, 2) the model rests at under loads ``u`` (p,), started from the
@@ -520,7 +564,10 @@ class StaticShapeRegressor(BaseEstimator):
         if u.shape != (self._train_inputs.shape[1],) or not np.all(np.isfinite(u)):
             raise ValueError(f"u must be {self._train_inputs.shape[1]} finite loads; got {u!r}")
         if np.any(u < self.input_range_[0]) or np.any(u > self.input_range_[1]):
-            warnings.warn(f"loads {u.tolist()} outside the training range {self.input_range_.tolist()}: extrapolating", stacklevel=2)
+            warnings.warn(
+                f"loads {u.tolist()} outside the training range {self.input_range_.tolist()}: extrapolating",
+                stacklevel=2,
+            )
         if w0 is None:
             starts = [self._train_w[j] for j in np.argsort(np.linalg.norm(self._train_inputs - u, axis=1))]
         else:
