@@ -10,9 +10,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pcs_sindy.core import MarkerPlane, PoseTrajectory, clean_marker_tracks
+from pcs_sindy.core import MarkerPlane, PoseTrajectory, clean_marker_tracks, find_base_marker, order_markers
 from pcs_sindy.core.kinematics import forward_kinematics
-from pcs_sindy.fusion import KinematicFusion, find_base_marker, order_markers
+from pcs_sindy.fusion import KinematicFusion
 from pcs_sindy.fusion.position_fit import bending_strains, fit_marker_geometry, marker_positions_jacobian
 from pcs_sindy.io import DataFileError, read_marker_csv
 

@@ -6,6 +6,8 @@ Takes in nothing of the package and gives every other stage:
 * the trajectory containers that flow through every estimator (:mod:`.trajectory`:
   :class:`PoseTrajectory`, :class:`StrainTrajectory`);
 * the seed's task-space error metrics (:mod:`.metrics`);
+* unlabelled markers put in order along the body from the base (:mod:`.marker_order`), for fusion and
+  for the static identification alike;
 * per-recording arrays that scikit-learn's metrics read stacked (:mod:`.recording_list`: :class:`RecordingList`);
 * the camera model between the base frame and image pixels (:mod:`.camera`: :class:`Camera`);
 * the simulate contract shared by the ground truth and identified models
@@ -47,6 +49,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "MarkerPlane",
             "clean_marker_tracks",
         ],
+        "marker_order": ["order_markers", "find_base_marker"],
         "camera": ["Camera", "camera_extras", "read_camera_json"],
         "progress": ["ticking"],
         "atomic": ["FileSet", "recover"],

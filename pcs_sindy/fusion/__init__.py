@@ -44,7 +44,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "rest_length_factor",
         ],
         "input_checks": ["check_marker_chain"],
-        "marker_order": ["order_markers", "find_base_marker"],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
         "position_fusion": [

@@ -14,6 +14,7 @@ whose ``forward_model()`` is a :class:`~pcs_sindy.models.ForwardModel`.
 * :mod:`.variable_projection` - nonlinear actuation parameters (tendon offsets) around the linear fit;
 * :mod:`.identifiability` - standard errors: what the recordings determined;
 * :mod:`.baselines` - black boxes a PCS model must beat (lagged polynomial, ARX, load interpolation).
+* :mod:`.static_shape` - :class:`StaticShapeRegressor`: static holds of a tendon rod in 3-D, markers to equilibria.
 
 Identification never imports the simulator: the simulator is what checks it.
 """
@@ -40,5 +41,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "formulations": ["FORMULATIONS", "PreparedRecording"],
         "identifiability": ["strain_excitation"],
         "baselines": ["LaggedPolynomialMap", "ARX", "LinearLoadInterpolator", "PolynomialLoadMap", "first_order_lag"],
+        "static_shape": ["StaticShapeRegressor", "cc_points"],
     },
 )

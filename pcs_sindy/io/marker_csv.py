@@ -229,7 +229,7 @@ def read_marker_csv(
         file without a header (or whose header does not name them), read from
         ``columns``; they are named ``"m0"``, ``"m1"``, ... in column order, which is
         the file's, not necessarily base to tip (see
-        :func:`pcs_sindy.fusion.order_markers`).
+        :func:`pcs_sindy.core.order_markers`).
     rate : float
         Nominal sample rate [Hz]; samples are ``1 / rate`` apart.
     units : {"m", "mm", "cm"}, optional
