@@ -126,25 +126,15 @@ class TentacleHold:
         return np.nanmean(self.positions, axis=0)
 
 
-def _chain(points: np.ndarray, start: int) -> np.ndarray:
-    """Indices from ``start`` on, each the nearest remaining point to the previous (along the body)."""
-    order, left = [start], set(range(len(points))) - {start}
-    while left:
-        last = points[order[-1]]
-        nxt = min(left, key=lambda j: np.linalg.norm(points[j] - last))
-        order.append(nxt)
-        left.remove(nxt)
-    return np.asarray(order)
-
-
 def read_tentacle(folder: str | Path) -> tuple[list[TentacleHold], list[str]]:
     """Every hold of a tentacle folder, markers ordered base first; and notes on skipped files.
 
-    The base marker is the one that stays put across the holds (the clamp); the others follow it
-    nearest first (each marker's nearest remaining neighbour is the next along the body: the markers
-    are 6-9 cm apart, the body's bending radius larger).  A file's order is found on its mean
-    (the holds are static: per-sample spread < 0.2 mm, so no label swaps within a file).
+    The order is the package's (:func:`pcs_sindy.core.order_markers` over all holds): the base is the
+    marker found at the same place in every hold (the clamp), the others follow along the body,
+    per file and per frame.
     """
+    from pcs_sindy.core import order_markers
+
     holds, notes, raw = [], [], []
     for path in sorted(Path(folder).glob("*.csv")):
         loads = tentacle_loads(path.stem)
@@ -160,11 +150,7 @@ def read_tentacle(folder: str | Path) -> tuple[list[TentacleHold], list[str]]:
         raw.append((path.stem, np.asarray(loads, dtype=float), pos, dt))
     if not raw:
         return [], notes
-    means = [np.nanmean(p, axis=0) for _, _, p, _ in raw]
-    # the base: the marker of the first file whose nearest marker in every other file is closest (worst case)
-    spread = [max(np.min(np.linalg.norm(m - means[0][i], axis=1)) for m in means) for i in range(5)]
-    base = means[0][int(np.argmin(spread))]
-    for (stem, loads, pos, dt), mean in zip(raw, means, strict=True):
-        order = _chain(mean, int(np.argmin(np.linalg.norm(mean - base, axis=1))))
-        holds.append(TentacleHold(stem, loads, pos[:, order], order, dt))
+    ordered, orders = order_markers([p for _, _, p, _ in raw], return_order=True)
+    for (stem, loads, _, dt), pos, order in zip(raw, ordered, orders, strict=True):
+        holds.append(TentacleHold(stem, loads, pos, order[0], dt))
     return holds, notes
