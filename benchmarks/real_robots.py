@@ -481,6 +481,7 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--write", action="store_true", help='write the "Real robots" section of docs/results.md')
     ap.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ap.add_argument("--no-pcs", action="store_true", help="baselines only (fast)")
+    ap.add_argument("--only", choices=("trunk", "tentacle"), help="one robot only (no --write)")
     args = ap.parse_args(argv)
     root = real_data_dir()
     if root is None:
@@ -490,17 +491,17 @@ def main(argv: list[str] | None = None) -> dict:
     n_rows = 2000 if args.quick else None
     trunk, three_d, rest, tent = [], None, None, None
     tdir = root / "trunk"
-    for name in TRUNK_STEP_FILES:
+    for name in TRUNK_STEP_FILES if args.only != "tentacle" else ():
         if (tdir / name).is_file():
             trunk.append(run_trunk_file(tdir / name, n_rows, pcs=not args.no_pcs))
             print(f"{name}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in trunk[-1]["rows"]), flush=True)
-    if (tdir / TRUNK_3D_FILE).is_file():
+    if (tdir / TRUNK_3D_FILE).is_file() and args.only != "tentacle":
         commanded = tdir / TRUNK_3D_INPUTS if (tdir / TRUNK_3D_INPUTS).is_file() else None
         three_d = run_trunk_file(tdir / TRUNK_3D_FILE, n_rows, pcs=not args.no_pcs, commanded=commanded)
         print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d["rows"]), flush=True)
-    if (tdir / TRUNK_REST_FILE).is_file():
+    if (tdir / TRUNK_REST_FILE).is_file() and args.only != "tentacle":
         rest = rest_file(tdir / TRUNK_REST_FILE)
-    if (root / "tentacle").is_dir():
+    if (root / "tentacle").is_dir() and args.only != "trunk":
         # static holds: the frames of a hold differ by noise only (< 0.4 mm), 30 of them say what all do
         tent = run_tentacle(root / "tentacle", 30, pcs=not args.no_pcs)
         if args.no_pcs:
@@ -515,7 +516,7 @@ def main(argv: list[str] | None = None) -> dict:
             plot_trunk(r, args.plots / f"real_trunk_{Path(r['name']).stem}.png")
         if tent is not None and tent["holds"]:
             plot_tentacle(tent, args.plots / "real_tentacle_holds.png")
-    if args.write and not args.quick:
+    if args.write and not args.quick and args.only is None:
         write_section(
             "real_robots",
             "Real robots (issue 25)",
