@@ -55,6 +55,11 @@ __all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WE
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
 SCORE_DERIVATIVES = (7, 3)
 _LIBRARIES = ("physical", "monomial")
+_REFINE = ("auto", "output_error", "none")
+#: the scale convention of a fit in which no absolute quantity is known (no mass, no gains, no forces)
+SCALE_CONVENTION_MASS = 1.0
+#: inputs this far (relative to the training range, at least 1e-9) outside it are out of range
+INPUT_RANGE_TOL = 0.05
 
 
 def _odd_window(value: Any) -> bool:
@@ -134,6 +139,21 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         a scenario's ``actuation``) maps actuator inputs (T, p) through
         ``A(q)``, whose unknown offsets and gains are identified with the model
         (see :mod:`pcs_sindy.models.actuation`, also for when the scale needs the mass).
+        With identified gains and no absolute quantity (no ``mass``, no given
+        gain) the fit uses a stated convention instead: a uniform line density
+        of total mass :data:`SCALE_CONVENTION_MASS` (1 kg); the motion does
+        not depend on it (``scale_convention_``, and the identifiability report).
+    refine : {"auto", "output_error", "none"}, default "auto"
+        ``"output_error"``: after the equation-error fit, refine stiffness,
+        damping, rotary inertia, rest forces and input gains so that open-loop
+        rollouts of the training recordings follow them
+        (:func:`~pcs_sindy.identification.output_error.refine_output_error`:
+        uniform line density, symmetric input-stiffness terms, ``K - sum u_k
+        B_k`` positive definite over the training input box: passive and
+        bounded by construction).  ``"auto"``: so for a
+        :class:`~pcs_sindy.models.actuation.LearnedActuation` (an input map of
+        unknown layout, which the equation error fits worst: measured on the
+        real Trunk step recordings, docs/results.md), none otherwise.
 
     Attributes
     ----------
@@ -170,6 +190,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         The fitted input map with its identified ``offsets_`` and ``gains_``.
     fit_time_ : float
         Wall time of ``fit`` (s).
+    scale_convention_ : str or None
+        The convention fixing the scale when nothing absolute was known
+        (``"total mass 1 kg, uniform line density"``), else None.
+    input_range_ : ndarray, shape (2, p)
+        Smallest and largest training value of each actuator input (or
+        generalised force): :meth:`simulate` and :meth:`equilibrium` warn outside it.
+    refinement_ : dict or None
+        The output-error refinement's record (``rmse_start``, ``rmse`` [m] of the
+        training markers, ``nfev``, ``slope_factor``), None when not refined.
     """
 
     identifiability_tol = 0.1
@@ -191,6 +220,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         atol: float = 3e-8,
         progress: bool = False,
         actuation: Any = None,
+        refine: str = "auto",
     ) -> None:
         self.library = library
         self.formulation = formulation
@@ -207,6 +237,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.atol = atol
         self.progress = progress
         self.actuation = actuation
+        self.refine = refine
 
     @classmethod
     def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
@@ -253,6 +284,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         "atol": [Interval(Real, 0, None, closed="neither")],
         "progress": "no_validation",
         "actuation": [None, InstanceOf(Actuation, "an Actuation"), InstanceOf(dict, "a layout dict")],
+        "refine": [Options(_REFINE)],
     }
 
     def _check_joint_parameters(self) -> None:
@@ -363,6 +395,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.n_regression_samples_ = int(x.shape[0])
         columns: Any = WithGains(lib, act.gain_names_, act.gain_lower_bound) if act.n_gains else lib
         equality = columns.scale_constraint() if act.n_gains else None
+        self.scale_convention_ = None
+        if act.n_gains and equality is None and not np.any(target) and "mass" in lib.get_params():
+            # nothing absolute is known: the motion is the same for every common scale, so state one
+            lib.set_params(mass=SCALE_CONVENTION_MASS)
+            equality = columns.scale_constraint()
+            self.scale_convention_ = (
+                f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
+                "units was given; the motion does not depend on this scale, the parameters are relative to it)"
+            )
         if act.n_gains and equality is None and not np.any(target):
             raise ValueError(
                 f"{type(act).__name__} with identified gains makes the regression homogeneous: densities, stiffness, "
@@ -414,12 +455,57 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         )
         q_kept = np.concatenate([r.q[:, kept] for r in recs])
         self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
+        u_all = np.concatenate([np.asarray(r.u, dtype=float) for r in recs])
+        self.input_range_ = np.stack([u_all.min(axis=0), u_all.max(axis=0)])
+        self.__dict__.pop("_forward", None)
+        self.refinement_ = None
+        if self._refines(act):
+            self._refine_output_error(X, recs, kept)
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
-        self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
+
+    def _refines(self, act: Actuation) -> bool:
+        if self.refine == "none" or self.formulation == "static":
+            return False
+        if self.refine == "output_error":
+            return True
+        return act.kind == "learned"
+
+    def _refine_output_error(self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_]) -> None:
+        """Output-error refinement of the fitted physical parameters (:mod:`.output_error`)."""
+        from .output_error import refine_output_error
+
+        lib = self.library_
+        if not hasattr(lib, "lumped_from_coef"):
+            raise ValueError(
+                f"refine='output_error' needs a library with a compiled forward model (PhysicalPCSLibrary); "
+                f"got {type(lib).__name__}: use refine='none'"
+            )
+        kin = self.kinematics_
+        arcs = [np.asarray(x.metadata.get("marker_arc_lengths", []), dtype=float).reshape(-1) for x in X]
+        arc = arcs[0] if arcs[0].size and all(np.array_equal(a, arcs[0]) for a in arcs) else np.zeros(0)
+        if not arc.size:
+            arc = np.asarray([kin.total_length])
+        rolls = []
+        for x, r in zip(X, recs, strict=True):
+            # the fusion's per-frame flag of frames whose markers were all seen (interpolated ones are not compared)
+            seen = np.asarray(x.metadata.get("measured", x.metadata.get("estimated", [])), dtype=bool)
+            valid = seen if seen.shape == (r.q.shape[0],) and seen.any() else np.ones(r.q.shape[0], bool)
+            rolls.append((r.t, r.q[:, kept], r.qd[0, kept], r.u, valid))
+        act = self.actuation_
+        coef, gains, info = refine_output_error(
+            lib, self.model_coef_, act, rolls, kin, arc, (self.input_range_[0], self.input_range_[1])
+        )
+        act.set_identified(gains, act.offsets_)
+        self.model_coef_ = coef
+        self.coef_ = self.coef_.copy()
+        self.coef_[self.column_map_] = coef
+        self._set_physical_attributes(kin)
+        self.refinement_ = info
+        self.__dict__.pop("_forward", None)
 
     @staticmethod
     def _warn_missing_physics(lib: LagrangianLibrary, coef: NDArray[np.float64], optimizer: str) -> None:
@@ -518,7 +604,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def identifiability_report(self) -> str:
         """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
         check_is_fitted(self, "identifiability_")
-        return _ident.report(self.identifiability_, self.identifiability_tol)
+        text = _ident.report(self.identifiability_, self.identifiability_tol)
+        conv = getattr(self, "scale_convention_", None)
+        if conv:
+            text = f"scale convention: {conv}\n" + text
+        ref = getattr(self, "refinement_", None)
+        if ref:
+            text += (
+                f"\noutput-error refinement (the values above are the equation-error fit; equations() shows the "
+                f"refined model): training marker RMSE {1e3 * ref['rmse_start']:.3g} -> {1e3 * ref['rmse']:.3g} mm "
+                f"in {ref['nfev']} rollouts"
+                + ("" if ref["slope_factor"] == 1.0 else f"; input-stiffness terms shrunk x{ref['slope_factor']:.3g}")
+            )
+        return text
 
     # ------------------------------------------------------------------ the identified model
     def _model_q(self, q: ArrayLike, name: str = "q") -> NDArray[np.float64]:
@@ -785,6 +883,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 t, u = qd0, t
             q0, qd0 = self._split_state(q0)
         t, u = simulate_inputs(t, u, tau)
+        if u is not None and not callable(u):
+            self._warn_input_range(u)
         return self.forward_model().simulate(
             q0,
             qd0,
@@ -827,8 +927,34 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             When no equilibrium is found.
         """
         check_is_fitted(self, "coef_")
+        self._warn_input_range(u)
         q = self.forward_model().equilibrium(u, q0, **kwargs)
         return self.kinematics_.to_full(q)
+    def _warn_input_range(self, u: ArrayLike) -> None:
+        """Warn, naming the inputs and their values, when ``u`` leaves the training range (``input_range_``)."""
+        rng = getattr(self, "input_range_", None)
+        arr = np.asarray(u, dtype=float)
+        if rng is None or arr.ndim == 0 or arr.shape[-1] != rng.shape[1]:
+            return
+        arr = arr.reshape(-1, rng.shape[1])
+        lo, hi = rng
+        tol = np.maximum(INPUT_RANGE_TOL * (hi - lo), 1e-9)
+        with np.errstate(invalid="ignore"):
+            below, above = arr.min(axis=0) < lo - tol, arr.max(axis=0) > hi + tol
+        bad = np.flatnonzero(below | above)
+        if bad.size:
+            parts = [
+                f"input {k} (column {k}) reaches {arr[:, k].min() if below[k] else arr[:, k].max():.4g}, "
+                f"trained on [{lo[k]:.4g}, {hi[k]:.4g}]"
+                for k in bad
+            ]
+            warnings.warn(
+                "inputs outside the range the model was identified on (its stability and accuracy hold only "
+                "inside it): " + "; ".join(parts),
+                UserWarning,
+                stacklevel=3,
+            )
+
     def _split_state(self, x0: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``[q0, qd0]`` of pysindy's ``simulate(x0, t, u)`` -> ``(q0, qd0)``."""
         x = np.asarray(x0, dtype=float)
