@@ -143,9 +143,13 @@ def test_learned_actuation_recovers_a_constant_map_and_is_passive_with_inputs_of
     U = [r.u for r in data.train]
     mass = float(np.sum(np.asarray(scenario.parameters["density"]) * np.pi * 0.02**2 * np.asarray(lengths)))
     act = LearnedActuation(2, strains="all")
-    with pytest.raises(ValueError, match="mass"):
-        EulerLagrangeRegressor(actuation=act).fit(X, U)
-    model = EulerLagrangeRegressor(actuation=act, library=PhysicalPCSLibrary(mass=mass)).fit(X, U)
+    model = EulerLagrangeRegressor(actuation=act, library=PhysicalPCSLibrary(mass=mass), refine="none").fit(X, U)
+    # no mass: the stated convention (1 kg) scales every parameter alike, and the motion is the same
+    conv = EulerLagrangeRegressor(actuation=act, refine="none").fit(X, U)
+    assert "1 kg" in conv.scale_convention_ and "scale convention" in conv.identifiability_report()
+    assert model.scale_convention_ is None
+    np.testing.assert_allclose(conv.stiffness_ * mass, model.stiffness_, rtol=1e-6)
+    np.testing.assert_allclose(conv.actuation_.gains_ * mass, model.actuation_.gains_, rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-3)
     q = np.random.default_rng(2).normal(size=(4, 3)) * [10, 0.05, 0.05]
     # the chambers' constant map (the simulator's), whatever the strains
