@@ -41,11 +41,14 @@ from scipy.optimize import least_squares
 
 from ..core.simulate_contract import DivergenceError
 
-__all__ = ["refine_output_error", "input_stiffness", "STIFFNESS_MARGIN", "MAX_VERTICES"]
+__all__ = ["refine_output_error", "input_stiffness", "input_directions", "STIFFNESS_MARGIN", "INPUT_RANK_TOL", "MAX_VERTICES"]
 
 #: smallest eigenvalue of ``K - sum_k u_k B_k`` required at the training input box's vertices,
 #: relative to the smallest stiffness: a held input may soften the robot, never to a buckling point
 STIFFNESS_MARGIN = 0.1
+#: input directions with a singular value below this fraction of the largest are not excited: their gains
+#: keep the equation-error value (steps of all servos together excite one direction and the servos' noise)
+INPUT_RANK_TOL = 0.02
 #: above this many inputs the box's vertices (2^p) are replaced by its training samples' extremes
 MAX_VERTICES = 256
 #: a stiffness margin missed by the whole smallest stiffness costs like this marker RMS [m] over the recordings
@@ -95,9 +98,18 @@ def input_stiffness(
 
 
 class _Layout:
-    """Which coefficients and gains the refinement moves, and how they map to the free vector."""
+    """Which coefficients and gains the refinement moves, and how they map to the free vector.
 
-    def __init__(self, lib: Any, coef: NDArray[np.float64], act: Any, gains: NDArray[np.float64]) -> None:
+    A learned map's gains are refined only along the input directions the
+    training data excited (``directions``, p x r: the inputs' principal
+    directions down to :data:`INPUT_RANK_TOL` of the largest); the gains'
+    components outside them keep their starting value (the data do not
+    determine them).  Its ``u*q`` gains are tied symmetric.
+    """
+
+    def __init__(
+        self, lib: Any, coef: NDArray[np.float64], act: Any, gains: NDArray[np.float64], directions: NDArray | None
+    ) -> None:
         names = list(lib.coefficient_names())
         self.coef0 = np.asarray(coef, dtype=float).copy()
         lengths = np.asarray(lib.kinematics.segment_lengths, dtype=float)
@@ -108,37 +120,66 @@ class _Layout:
             if not total > 0:
                 total = 1.0
             self.coef0[rho] = total / lengths.sum()
+        self.rho = float(self.coef0[rho].mean()) if rho else 1.0
         self.free = [j for j, nm in enumerate(names) if not nm.startswith(("rhoA_", "rhoAg"))]
-        lower = []
-        for j in self.free:
-            nm = names[j]
-            lower.append(0.0 if nm.startswith(("rhoI_", "k_", "d_")) else -np.inf)
+        lower = [0.0 if names[j].startswith(("rhoI_", "k_", "d_")) else -np.inf for j in self.free]
         self.stiff = np.asarray(lib.stiffness_index_, dtype=int)
         self.damp = np.asarray(lib.damping_index_, dtype=int)
-        # tie symmetric u*q gains: one free value per unordered pair (a, b), per input and part
-        self.gains0 = np.asarray(gains, dtype=float).copy()
-        idx = getattr(act, "_arrays", {}).get("index") if act.kind == "learned" else None
-        groups: dict = {}
-        for j in range(self.gains0.size):
-            if idx is not None and idx[j, 2] >= 0:
-                a, k, b, part = (int(v) for v in idx[j])
-                groups.setdefault((min(a, b), max(a, b), k, part), []).append(j)
-            else:
-                groups[("own", j)] = [j]
-        self.gain_groups = list(groups.values())
-        g_start = np.array([self.gains0[g].mean() for g in self.gain_groups])
-        x0 = np.r_[self.coef0[self.free], g_start]
-        self.lower = np.r_[lower, np.full(len(self.gain_groups), -np.inf)]
         self.n_coef = len(self.free)
-        self.x0 = x0
+        g0 = np.asarray(gains, dtype=float).copy()
+        idx = getattr(act, "_arrays", {}).get("index") if act.kind == "learned" else None
+        p = int(act.n_inputs_)
+        # types: per (row kind) one vector over the inputs of index lists; symmetric u*q entries share one
+        types: dict = {}
+        own = []
+        for j in range(g0.size):
+            if idx is None:
+                own.append(j)
+                continue
+            a, k, b, part = (int(v) for v in idx[j])
+            key = ("c", a, part) if b < 0 else ("s", min(a, b), max(a, b), part)
+            types.setdefault(key, [[] for _ in range(p)])[k].append(j)
+        self.own = own
+        self.types = list(types.values())
+        self.dirs = np.eye(p) if directions is None else np.asarray(directions, dtype=float)
+        # start: symmetric pairs averaged; the part outside the excited directions is kept as it is
+        self.base, z0 = [], []
+        for lists in self.types:
+            vec = np.array([g0[lst].mean() if lst else 0.0 for lst in lists])
+            z = self.dirs.T @ vec
+            self.base.append(vec - self.dirs @ z)
+            z0.append(z)
+        self.gains0 = g0
+        self.n_dirs = self.dirs.shape[1]
+        self.x0 = np.r_[self.coef0[self.free], g0[own], np.concatenate(z0) if z0 else np.zeros(0)]
+        self.lower = np.r_[lower, np.full(self.x0.size - self.n_coef, -np.inf)]
 
     def unpack(self, x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         coef = self.coef0.copy()
         coef[self.free] = x[: self.n_coef]
-        gains = np.empty_like(self.gains0)
-        for v, group in zip(x[self.n_coef :], self.gain_groups, strict=True):
-            gains[group] = v
+        gains = self.gains0.copy()
+        pos = self.n_coef
+        gains[self.own] = x[pos : pos + len(self.own)]
+        pos += len(self.own)
+        for lists, base in zip(self.types, self.base, strict=True):
+            vec = base + self.dirs @ x[pos : pos + self.n_dirs]
+            pos += self.n_dirs
+            for k, lst in enumerate(lists):
+                gains[lst] = vec[k]
         return coef, gains
+
+    def pack(self, coef: NDArray[np.float64], gains: NDArray[np.float64]) -> NDArray[np.float64]:
+        z = [self.dirs.T @ np.array([gains[lst].mean() if lst else 0.0 for lst in lists]) for lists in self.types]
+        return np.r_[coef[self.free], gains[self.own], np.concatenate(z) if z else np.zeros(0)]
+
+
+def input_directions(u: NDArray[np.float64], tol: float | None = None) -> NDArray[np.float64]:
+    """Principal directions (p, r) of the inputs ``u`` (T, p) down to ``tol`` of the largest singular value."""
+    tol = INPUT_RANK_TOL if tol is None else tol
+    _, sv, vt = np.linalg.svd(np.asarray(u, dtype=float), full_matrices=False)
+    if not sv.size or not sv[0] > 0:
+        return np.zeros((u.shape[1], 0))
+    return vt[sv > tol * sv[0]].T
 
 
 def _enforce_margin(
@@ -206,7 +247,8 @@ def refine_output_error(
         ``rmse_start``, ``rmse`` [m] of the compared markers, ``nfev``, ``slope_factor``
         (1 unless the ``u*q`` gains were shrunk to hold the margin) and ``n_vertices``.
     """
-    layout = _Layout(lib, coef, act, act.gains_)
+    u_all = np.concatenate([u for (_, _, _, u, _) in recordings])
+    layout = _Layout(lib, coef, act, act.gains_, input_directions(u_all) if act.kind == "learned" else None)
     mask = kinematics.active_mask
     s = np.asarray(arc_lengths, dtype=float)
     vertices = np.zeros((0, act.n_inputs_)) if input_box is None else _box_vertices(*input_box)
@@ -246,7 +288,7 @@ def refine_output_error(
     x0[pos] = np.maximum(x0[pos], 1e-6 * max(float(np.abs(x0[pos]).max()), 1e-9))
     # start feasible: the equation-error fit's input-stiffness terms shrunk to hold the margin
     c0, g0, _ = _enforce_margin(lib, *layout.unpack(x0)[:1], act, layout.unpack(x0)[1], vertices, layout)
-    x0 = np.r_[c0[layout.free], [g0[g[0]] for g in layout.gain_groups]]
+    x0 = layout.pack(c0, g0)
     r0 = residual(x0)
     n_markers = n_res
     if not np.all(np.abs(r0[:n_markers]) < 1.0):
@@ -254,12 +296,10 @@ def refine_output_error(
         # strain at the stiffness of gravity on the whole robot about its base (m g L), the scale of a hanging body
         c_start, g_start = layout.unpack(x0)
         lengths = np.asarray(lib.kinematics.segment_lengths, dtype=float)
-        rho = float(np.mean(layout.coef0[[j for j, nm in enumerate(lib.coefficient_names()) if nm.startswith("rhoA_")]]
-                            )) if any(nm.startswith("rhoA_") for nm in lib.coefficient_names()) else 1.0
-        k_g = rho * lengths.sum() * 9.81 * lengths.sum()
+        k_g = layout.rho * lengths.sum() * 9.81 * lengths.sum()
         c_start[layout.stiff] = np.maximum(c_start[layout.stiff], k_g)
         c_start[layout.damp] = np.maximum(c_start[layout.damp], 0.05 * k_g)
-        x1 = np.r_[c_start[layout.free], [g_start[g[0]] for g in layout.gain_groups]]
+        x1 = layout.pack(c_start, g_start)
         r1 = residual(x1)
         if np.sum(r1**2) < np.sum(r0**2):
             x0, r0 = x1, r1
@@ -268,7 +308,7 @@ def refine_output_error(
     coef_out, gains_out = layout.unpack(best)
     coef_out, gains_out, factor = _enforce_margin(lib, coef_out, act, gains_out, vertices, layout)
     act.set_identified(gains_out, act.offsets_)
-    r_end = residual(np.r_[coef_out[layout.free], [gains_out[g[0]] for g in layout.gain_groups]])
+    r_end = residual(layout.pack(coef_out, gains_out))
     if not np.all(np.abs(r_end[:n_markers]) < 1.0):
         import warnings
 
