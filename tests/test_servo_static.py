@@ -108,8 +108,11 @@ def test_servo_tendon_stiffness_radius_and_slack_are_identified(servo_data):
     assert names[:4] == ["d_1", "d_2", "d_3", "d_4"] and names[4] == "r_1" and names[-1] == "s_4"
     # stiffness unknown too: linear gains k_k, the scale from the robot's mass
     free = TendonActuation(SERVO["end"], SIDES, drive="displacement")
-    with pytest.raises(ValueError, match="mass"):
-        EulerLagrangeRegressor(actuation=free).fit(X, U)
+    # no mass: the stated 1 kg convention scales the gains by 1 / MASS and leaves the geometry as it is
+    conv = EulerLagrangeRegressor(actuation=free).fit(X, U)
+    assert "1 kg" in conv.scale_convention_
+    np.testing.assert_allclose(conv.actuation_.gains_ * MASS, SERVO["stiffness"], rtol=0.01)
+    np.testing.assert_allclose(conv.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)
     model = EulerLagrangeRegressor(actuation=free, library=PhysicalPCSLibrary(mass=MASS)).fit(X, U)
     np.testing.assert_allclose(model.actuation_.gains_, SERVO["stiffness"], rtol=0.01)
     np.testing.assert_allclose(model.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)

@@ -388,6 +388,20 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 "identified; record with actuation"
             )
         lib = self.make_library().fit(X)
+        self.scale_convention_ = None
+        if (
+            act.n_gains
+            and "mass" in lib.get_params()
+            and lib.scale_constraint() is None
+            and not any(np.any(act.parts(r.q, r.u)[0]) for r in recs)
+        ):
+            # nothing absolute is known (every force is a gain times a known function): the motion is the same
+            # for every common scale of densities, stiffness, damping and gains, so fix one and say so
+            lib.set_params(mass=SCALE_CONVENTION_MASS)
+            self.scale_convention_ = (
+                f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
+                "units was given; the motion does not depend on this scale, the parameters are relative to it)"
+            )
         offsets, offset_info = (None, None)
         if act.n_offsets:
             offsets, offset_info = fit_offsets(lib, act, recs, self.formulation, self.weak_hold)
@@ -395,15 +409,6 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.n_regression_samples_ = int(x.shape[0])
         columns: Any = WithGains(lib, act.gain_names_, act.gain_lower_bound) if act.n_gains else lib
         equality = columns.scale_constraint() if act.n_gains else None
-        self.scale_convention_ = None
-        if act.n_gains and equality is None and not np.any(target) and "mass" in lib.get_params():
-            # nothing absolute is known: the motion is the same for every common scale, so state one
-            lib.set_params(mass=SCALE_CONVENTION_MASS)
-            equality = columns.scale_constraint()
-            self.scale_convention_ = (
-                f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
-                "units was given; the motion does not depend on this scale, the parameters are relative to it)"
-            )
         if act.n_gains and equality is None and not np.any(target):
             raise ValueError(
                 f"{type(act).__name__} with identified gains makes the regression homogeneous: densities, stiffness, "
