@@ -137,3 +137,12 @@ def test_real_trunk_slice_is_predicted_open_loop_without_divergence():
     assert err < 0.35 * motion, (err, motion)
     rest = model.simulate(ste.q[0], np.zeros(3), np.arange(3000) * DT, np.zeros((3000, 6)))
     assert np.all(np.abs(rest.qd[-100:]) < 1e-3)
+
+
+def test_select_segmentation_checks_its_arguments():
+    from pcs_sindy.pipeline import select_segmentation
+
+    with pytest.raises(ValueError, match="positions must have shape"):
+        select_segmentation(np.zeros((10, 3)), np.zeros((10, 1)), dt=0.01)
+    with pytest.raises(ValueError, match="validation_fraction"):
+        select_segmentation(np.zeros((10, 3, 3)), np.zeros((10, 1)), dt=0.01, validation_fraction=0.9)
