@@ -174,9 +174,12 @@ class _Layout:
 
 
 def input_directions(u: NDArray[np.float64], tol: float | None = None) -> NDArray[np.float64]:
-    """Principal directions (p, r) of the inputs ``u`` (T, p) down to ``tol`` of the largest singular value."""
+    """Directions (p, r) in which the inputs ``u`` (T, p) vary: principal directions of the centred inputs
+    down to ``tol`` of the largest singular value.  A constant input (or combination) acts like the
+    model's constant force ``f0`` and cannot be told from it."""
     tol = INPUT_RANK_TOL if tol is None else tol
-    _, sv, vt = np.linalg.svd(np.asarray(u, dtype=float), full_matrices=False)
+    u = np.asarray(u, dtype=float)
+    _, sv, vt = np.linalg.svd(u - u.mean(axis=0), full_matrices=False)
     if not sv.size or not sv[0] > 0:
         return np.zeros((u.shape[1], 0))
     return vt[sv > tol * sv[0]].T

@@ -66,6 +66,15 @@ def _odd_window(value: Any) -> bool:
     return not isinstance(value, bool) and isinstance(value, (int, np.integer)) and value >= 3 and value % 2 == 1
 
 
+def _expand_gains(reduced: Actuation, full: Actuation, directions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gains of a learned map on all p inputs from those fitted on the inputs' directions ``u @ directions``."""
+    by_term = {tuple(int(v) for v in row): g for row, g in zip(reduced._arrays["index"], reduced.gains_, strict=True)}
+    out = np.zeros(full.n_gains)
+    for j, (a, k, b, part) in enumerate(full._arrays["index"]):
+        out[j] = sum(directions[k, i] * by_term[(int(a), i, int(b), int(part))] for i in range(directions.shape[1]))
+    return out
+
+
 class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     """Identify ``M(q) qdd + C(q, qd) qd + G(q) + K q + D qd = tau`` by regression.
 
@@ -196,6 +205,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     input_range_ : ndarray, shape (2, p)
         Smallest and largest training value of each actuator input (or
         generalised force): :meth:`simulate` and :meth:`equilibrium` warn outside it.
+    input_directions_ : ndarray, shape (p, r), or None
+        A learned map's input directions the training inputs varied in (its
+        gains were fitted along them; zero across them, where a constant input
+        is the constant force ``f0``), None for other maps.
     refinement_ : dict or None
         The output-error refinement's record (``rmse_start``, ``rmse`` [m] of the
         training markers, ``nfev``, ``slope_factor``), None when not refined.
@@ -381,6 +394,20 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self._check_joint_parameters()
         X = as_strain_trajectories(X)
         act = self._new_actuation(kinematics_of(X))
+        full_act, directions, y_inputs = None, None, None
+        if act.kind == "learned" and "pull" not in list(act.terms):
+            # a learned map's gains are determined only along the directions in which the inputs varied (all
+            # servos stepping together vary along one): fit it on those, and give the others zero gain
+            from .output_error import input_directions
+
+            y_inputs = [act.check_inputs(v, f"y[{k}]") for k, v in enumerate(_rec.check_list(y, len(X), "y"))]
+            directions = input_directions(np.concatenate(y_inputs))
+            if directions.shape[1] == 0:
+                raise ValueError("y (the inputs) never varies in any recording: nothing can be identified")
+            if directions.shape[1] < act.n_inputs_:
+                full_act = act
+                act = clone(act).set_params(n_inputs=int(directions.shape[1])).fit(act.kinematics_)
+                y = [v @ directions for v in y_inputs]
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
         if not any(np.any(r.u) for r in recs):
             raise ValueError(
@@ -460,12 +487,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         )
         q_kept = np.concatenate([r.q[:, kept] for r in recs])
         self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
-        u_all = np.concatenate([np.asarray(r.u, dtype=float) for r in recs])
+        self.input_directions_ = directions
+        if full_act is not None:
+            full_act.set_identified(_expand_gains(act, full_act, directions), full_act.offsets_)
+            self.actuation_ = act = full_act
+            if self.identifiability_ is not None:
+                self.identifiability_["input_directions"] = directions
+        inputs = y_inputs if y_inputs is not None else [np.asarray(r.u, dtype=float) for r in recs]
+        u_all = np.concatenate(inputs)
         self.input_range_ = np.stack([u_all.min(axis=0), u_all.max(axis=0)])
         self.__dict__.pop("_forward", None)
         self.refinement_ = None
         if self._refines(act):
-            self._refine_output_error(X, recs, kept)
+            self._refine_output_error(X, recs, kept, inputs)
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
@@ -479,7 +513,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             return True
         return act.kind == "learned"
 
-    def _refine_output_error(self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_]) -> None:
+    def _refine_output_error(
+        self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_], inputs: list[NDArray[np.float64]]
+    ) -> None:
         """Output-error refinement of the fitted physical parameters (:mod:`.output_error`)."""
         from .output_error import refine_output_error
 
@@ -495,11 +531,11 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if not arc.size:
             arc = np.asarray([kin.total_length])
         rolls = []
-        for x, r in zip(X, recs, strict=True):
+        for x, r, u in zip(X, recs, inputs, strict=True):
             # the fusion's per-frame flag of frames whose markers were all seen (interpolated ones are not compared)
             seen = np.asarray(x.metadata.get("measured", x.metadata.get("estimated", [])), dtype=bool)
             valid = seen if seen.shape == (r.q.shape[0],) and seen.any() else np.ones(r.q.shape[0], bool)
-            rolls.append((r.t, r.q[:, kept], r.qd[0, kept], r.u, valid))
+            rolls.append((r.t, r.q[:, kept], r.qd[0, kept], u if u.shape[0] == r.t.size else r.u, valid))
         act = self.actuation_
         coef, gains, info = refine_output_error(
             lib, self.model_coef_, act, rolls, kin, arc, (self.input_range_[0], self.input_range_[1])
@@ -613,6 +649,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         conv = getattr(self, "scale_convention_", None)
         if conv:
             text = f"scale convention: {conv}\n" + text
+        dirs = getattr(self, "input_directions_", None)
+        if dirs is not None and dirs.shape[1] < dirs.shape[0]:
+            text += (
+                f"\nthe inputs varied along {dirs.shape[1]} of {dirs.shape[0]} directions (input_directions_): the "
+                "gains a_*_u<i> above are per direction i; actuation_ holds them per input"
+            )
         ref = getattr(self, "refinement_", None)
         if ref:
             text += (
