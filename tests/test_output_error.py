@@ -146,3 +146,17 @@ def test_select_segmentation_checks_its_arguments():
         select_segmentation(np.zeros((10, 3)), np.zeros((10, 1)), dt=0.01)
     with pytest.raises(ValueError, match="validation_fraction"):
         select_segmentation(np.zeros((10, 3, 3)), np.zeros((10, 1)), dt=0.01, validation_fraction=0.9)
+
+
+def test_a_constant_input_gets_zero_gain_instead_of_a_rank_deficient_fit(steps):
+    # a servo that never moves acts like the constant force f0: its gains are not determined by the data
+    rec, u = steps
+    half = rec.n_frames // 2
+    train = StrainTrajectory(rec.q[:half], rec.t[:half], segment_lengths=[L], active_strains=ACTIVE)
+    both = np.c_[u[:half], np.full(half, 3.0)]
+    model = EulerLagrangeRegressor(actuation=LearnedActuation(2), refine="none").fit([train], [both])
+    one = EulerLagrangeRegressor(actuation=LearnedActuation(1), refine="none").fit([train], [u[:half]])
+    np.testing.assert_array_equal(model.input_directions_, [[1.0], [0.0]])
+    gains = dict(zip(model.actuation_.gain_names_, model.actuation_.gains_))
+    assert gains["a_be_1_u2"] == 0.0 and gains["a_be_1_u2_be_1"] == 0.0
+    np.testing.assert_allclose([gains["a_be_1_u1"], gains["a_be_1_u1_be_1"]], one.actuation_.gains_, rtol=1e-9)

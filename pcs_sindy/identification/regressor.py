@@ -207,9 +207,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         generalised force): with an actuation, :meth:`simulate` and
         :meth:`equilibrium` warn outside it.
     input_directions_ : ndarray, shape (p, r), or None
-        A learned map's input directions the training inputs varied in (its
-        gains were fitted along them; zero across them, where a constant input
-        is the constant force ``f0``), None for other maps.
+        A learned map's inputs that varied in training (columns of the
+        identity; a constant input's gains are zero: it acts like the constant
+        force ``f0``), None for other maps.
     refinement_ : dict or None
         The output-error refinement's record (``rmse_start``, ``rmse`` [m] of the
         training markers, ``nfev``, ``slope_factor``), None when not refined.
@@ -396,13 +396,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         X = as_strain_trajectories(X)
         act = self._new_actuation(kinematics_of(X))
         full_act, directions, y_inputs = None, None, None
-        if act.kind == "learned" and "pull" not in list(act.terms):
-            # a learned map's gains are determined only along the directions in which the inputs varied (all
-            # servos stepping together vary along one): fit it on those, and give the others zero gain
-            from .output_error import input_directions
-
+        if act.kind == "learned":
+            # an input that never varies acts like the constant force f0 (or not at all): its gains are not
+            # determined, so the learned map is fitted on the varying inputs and gives it zero gain
             y_inputs = [act.check_inputs(v, f"y[{k}]") for k, v in enumerate(_rec.check_list(y, len(X), "y"))]
-            directions = input_directions(np.concatenate(y_inputs))
+            u_cat = np.concatenate(y_inputs)
+            directions = np.eye(act.n_inputs_)[:, np.ptp(u_cat, axis=0) > 0]
             if directions.shape[1] == 0:
                 raise ValueError("y (the inputs) never varies in any recording: nothing can be identified")
             if directions.shape[1] < act.n_inputs_:
@@ -653,8 +652,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         dirs = getattr(self, "input_directions_", None)
         if dirs is not None and dirs.shape[1] < dirs.shape[0]:
             text += (
-                f"\nthe inputs varied along {dirs.shape[1]} of {dirs.shape[0]} directions (input_directions_): the "
-                "gains a_*_u<i> above are per direction i; actuation_ holds them per input"
+                f"\nonly {dirs.shape[1]} of {dirs.shape[0]} inputs varied (input_directions_): the gains a_*_u<i> "
+                "above number the varying inputs; actuation_ holds them per input (zero for a constant one)"
             )
         ref = getattr(self, "refinement_", None)
         if ref:
