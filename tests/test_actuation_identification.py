@@ -207,20 +207,22 @@ def test_actuated_model_file_round_trip(tendon_data, tmp_path):
     assert loaded.equations() == model.equations()
 
 
-def test_pressure_gains_need_and_take_the_mass():
+def test_pressure_gains_take_the_mass_or_the_stated_convention():
     scenario = get_scenario("one_segment_pneumatic")
     data = scenario.generate(seed=0, n_train=3, validation=False)
     lengths = scenario.robot.kinematics.segment_lengths
     X, u = _strains(data.train, lengths), [r.u for r in data.train]
-    with pytest.raises(ValueError, match=r"mass"):
-        EulerLagrangeRegressor(actuation=scenario.actuation).fit(X, u)
     p = scenario.parameters
     mass = float(np.sum(np.asarray(p["density"]) * np.pi * 0.02**2 * np.asarray(lengths)))
+    # no mass: fitted under the stated 1 kg convention, every gain scaled by 1 / mass
+    conv = EulerLagrangeRegressor(actuation=scenario.actuation).fit(X, u)
+    assert "1 kg" in conv.scale_convention_
     model = EulerLagrangeRegressor(actuation=scenario.actuation, library=PhysicalPCSLibrary(mass=mass)).fit(X, u)
     true = scenario.robot.actuation
     np.testing.assert_allclose(model.actuation_.gains_, np.r_[true.bending_gain, true.axial_gain], rtol=1e-2)
     np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-2)
     assert any(line.startswith("gains (identified)") for line in model.equations())
+    np.testing.assert_allclose(conv.actuation_.gains_ * mass, model.actuation_.gains_, rtol=1e-6)
 
 
 def test_bad_inputs_are_named(tendon_data):

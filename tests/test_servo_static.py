@@ -108,8 +108,11 @@ def test_servo_tendon_stiffness_radius_and_slack_are_identified(servo_data):
     assert names[:4] == ["d_1", "d_2", "d_3", "d_4"] and names[4] == "r_1" and names[-1] == "s_4"
     # stiffness unknown too: linear gains k_k, the scale from the robot's mass
     free = TendonActuation(SERVO["end"], SIDES, drive="displacement")
-    with pytest.raises(ValueError, match="mass"):
-        EulerLagrangeRegressor(actuation=free).fit(X, U)
+    # no mass: the stated 1 kg convention scales the gains by 1 / MASS and leaves the geometry as it is
+    conv = EulerLagrangeRegressor(actuation=free).fit(X, U)
+    assert "1 kg" in conv.scale_convention_
+    np.testing.assert_allclose(conv.actuation_.gains_ * MASS, SERVO["stiffness"], rtol=0.01)
+    np.testing.assert_allclose(conv.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)
     model = EulerLagrangeRegressor(actuation=free, library=PhysicalPCSLibrary(mass=MASS)).fit(X, U)
     np.testing.assert_allclose(model.actuation_.gains_, SERVO["stiffness"], rtol=0.01)
     np.testing.assert_allclose(model.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)
@@ -143,9 +146,13 @@ def test_learned_actuation_recovers_a_constant_map_and_is_passive_with_inputs_of
     U = [r.u for r in data.train]
     mass = float(np.sum(np.asarray(scenario.parameters["density"]) * np.pi * 0.02**2 * np.asarray(lengths)))
     act = LearnedActuation(2, strains="all")
-    with pytest.raises(ValueError, match="mass"):
-        EulerLagrangeRegressor(actuation=act).fit(X, U)
-    model = EulerLagrangeRegressor(actuation=act, library=PhysicalPCSLibrary(mass=mass)).fit(X, U)
+    model = EulerLagrangeRegressor(actuation=act, library=PhysicalPCSLibrary(mass=mass), refine="none").fit(X, U)
+    # no mass: the stated convention (1 kg) scales every parameter alike, and the motion is the same
+    conv = EulerLagrangeRegressor(actuation=act, refine="none").fit(X, U)
+    assert "1 kg" in conv.scale_convention_ and "scale convention" in conv.identifiability_report()
+    assert model.scale_convention_ is None
+    np.testing.assert_allclose(conv.stiffness_ * mass, model.stiffness_, rtol=1e-6)
+    np.testing.assert_allclose(conv.actuation_.gains_ * mass, model.actuation_.gains_, rtol=1e-6, atol=1e-12)
     np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-3)
     q = np.random.default_rng(2).normal(size=(4, 3)) * [10, 0.05, 0.05]
     # the chambers' constant map (the simulator's), whatever the strains

@@ -55,10 +55,24 @@ __all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WE
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
 SCORE_DERIVATIVES = (7, 3)
 _LIBRARIES = ("physical", "monomial")
+_REFINE = ("auto", "output_error", "none")
+#: the scale convention of a fit in which no absolute quantity is known (no mass, no gains, no forces)
+SCALE_CONVENTION_MASS = 1.0
+#: inputs this far (relative to the training range, at least 1e-9) outside it are out of range
+INPUT_RANGE_TOL = 0.05
 
 
 def _odd_window(value: Any) -> bool:
     return not isinstance(value, bool) and isinstance(value, (int, np.integer)) and value >= 3 and value % 2 == 1
+
+
+def _expand_gains(reduced: Actuation, full: Actuation, directions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Gains of a learned map on all p inputs from those fitted on the inputs' directions ``u @ directions``."""
+    by_term = {tuple(int(v) for v in row): g for row, g in zip(reduced._arrays["index"], reduced.gains_, strict=True)}
+    out = np.zeros(full.n_gains)
+    for j, (a, k, b, part) in enumerate(full._arrays["index"]):
+        out[j] = sum(directions[k, i] * by_term[(int(a), i, int(b), int(part))] for i in range(directions.shape[1]))
+    return out
 
 
 class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
@@ -134,6 +148,21 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         a scenario's ``actuation``) maps actuator inputs (T, p) through
         ``A(q)``, whose unknown offsets and gains are identified with the model
         (see :mod:`pcs_sindy.models.actuation`, also for when the scale needs the mass).
+        With identified gains and no absolute quantity (no ``mass``, no given
+        gain) the fit uses a stated convention instead: a uniform line density
+        of total mass :data:`SCALE_CONVENTION_MASS` (1 kg); the motion does
+        not depend on it (``scale_convention_``, and the identifiability report).
+    refine : {"auto", "output_error", "none"}, default "auto"
+        ``"output_error"``: after the equation-error fit, refine stiffness,
+        damping, rotary inertia, rest forces and input gains so that open-loop
+        rollouts of the training recordings follow them
+        (:func:`~pcs_sindy.identification.output_error.refine_output_error`:
+        uniform line density, symmetric input-stiffness terms, ``K - sum u_k
+        B_k`` positive definite over the training input box: passive and
+        bounded by construction).  ``"auto"``: so for a
+        :class:`~pcs_sindy.models.actuation.LearnedActuation` (an input map of
+        unknown layout, which the equation error fits worst: measured on the
+        real Trunk step recordings, docs/results.md), none otherwise.
 
     Attributes
     ----------
@@ -170,6 +199,20 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         The fitted input map with its identified ``offsets_`` and ``gains_``.
     fit_time_ : float
         Wall time of ``fit`` (s).
+    scale_convention_ : str or None
+        The convention fixing the scale when nothing absolute was known
+        (``"total mass 1 kg, uniform line density"``), else None.
+    input_range_ : ndarray, shape (2, p)
+        Smallest and largest training value of each actuator input (or
+        generalised force): with an actuation, :meth:`simulate` and
+        :meth:`equilibrium` warn outside it.
+    input_directions_ : ndarray, shape (p, r), or None
+        A learned map's inputs that varied in training (columns of the
+        identity; a constant input's gains are zero: it acts like the constant
+        force ``f0``), None for other maps.
+    refinement_ : dict or None
+        The output-error refinement's record (``rmse_start``, ``rmse`` [m] of the
+        training markers, ``nfev``, ``slope_factor``), None when not refined.
     """
 
     identifiability_tol = 0.1
@@ -191,6 +234,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         atol: float = 3e-8,
         progress: bool = False,
         actuation: Any = None,
+        refine: str = "auto",
     ) -> None:
         self.library = library
         self.formulation = formulation
@@ -207,6 +251,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.atol = atol
         self.progress = progress
         self.actuation = actuation
+        self.refine = refine
 
     @classmethod
     def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
@@ -253,6 +298,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         "atol": [Interval(Real, 0, None, closed="neither")],
         "progress": "no_validation",
         "actuation": [None, InstanceOf(Actuation, "an Actuation"), InstanceOf(dict, "a layout dict")],
+        "refine": [Options(_REFINE)],
     }
 
     def _check_joint_parameters(self) -> None:
@@ -349,6 +395,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self._check_joint_parameters()
         X = as_strain_trajectories(X)
         act = self._new_actuation(kinematics_of(X))
+        full_act, directions, y_inputs = None, None, None
+        if act.kind == "learned":
+            # an input that never varies acts like the constant force f0 (or not at all): its gains are not
+            # determined, so the learned map is fitted on the varying inputs and gives it zero gain
+            y_inputs = [act.check_inputs(v, f"y[{k}]") for k, v in enumerate(_rec.check_list(y, len(X), "y"))]
+            u_cat = np.concatenate(y_inputs)
+            directions = np.eye(act.n_inputs_)[:, np.ptp(u_cat, axis=0) > 0]
+            if directions.shape[1] == 0:
+                raise ValueError("y (the inputs) never varies in any recording: nothing can be identified")
+            if directions.shape[1] < act.n_inputs_:
+                full_act = act
+                act = clone(act).set_params(n_inputs=int(directions.shape[1])).fit(act.kinematics_)
+                y = [v @ directions for v in y_inputs]
         kin, X, recs = self._recordings(X, y, qd, qdd, kin=None, formulation=self.formulation, actuation=act)
         if not any(np.any(r.u) for r in recs):
             raise ValueError(
@@ -356,6 +415,20 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 "identified; record with actuation"
             )
         lib = self.make_library().fit(X)
+        self.scale_convention_ = None
+        if (
+            act.n_gains
+            and "mass" in lib.get_params()
+            and lib.scale_constraint() is None
+            and not any(np.any(act.parts(r.q, r.u)[0]) for r in recs)
+        ):
+            # nothing absolute is known (every force is a gain times a known function): the motion is the same
+            # for every common scale of densities, stiffness, damping and gains, so fix one and say so
+            lib.set_params(mass=SCALE_CONVENTION_MASS)
+            self.scale_convention_ = (
+                f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
+                "units was given; the motion does not depend on this scale, the parameters are relative to it)"
+            )
         offsets, offset_info = (None, None)
         if act.n_offsets:
             offsets, offset_info = fit_offsets(lib, act, recs, self.formulation, self.weak_hold)
@@ -414,12 +487,66 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         )
         q_kept = np.concatenate([r.q[:, kept] for r in recs])
         self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
+        self.input_directions_ = directions
+        if full_act is not None:
+            full_act.set_identified(_expand_gains(act, full_act, directions), full_act.offsets_)
+            self.actuation_ = act = full_act
+            if self.identifiability_ is not None:
+                self.identifiability_["input_directions"] = directions
+        inputs = y_inputs if y_inputs is not None else [np.asarray(r.u, dtype=float) for r in recs]
+        u_all = np.concatenate(inputs)
+        self.input_range_ = np.stack([u_all.min(axis=0), u_all.max(axis=0)])
+        self.__dict__.pop("_forward", None)
+        self.refinement_ = None
+        if self._refines(act):
+            self._refine_output_error(X, recs, kept, inputs)
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
-        self.__dict__.pop("_forward", None)
         self.fit_time_ = time.perf_counter() - start
         return self
+
+    def _refines(self, act: Actuation) -> bool:
+        if self.refine == "none" or self.formulation == "static":
+            return False
+        if self.refine == "output_error":
+            return True
+        return act.kind == "learned"
+
+    def _refine_output_error(
+        self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_], inputs: list[NDArray[np.float64]]
+    ) -> None:
+        """Output-error refinement of the fitted physical parameters (:mod:`.output_error`)."""
+        from .output_error import refine_output_error
+
+        lib = self.library_
+        if not hasattr(lib, "lumped_from_coef"):
+            raise ValueError(
+                f"refine='output_error' needs a library with a compiled forward model (PhysicalPCSLibrary); "
+                f"got {type(lib).__name__}: use refine='none'"
+            )
+        kin = self.kinematics_
+        arcs = [np.asarray(x.metadata.get("marker_arc_lengths", []), dtype=float).reshape(-1) for x in X]
+        arc = arcs[0] if arcs[0].size and all(np.array_equal(a, arcs[0]) for a in arcs) else np.zeros(0)
+        if not arc.size:
+            arc = np.asarray([kin.total_length])
+        rolls = []
+        for x, r, u in zip(X, recs, inputs, strict=True):
+            # the fusion's per-frame flag of frames whose markers were all seen (interpolated ones are not compared)
+            seen = np.asarray(x.metadata.get("measured", x.metadata.get("estimated", [])), dtype=bool)
+            valid = seen if seen.shape == (r.q.shape[0],) and seen.any() else np.ones(r.q.shape[0], bool)
+            rolls.append((r.t, r.q[:, kept], r.qd[0, kept], u if u.shape[0] == r.t.size else r.u, valid))
+        act = self.actuation_
+        coef, gains, info = refine_output_error(
+            lib, self.model_coef_, act, rolls, kin, arc, (self.input_range_[0], self.input_range_[1])
+        )
+        act.set_identified(gains, act.offsets_)
+        self.model_coef_ = coef
+        self.coef_ = self.coef_.copy()
+        self.coef_[self.column_map_] = coef
+        self._set_physical_attributes(kin)
+        self.refinement_ = info
+        self.__dict__.pop("_forward", None)
 
     @staticmethod
     def _warn_missing_physics(lib: LagrangianLibrary, coef: NDArray[np.float64], optimizer: str) -> None:
@@ -518,7 +645,25 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def identifiability_report(self) -> str:
         """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
         check_is_fitted(self, "identifiability_")
-        return _ident.report(self.identifiability_, self.identifiability_tol)
+        text = _ident.report(self.identifiability_, self.identifiability_tol)
+        conv = getattr(self, "scale_convention_", None)
+        if conv:
+            text = f"scale convention: {conv}\n" + text
+        dirs = getattr(self, "input_directions_", None)
+        if dirs is not None and dirs.shape[1] < dirs.shape[0]:
+            text += (
+                f"\nonly {dirs.shape[1]} of {dirs.shape[0]} inputs varied (input_directions_): the gains a_*_u<i> "
+                "above number the varying inputs; actuation_ holds them per input (zero for a constant one)"
+            )
+        ref = getattr(self, "refinement_", None)
+        if ref:
+            text += (
+                f"\noutput-error refinement (the values above are the equation-error fit; equations() shows the "
+                f"refined model): training marker RMSE {1e3 * ref['rmse_start']:.3g} -> {1e3 * ref['rmse']:.3g} mm "
+                f"in {ref['nfev']} rollouts"
+                + ("" if ref["slope_factor"] == 1.0 else f"; input-stiffness terms shrunk x{ref['slope_factor']:.3g}")
+            )
+        return text
 
     # ------------------------------------------------------------------ the identified model
     def _model_q(self, q: ArrayLike, name: str = "q") -> NDArray[np.float64]:
@@ -785,6 +930,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 t, u = qd0, t
             q0, qd0 = self._split_state(q0)
         t, u = simulate_inputs(t, u, tau)
+        if u is not None and not callable(u):
+            self._warn_input_range(u)
         return self.forward_model().simulate(
             q0,
             qd0,
@@ -827,8 +974,38 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             When no equilibrium is found.
         """
         check_is_fitted(self, "coef_")
+        self._warn_input_range(u)
         q = self.forward_model().equilibrium(u, q0, **kwargs)
         return self.kinematics_.to_full(q)
+    def _warn_input_range(self, u: ArrayLike) -> None:
+        """Warn, naming the inputs and their values, when ``u`` leaves the training range (``input_range_``)."""
+        rng = getattr(self, "input_range_", None)
+        if isinstance(getattr(self, "actuation_", None), IdentityActuation):
+            # generalised forces act on a passive model whatever their size: only an input map (whose
+            # stiffness-under-input margin holds over the training box) makes the range a stability matter
+            return
+        arr = np.asarray(u, dtype=float)
+        if rng is None or arr.ndim == 0 or arr.shape[-1] != rng.shape[1]:
+            return
+        arr = arr.reshape(-1, rng.shape[1])
+        lo, hi = rng
+        tol = np.maximum(INPUT_RANGE_TOL * (hi - lo), 1e-9)
+        with np.errstate(invalid="ignore"):
+            below, above = arr.min(axis=0) < lo - tol, arr.max(axis=0) > hi + tol
+        bad = np.flatnonzero(below | above)
+        if bad.size:
+            parts = [
+                f"input {k} (column {k}) reaches {arr[:, k].min() if below[k] else arr[:, k].max():.4g}, "
+                f"trained on [{lo[k]:.4g}, {hi[k]:.4g}]"
+                for k in bad
+            ]
+            warnings.warn(
+                "inputs outside the range the model was identified on (its stability and accuracy hold only "
+                "inside it): " + "; ".join(parts),
+                UserWarning,
+                stacklevel=3,
+            )
+
     def _split_state(self, x0: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``[q0, qd0]`` of pysindy's ``simulate(x0, t, u)`` -> ``(q0, qd0)``."""
         x = np.asarray(x0, dtype=float)

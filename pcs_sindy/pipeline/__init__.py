@@ -5,7 +5,8 @@ fitted :class:`PCSPipeline` (extractor -> fusion -> regressor) or, from poses an
 identified dynamics, the robot's rest length when nobody measured it.
 
 * :mod:`.pcs_pipeline` - :func:`make_pcs_pipeline`, :class:`PCSPipeline`, :func:`recording_groups`;
-* :mod:`.rest_length` - :func:`estimate_rest_length`: kinematics corrected by identified dynamics.
+* :mod:`.rest_length` - :func:`estimate_rest_length`: kinematics corrected by identified dynamics;
+* :mod:`.segmentation` - :func:`select_segmentation`: the segment count of position data by held-out prediction.
 
 The only stage that imports vision, fusion and identification together.
 """
@@ -17,5 +18,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
     submod_attrs={
         "pcs_pipeline": ["PCSPipeline", "make_pcs_pipeline", "recording_groups"],
         "rest_length": ["RestLengthEstimate", "estimate_rest_length"],
+        "segmentation": ["SegmentationChoice", "select_segmentation", "SEGMENTATION_THRESHOLDS"],
     },
 )
