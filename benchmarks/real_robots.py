@@ -57,13 +57,12 @@ from pcs_sindy.identification import ARX, LaggedPolynomialMap, LinearLoadInterpo
 
 from _results import write_section  # noqa: E402
 
-#: a mass [kg] for the scale only: the user has none, and today's LearnedActuation refuses without one
-#: (the motion does not depend on it: every identified parameter scales with it)
-NOMINAL_MASS = 1.0
-
-
 # ================================================================================ PCS recipes
 # The coordinator swaps these two functions when the new API lands; everything else only calls them.
+#: the disk spacing a user of the Trunk may give (3 disks, equally spaced; the base is not tracked)
+TRUNK_DISK_SPACING = 0.105
+
+
 def pcs_trunk(
     train_positions: np.ndarray,
     train_inputs: np.ndarray,
@@ -72,32 +71,39 @@ def pcs_trunk(
     dt: float,
     details: dict | None = None,
 ) -> np.ndarray:
-    """The documented positions-only path at defaults; the predicted tip (T_test, 3) in the capture frame.
+    """The documented positions-only path at defaults (docs/mocap.md, "Inputs of unknown units").
 
-    ``PoseTrajectory.from_positions`` -> ``KinematicFusion()`` -> ``EulerLagrangeRegressor(actuation=
-    LearnedActuation(6), library=PhysicalPCSLibrary(mass=NOMINAL_MASS))`` -> ``simulate`` from the fused
-    strains at the split (at rest rates) -> ``fusion.inverse_transform``.  ``details`` (if given) receives
-    ``"release"``: a function of a duration [s] returning the strain rates of the model released from its
-    most bent training state with the inputs at 0, and a description of the fit.
+    The user gives the rate, the marker order from the base, the servo angles and the disk spacing
+    (arc lengths 1, 2, 3 spacings).  ``select_segmentation`` chooses the segment count by held-out
+    open-loop prediction on the training half -> ``KinematicFusion`` at that threshold ->
+    ``EulerLagrangeRegressor(actuation=LearnedActuation(6))`` (no mass: the scale convention; the
+    output-error refinement by default) -> ``simulate`` from the fused strains at the split (at rest
+    rates) -> ``fusion.inverse_transform``; returns the predicted tip (T_test, 3) in the capture frame.
+    ``details`` (if given) receives ``"release"``: a function of a duration [s] returning the strain
+    rates of the model released from its most bent training state with the inputs at 0, and a
+    description of the fit.
     """
-    from pcs_sindy.core import PoseTrajectory, StrainTrajectory  # noqa: F401
+    from pcs_sindy.core import PoseTrajectory
     from pcs_sindy.fusion import KinematicFusion
-    from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary
+    from pcs_sindy.identification import EulerLagrangeRegressor
     from pcs_sindy.models import LearnedActuation
+    from pcs_sindy.pipeline import select_segmentation
 
-    train = PoseTrajectory.from_positions(train_positions, dt=dt)
-    fusion = KinematicFusion().fit(train)
-    strains = fusion.transform(train)
-    model = EulerLagrangeRegressor(
-        actuation=LearnedActuation(train_inputs.shape[1]), library=PhysicalPCSLibrary(mass=NOMINAL_MASS)
-    ).fit(strains, [train_inputs])
-    test = PoseTrajectory.from_positions(test_positions, dt=dt, plane=train.plane)
-    (st_test,) = fusion.transform(test)
+    arcs = TRUNK_DISK_SPACING * np.arange(1, train_positions.shape[1] + 1)
+    choice = select_segmentation(train_positions, train_inputs, dt=dt, arc_lengths=arcs)
+    train = PoseTrajectory.from_positions(train_positions, dt=dt, arc_lengths=arcs)
+    test = PoseTrajectory.from_positions(test_positions, dt=dt, arc_lengths=arcs, plane=train.plane)
+    fusion = KinematicFusion(threshold=choice.threshold).fit(train)
+    (strains,), (st_test,) = fusion.transform(train), fusion.transform(test)
+    model = EulerLagrangeRegressor(actuation=LearnedActuation(train_inputs.shape[1])).fit([strains], [train_inputs])
     if details is not None:
-        q_bent = strains[0].q[np.argmax(np.abs(strains[0].q).sum(axis=1))]
+        q_bent = strains.q[np.argmax(np.abs(strains.q).sum(axis=1))]
         lengths = np.round(1e3 * np.asarray(fusion.segment_lengths_)).astype(int).tolist()
-        arcs = np.round(1e3 * fusion.marker_arc_lengths_[1:]).astype(int).tolist()
-        details["fit"] = f"{fusion.n_segments_} segment(s) {lengths} mm, marker arc lengths {arcs} mm"
+        details["fit"] = (
+            f"{fusion.n_segments_} segment(s) {lengths} mm (held-out errors by count: "
+            + ", ".join(f"{k}: {1e3 * e:.1f} mm" for k, e in sorted(choice.errors.items()))
+            + ")"
+        )
 
         def release(duration: float) -> np.ndarray:
             t = np.arange(int(round(duration / dt)) + 1) * dt
