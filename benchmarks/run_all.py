@@ -43,7 +43,11 @@ ORDER = [
     "control_targets",
     "cli_startup",
     "atomic_writes",
+    "position_fusion_speed",
+    "real_robots",
 ]
+# arguments of the benchmarks that write docs/results.md only when asked to
+ARGS = {"position_fusion_speed": ["--write"], "real_robots": ["--write", "--plots", "docs"]}
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
 
@@ -57,7 +61,7 @@ def main(names: list[str]) -> int:
     failed = []
     for name in chosen:
         print(f"== {name}", flush=True)
-        if subprocess.call([sys.executable, str(HERE / f"{name}.py")]) != 0:
+        if subprocess.call([sys.executable, str(HERE / f"{name}.py"), *ARGS.get(name, [])]) != 0:
             failed.append(name)
     if failed:
         print(f"failed: {failed}")
