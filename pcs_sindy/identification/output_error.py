@@ -41,7 +41,14 @@ from scipy.optimize import least_squares
 
 from ..core.simulate_contract import DivergenceError
 
-__all__ = ["refine_output_error", "input_stiffness", "input_directions", "STIFFNESS_MARGIN", "INPUT_RANK_TOL", "MAX_VERTICES"]
+__all__ = [
+    "refine_output_error",
+    "input_stiffness",
+    "input_directions",
+    "STIFFNESS_MARGIN",
+    "INPUT_RANK_TOL",
+    "MAX_VERTICES",
+]
 
 #: smallest eigenvalue of ``K - sum_k u_k B_k`` required at the training input box's vertices,
 #: relative to the smallest stiffness: a held input may soften the robot, never to a buckling point

@@ -88,7 +88,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         :meth:`fit`.  Default ``PhysicalPCSLibrary()``: one coefficient per
         physical unknown (line density, rotary inertia, stiffness, damping,
         rest force per strain), any number of segments, bounded fits (passive
-        model, positive-definite ``M``).  ``"monomial"``: the seed's symbolic
+        model, positive-definite ``M``).  For strains fused from marker positions
+        alone (motion capture: a fitted plane and base) with an output-error
+        refinement, gravity's direction in that plane is not known: the default
+        then fits gravity along the rest direction and gravity identified
+        (``identify_gravity=True``) and keeps the one whose rollouts follow the
+        training markers best (``gravity_choice_``).  ``"monomial"``: the seed's symbolic
         :class:`~pcs_sindy.identification.library.pcs_lagrangian.PCSLagrangianLibrary`.
     formulation : {"weak", "strong", "static"}, default "weak"
         ``"weak"``: regress window integrals ``int phi tau dt = int phi Psi dt @ coef``
@@ -213,6 +218,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     refinement_ : dict or None
         The output-error refinement's record (``rmse_start``, ``rmse`` [m] of the
         training markers, ``nfev``, ``slope_factor``), None when not refined.
+    gravity_choice_ : dict or None
+        With the default library on positions-only strains (refined): which gravity model was kept
+        (``"known"`` along the rest direction, or ``"identified"``), each one's training rollout RMSE
+        [m], failures and the reason; None otherwise.
     """
 
     identifiability_tol = 0.1
@@ -394,6 +403,14 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         validate_parameters(self)
         self._check_joint_parameters()
         X = as_strain_trajectories(X)
+        self.gravity_choice_ = None
+        if (
+            self.library is None
+            and self.formulation != "static"
+            and all(x.metadata.get("shape_fit") == "positions" for x in X)
+            and self._refines(self._new_actuation(kinematics_of(X)))
+        ):
+            return self._fit_choosing_gravity(X, y, qd, qdd, start)
         act = self._new_actuation(kinematics_of(X))
         full_act, directions, y_inputs = None, None, None
         if act.kind == "learned":
@@ -503,6 +520,48 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
+        self.fit_time_ = time.perf_counter() - start
+        return self
+
+    def _fit_choosing_gravity(self, X: list, y: Any, qd: Any, qdd: Any, start: float) -> EulerLagrangeRegressor:
+        """Strains fused from marker positions alone: gravity known along the rest direction, or identified.
+
+        Such strains live in a plane fitted to the markers, from a fitted base: how much of gravity lies
+        in that plane, and which way it points there, follow only when the robot hangs (or stands) in a
+        vertical plane.  Both models are fitted and refined; the one whose rollouts follow the training
+        markers better (``refinement_["rmse"]``, training data only) is kept, and ``gravity_choice_``
+        says which and why.
+        """
+        from .library.physical import PhysicalPCSLibrary
+
+        fitted: dict[str, tuple[float, EulerLagrangeRegressor, list]] = {}
+        errors: dict[str, str] = {}
+        for name, identify in (("known", False), ("identified", True)):
+            est = clone(self).set_params(library=PhysicalPCSLibrary(identify_gravity=identify))
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                try:
+                    est.fit(X, y, qd=qd, qdd=qdd)
+                except (ValueError, np.linalg.LinAlgError, DivergenceError) as err:
+                    errors[name] = f"{type(err).__name__}: {err}"
+                    continue
+            rmse = (est.refinement_ or {}).get("rmse", np.inf)
+            fitted[name] = (float(rmse) if np.isfinite(rmse) else np.inf, est, list(caught))
+        if not fitted:
+            raise ValueError(f"neither gravity model could be fitted: {errors}")
+        best = min(fitted, key=lambda k: fitted[k][0])
+        _, est, caught = fitted[best]
+        for w in caught:  # the chosen model's own warnings, once
+            warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+        self.__dict__.update({k: v for k, v in vars(est).items() if k.endswith("_") and not k.startswith("__")})
+        self.__dict__.pop("_forward", None)
+        self.gravity_choice_ = {
+            "chosen": best,
+            "training_rollout_rmse": {k: v[0] for k, v in fitted.items()},
+            "failed": errors,
+            "reason": "positions-only strains: gravity's direction in the fitted plane is not known; the model "
+            "whose output-error rollouts follow the training markers best",
+        }
         self.fit_time_ = time.perf_counter() - start
         return self
 
@@ -977,6 +1036,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self._warn_input_range(u)
         q = self.forward_model().equilibrium(u, q0, **kwargs)
         return self.kinematics_.to_full(q)
+
     def _warn_input_range(self, u: ArrayLike) -> None:
         """Warn, naming the inputs and their values, when ``u`` leaves the training range (``input_range_``)."""
         rng = getattr(self, "input_range_", None)
