@@ -5,25 +5,11 @@ Tests needing a recording call :func:`real_file`, which skips the test when the 
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import pytest
 
-REPO = Path(__file__).resolve().parents[1]
-ENV = "PCS_SINDY_REAL_DATA"
-
-
-def real_data_dir() -> Path | None:
-    """The folder holding ``trunk/`` and ``tentacle/``, or None (a set but missing ``$PCS_SINDY_REAL_DATA``: None)."""
-    env = os.environ.get(ENV)
-    if env:
-        path = Path(env).expanduser()
-        return path if path.is_dir() else None
-    for path in (REPO / ".." / "shared" / "real", Path("/work/shared/real")):
-        if path.is_dir():
-            return path.resolve()
-    return None
+from benchmarks._real_data import ENV, real_data_dir  # one lookup for benchmarks and tests  # noqa: F401
 
 
 def real_file(*parts: str) -> Path:

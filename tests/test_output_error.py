@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from real_data import real_data_dir
 
 from pcs_sindy.core import StrainTrajectory
 from pcs_sindy.core.kinematics import PlanarPCS
@@ -24,7 +24,9 @@ TRUE = {"k": 0.08, "d": 0.004, "f0": 0.01, "a": 0.002, "b": -0.0004}
 
 def _truth_model():
     kin = PlanarPCS([L], ACTIVE)
-    lib = PhysicalPCSLibrary().fit([StrainTrajectory(np.zeros((3, 3)), np.arange(3.0), segment_lengths=[L], active_strains=ACTIVE)])
+    lib = PhysicalPCSLibrary().fit(
+        [StrainTrajectory(np.zeros((3, 3)), np.arange(3.0), segment_lengths=[L], active_strains=ACTIVE)]
+    )
     names = lib.coefficient_names()
     coef = np.zeros(len(names))
     coef[names.index("rhoA_1")] = MASS / L
@@ -78,7 +80,9 @@ def test_refined_model_predicts_held_out_half_and_holds_the_stiffness_margin(fit
     assert np.sqrt(np.mean(np.sum((tip - true) ** 2, axis=1))) < 2e-3
     lo, hi = fitted.input_range_
     assert lo[0] == 0.0 and hi[0] == u[:half].max()
-    lam = input_stiffness(fitted.stiffness_[:1], fitted.actuation_, fitted.actuation_.gains_, np.array([[lo[0]], [hi[0]]]))
+    lam = input_stiffness(
+        fitted.stiffness_[:1], fitted.actuation_, fitted.actuation_.gains_, np.array([[lo[0]], [hi[0]]])
+    )
     assert np.all(lam >= STIFFNESS_MARGIN * fitted.stiffness_[0] * (1 - 1e-9))
 
 
@@ -106,19 +110,15 @@ def test_inputs_outside_the_training_range_warn_with_their_values(fitted):
 
 
 def _real_trunk() -> Path | None:
-    env = os.environ.get("PCS_SINDY_REAL_DATA")
-    for root in ([Path(env)] if env else []) + [Path(__file__).resolve().parents[1] / ".." / "shared" / "real",
-                                                 Path("/work/shared/real")]:
-        f = root / "trunk" / "observations_motor2_test_allmotors.csv"
-        if f.is_file():
-            return f
-    return None
+    root = real_data_dir()
+    f = None if root is None else root / "trunk" / "observations_motor2_test_allmotors.csv"
+    return f if f is not None and f.is_file() else None
 
 
 @pytest.mark.skipif(_real_trunk() is None, reason="the real Trunk recordings are not available")
 def test_real_trunk_slice_is_predicted_open_loop_without_divergence():
-    from pcs_sindy.fusion import KinematicFusion
     from pcs_sindy.core import PoseTrajectory
+    from pcs_sindy.fusion import KinematicFusion
 
     a = np.genfromtxt(_real_trunk(), delimiter=",", names=True, max_rows=3000)
     P = np.stack([np.stack([a[f"{c}{i}"] for c in "xyz"], -1) for i in (1, 2, 3)], 1)
@@ -157,6 +157,6 @@ def test_a_constant_input_gets_zero_gain_instead_of_a_rank_deficient_fit(steps):
     model = EulerLagrangeRegressor(actuation=LearnedActuation(2), refine="none").fit([train], [both])
     one = EulerLagrangeRegressor(actuation=LearnedActuation(1), refine="none").fit([train], [u[:half]])
     np.testing.assert_array_equal(model.input_directions_, [[1.0], [0.0]])
-    gains = dict(zip(model.actuation_.gain_names_, model.actuation_.gains_))
+    gains = dict(zip(model.actuation_.gain_names_, model.actuation_.gains_, strict=True))
     assert gains["a_be_1_u2"] == 0.0 and gains["a_be_1_u2_be_1"] == 0.0
     np.testing.assert_allclose([gains["a_be_1_u1"], gains["a_be_1_u1_be_1"]], one.actuation_.gains_, rtol=1e-9)

@@ -2,13 +2,13 @@
 tentacle files as they are, jump detection that keeps genuine fast motion, unlabelled markers,
 a recorded base marker, markers off the backbone, shared planes and the base from positions."""
 
-import os
 import time
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pytest
+from real_data import real_data_dir
 
 from pcs_sindy.core import MarkerPlane, PoseTrajectory, clean_marker_tracks, find_base_marker, order_markers
 from pcs_sindy.core.kinematics import forward_kinematics
@@ -16,18 +16,7 @@ from pcs_sindy.fusion import KinematicFusion
 from pcs_sindy.fusion.position_fit import bending_strains, fit_marker_geometry, marker_positions_jacobian
 from pcs_sindy.io import DataFileError, read_marker_csv
 
-
-def _real_data() -> Path | None:
-    """PCS_SINDY_REAL_DATA, else <repo>/../shared/real, else /work/shared/real (None when absent)."""
-    env = os.environ.get("PCS_SINDY_REAL_DATA")
-    repo = Path(__file__).resolve().parents[1]
-    for cand in ([Path(env)] if env else []) + [repo / ".." / "shared" / "real", Path("/work/shared/real")]:
-        if cand.is_dir():
-            return cand
-    return None
-
-
-REAL = _real_data()
+REAL = real_data_dir()
 needs_real = pytest.mark.skipif(REAL is None, reason="real recordings (../shared/real) not available")
 
 

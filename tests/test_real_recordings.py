@@ -9,7 +9,6 @@ The folder: ``$PCS_SINDY_REAL_DATA``, else ``<repo>/../shared/real``, else ``/wo
 from __future__ import annotations
 
 import csv
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -39,13 +38,10 @@ def disks(cols: dict[str, np.ndarray]) -> np.ndarray:
 
 
 def test_trunk_file_reads_through_the_package(tmp_path):
-    from pcs_sindy.io import DataFileError, read_marker_csv
+    from pcs_sindy.io import read_marker_csv
 
     path, cols = csv_slice(real_file("trunk", STEP_FILE), 500, tmp_path)
-    try:
-        data = read_marker_csv(path, ["1", "2", "3"], rate=100.0, units="m", inputs=PHIS)
-    except DataFileError as err:
-        pytest.xfail(f"read_marker_csv does not read x1, y1, z1 columns yet: {err}")
+    data = read_marker_csv(path, ["1", "2", "3"], rate=100.0, units="m", inputs=PHIS)
     np.testing.assert_array_equal(data.positions, disks(cols))
     np.testing.assert_array_equal(data.inputs, np.stack([cols[p] for p in PHIS], axis=1))
     assert data.dt == pytest.approx(0.01)
@@ -89,30 +85,3 @@ def test_tentacle_holds_give_load_baselines_a_consistent_shape():
     for model in (LinearLoadInterpolator(), PolynomialLoadMap(1)):
         pred = model.fit(loads[1:], shapes[1:]).predict(loads[0])
         assert pred.shape == (1, 5) and np.all(np.isfinite(pred))
-
-
-@pytest.mark.slow  # the fusion of today's path takes tens of seconds even on a few seconds of data
-def test_pcs_recipe_runs_on_a_few_seconds_of_the_trunk_and_stays_bounded(tmp_path):
-    sys.path.insert(0, str(BENCHMARKS))
-    try:
-        from real_robots import pcs_trunk
-    finally:
-        sys.path.remove(str(BENCHMARKS))
-    # 4 s from 4 s on: the training half holds the step at 5 s and its ringing
-    _, cols = csv_slice(real_file("trunk", STEP_FILE), 800, tmp_path)
-    P, u = disks(cols)[400:], np.stack([cols[p] for p in PHIS], axis=1)[400:]
-    half = P.shape[0] // 2
-    try:
-        tip = pcs_trunk(P[:half], u[:half], P[half:], u[half:], 0.01)
-    except Exception as err:  # noqa: BLE001
-        # today: on seconds of data the regression has fewer rows than unknowns; on the 50 s halves of the
-        # benchmark the fitted mass matrix is singular at the first state (docs/real_robots.md)
-        pytest.xfail(
-            "today's documented path (LearnedActuation with a nominal mass) cannot fit or roll out the Trunk "
-            f"(issue 25): {type(err).__name__}: {str(err).splitlines()[0][:200]}"
-        )
-    assert tip.shape == (P.shape[0] - half, 3)
-    assert np.all(np.isfinite(tip))
-    # bounded: no farther from the measured tip than the robot is long (base to tip > disk 1 to disk 3)
-    length = np.max(np.linalg.norm(P[:, -1] - P[:, 0], axis=1)) * 1.5
-    assert np.max(np.linalg.norm(tip - P[half:, -1].mean(axis=0), axis=1)) < length

@@ -2,11 +2,11 @@
 
 from __future__ import annotations
 
-import os
 from pathlib import Path
 
 import numpy as np
 import pytest
+from real_data import real_data_dir
 from scipy.spatial.transform import Rotation
 
 from pcs_sindy.core import order_markers
@@ -104,12 +104,8 @@ def test_rank_deficiency_is_reported(grid):
 
 
 def _real_folder() -> Path | None:
-    env = os.environ.get("PCS_SINDY_REAL_DATA")
-    repo = Path(__file__).resolve().parents[1]
-    for cand in ([Path(env)] if env else []) + [repo / ".." / "shared" / "real", Path("/work/shared/real")]:
-        if (cand / "tentacle").is_dir():
-            return cand / "tentacle"
-    return None
+    root = real_data_dir()
+    return root / "tentacle" if root is not None and (root / "tentacle").is_dir() else None
 
 
 @pytest.mark.skipif(_real_folder() is None, reason="the real recordings (../shared/real) are absent")
