@@ -9,6 +9,7 @@ import pytest
 from real_data import real_data_dir
 from scipy.spatial.transform import Rotation
 
+from benchmarks._real_data import TENTACLE_LOADS
 from pcs_sindy.core import order_markers
 from pcs_sindy.identification.static_shape import StaticShapeRegressor, cc_points
 
@@ -110,20 +111,10 @@ def _real_folder() -> Path | None:
 
 @pytest.mark.skipif(_real_folder() is None, reason="the real recordings (../shared/real) are absent")
 def test_real_tentacle_hold_predicted_within_a_centimetre():
-    loads_of = {
-        "u00050010": (0.05, 0.1),
-        "u00100005": (0.1, 0.05),
-        "u001": (0.1, 0.1),
-        "u001002": (0.1, 0.2),
-        "u002001": (0.2, 0.1),
-        "u0015002": (0.15, 0.2),
-        "u0020015": (0.2, 0.15),
-        "u002": (0.2, 0.2),
-    }
     folder = _real_folder()
     files = sorted(folder.glob("m12_*.csv"))
     holds = [np.loadtxt(f, delimiter=",")[:, 2:].reshape(-1, 5, 3) for f in files]
-    loads = np.array([loads_of[f.stem.split("_", 1)[1]] for f in files])
+    loads = np.array([TENTACLE_LOADS[f.stem] for f in files])
     positions = np.array([hold.mean(axis=0) for hold in order_markers(holds)])
     h = int(np.flatnonzero(np.all(np.isclose(loads, [0.2, 0.2]), axis=1))[0])
     train = np.arange(len(loads)) != h
