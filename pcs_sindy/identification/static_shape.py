@@ -43,8 +43,9 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import least_squares, root
 from scipy.spatial.transform import Rotation
 from sklearn.base import BaseEstimator
-from sklearn.utils._param_validation import Interval, StrOptions
 from sklearn.utils.validation import check_is_fitted
+
+from ..core.validation import Check, Interval, Options, validate_parameters
 
 __all__ = ["StaticShapeRegressor", "cc_points"]
 
@@ -189,11 +190,14 @@ class StaticShapeRegressor(BaseEstimator):
     _parameter_constraints: dict = {
         "n_segments": [Interval(Integral, 1, None, closed="left")],
         "length": [Interval(Real, 0, None, closed="neither"), None],
-        "marker_arc_lengths": ["array-like", None],
+        "marker_arc_lengths": [
+            Check(lambda v: np.asarray(v, dtype=float).ndim == 1, "a 1-D array of arc lengths [m]"),
+            None,
+        ],
         "tendon_offset": [Interval(Real, 0, None, closed="neither")],
-        "vertical": ["array-like"],
+        "vertical": [Check(lambda v: np.asarray(v, dtype=float).shape == (3,), "a 3-vector")],
         "gravity": ["boolean"],
-        "base": [StrOptions({"vertical", "free"})],
+        "base": [Options(("vertical", "free"))],
         "rank_tol": [Interval(Real, 0, 1, closed="neither")],
     }
 
@@ -427,7 +431,7 @@ class StaticShapeRegressor(BaseEstimator):
         -------
         self
         """
-        self._validate_params()
+        validate_parameters(self)
         P = np.asarray(positions, dtype=float)
         U = np.asarray(inputs, dtype=float)
         if P.ndim != 3 or P.shape[2] != 3 or P.shape[1] < 3:
