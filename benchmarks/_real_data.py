@@ -4,9 +4,9 @@ Folder: ``$PCS_SINDY_REAL_DATA``, else ``<repo>/../shared/real``, else ``/work/s
 (:func:`real_data_dir`).  Readers:
 
 * :func:`read_trunk` - a Trunk observation file (``ID, x1..z3, phi1..phi6`` at 100 Hz): disk positions
-  (T, 3, 3) [m], disk 1 nearest the base, and the measured motor angles (T, 6) [deg].  Through
-  :func:`pcs_sindy.io.read_marker_csv` when it reads ``x1, y1, z1`` columns, else numpy (the reader used
-  is reported);
+  (T, 3, 3) [m], disk 1 nearest the base, and the measured motor angles (T, 6) [deg], through
+  :func:`pcs_sindy.io.read_marker_csv` (a reader that fails is an error of the benchmark, never a
+  silent fallback);
 * :func:`read_commanded` - ``control_inputs_*.csv`` (``ID, u1..u6``, commanded angles [deg]);
 * :func:`read_tentacle` - the static holds: header-less ``frame, time, 5 x (x, y, z)`` with the markers
   unlabelled in a per-file order; returned ordered from the base along the body, with the two tendon
@@ -80,14 +80,8 @@ def read_trunk(path: str | Path, n_rows: int | None = None) -> TrunkRecording:
 
     path = Path(path)
     phis = [f"phi{i}" for i in range(1, 7)]
-    try:
-        data = read_marker_csv(path, ["1", "2", "3"], rate=TRUNK_RATE, units="m", inputs=phis)
-        positions, inputs, reader = data.positions, data.inputs, "pcs_sindy.io.read_marker_csv"
-    except Exception as err:  # noqa: BLE001 -- this reader cannot read x1, y1, z1 columns (yet): numpy
-        cols = _columns(path)
-        positions = np.stack([np.stack([cols[f"{c}{i}"] for c in "xyz"], axis=1) for i in (1, 2, 3)], axis=1)
-        inputs = np.stack([cols[p] for p in phis], axis=1)
-        reader = f"numpy (read_marker_csv: {type(err).__name__})"
+    data = read_marker_csv(path, ["1", "2", "3"], rate=TRUNK_RATE, units="m", inputs=phis)
+    positions, inputs, reader = data.positions, data.inputs, "pcs_sindy.io.read_marker_csv"
     if n_rows is not None:
         positions, inputs = positions[:n_rows], inputs[:n_rows]
     return TrunkRecording(path.name, positions, inputs, 1.0 / TRUNK_RATE, reader)
