@@ -8,8 +8,10 @@ uncompressed, bit-exact).  ``load("model")`` rebuilds the object.
 Loading an untrusted file cannot execute code:
 
 * classes are looked up in a fixed registry (:data:`REGISTRY`, name -> module
-  and attribute written in this file); a stored string is never imported,
-  evaluated, ``getattr``-ed or ``sympify``-ed;
+  and attribute written in this file, plus the classes registered with a
+  family's base: every actuation kind, read from
+  :func:`pcs_sindy.models.actuation.actuation_kinds`); a stored string is never
+  imported, evaluated, ``getattr``-ed or ``sympify``-ed;
 * arrays are read with ``np.load(..., allow_pickle=False)`` and only numeric,
   boolean and unicode dtypes are accepted;
 * objects are rebuilt through their constructors with the stored parameters
@@ -40,6 +42,8 @@ import math
 import os
 import re
 import stat
+import sys
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -166,8 +170,47 @@ def _check_pipeline(obj: Any) -> None:
             )
 
 
-#: Classes a model file may hold, by the name written in the file.
-REGISTRY: dict[str, ClassSpec] = {
+class _Registry(Mapping):
+    """The fixed classes, then the members of each family (classes a base registers), by class name.
+
+    A family is read when it is used, so adding a member (an actuation kind) edits no list
+    here: a file can name any member defined in the process, never make one.
+    """
+
+    def __init__(self, fixed: dict[str, ClassSpec], families: tuple[tuple[str, str], ...]) -> None:
+        self.fixed = fixed
+        #: (module, function) of each family: the function returns ``{key: class}`` of its members
+        self.families = families
+
+    def members(self, loaded_only: bool = False) -> dict[str, type]:
+        """Class name -> class of every family member (``loaded_only``: of the families already imported)."""
+        out: dict[str, type] = {}
+        for module, function in self.families:
+            if loaded_only and module not in sys.modules:
+                continue  # an object of a family not imported cannot exist
+            for cls in getattr(importlib.import_module(module), function)().values():
+                if cls.__name__ not in self.fixed:
+                    out[cls.__name__] = cls
+        return out
+
+    def _all(self) -> dict[str, ClassSpec]:
+        members = {name: ClassSpec(cls.__module__, cls.__name__) for name, cls in self.members().items()}
+        return {**self.fixed, **members}
+
+    def __getitem__(self, name: str) -> ClassSpec:
+        if name in self.fixed:
+            return self.fixed[name]
+        return self._all()[name]
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._all())
+
+    def __len__(self) -> int:
+        return len(self._all())
+
+
+#: the classes of the registry written here (the actuation kinds register themselves: see REGISTRY)
+_FIXED: dict[str, ClassSpec] = {
     "KinematicFusion": ClassSpec("pcs_sindy.fusion.kinematic_fusion", "KinematicFusion"),
     "EulerLagrangeRegressor": ClassSpec("pcs_sindy.identification.regressor", "EulerLagrangeRegressor"),
     # Theta_ is the training regression matrix (can be 100 MB); prediction does not use it
@@ -176,12 +219,6 @@ REGISTRY: dict[str, ClassSpec] = {
     ),
     "PCSLagrangianLibrary": ClassSpec("pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary"),
     "PhysicalPCSLibrary": ClassSpec("pcs_sindy.identification.library.physical", "PhysicalPCSLibrary"),
-    # actuation terms: parameters (the layout) and the identified offsets and gains
-    "IdentityActuation": ClassSpec("pcs_sindy.models.actuation", "IdentityActuation"),
-    "TendonActuation": ClassSpec("pcs_sindy.models.actuation", "TendonActuation"),
-    "PressureActuation": ClassSpec("pcs_sindy.models.actuation", "PressureActuation"),
-    "LinearActuation": ClassSpec("pcs_sindy.models.actuation", "LinearActuation"),
-    "LearnedActuation": ClassSpec("pcs_sindy.models.actuation", "LearnedActuation"),
     # the optimizer's column layout when actuator gains are identified with the Lagrangian
     "WithGains": ClassSpec(
         "pcs_sindy.identification.library.with_gains",
@@ -207,6 +244,10 @@ REGISTRY: dict[str, ClassSpec] = {
     # after a call (stencils, the last smoothed input) is recomputed on every call
     "FiniteDifference": ClassSpec("pysindy.differentiation", "FiniteDifference", params_only=True),
 }
+#: Classes a model file may hold, by the name written in the file: the fixed ones, then every
+#: actuation kind (``pcs_sindy.models.actuation.actuation_kinds()``, each registered by its class),
+#: stored with its parameters (the layout) and the identified offsets and gains.
+REGISTRY: _Registry = _Registry(_FIXED, families=(("pcs_sindy.models.actuation", "actuation_kinds"),))
 
 
 #: constructor fields of an ``"init"`` class that are not attributes of the same name
@@ -216,13 +257,16 @@ _FIELD_GETTERS = {("StrainTrajectory", "base_pose"): lambda obj: tuple(float(v) 
 def _resolve(name: str) -> type:
     """The registered class called ``name``."""
     spec = REGISTRY[name]
-    return getattr(importlib.import_module(spec.module), spec.attribute)
+    member = REGISTRY.members().get(name) if name not in REGISTRY.fixed else None
+    return member if member is not None else getattr(importlib.import_module(spec.module), spec.attribute)
 
 
 def _name_of(obj: Any) -> str | None:
     """Registry name of ``type(obj)`` (exact type: a subclass may behave differently)."""
     cls = type(obj)
-    for name, spec in REGISTRY.items():
+    if REGISTRY.members(loaded_only=True).get(cls.__name__) is cls:
+        return cls.__name__
+    for name, spec in REGISTRY.fixed.items():
         if spec.attribute != cls.__name__ or spec.module.split(".")[0] != cls.__module__.split(".")[0]:
             continue
         if _resolve(name) is cls:
