@@ -55,7 +55,14 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "atomic": ["FileSet", "recover"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "recording_list": ["RecordingList"],
-        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"],
+        "metrics": [
+            "distributed_errors",
+            "end_effector_errors",
+            "pose_errors",
+            "rollout_scorer",
+            "rollout_r2_scorer",
+            "noise_level",
+        ],
         "validation": [
             "validate_parameters",
             "InvalidParameterError",
