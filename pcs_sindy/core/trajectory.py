@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .kinematics import PlanarPCS
+from .metrics import noise_level
 
 __all__ = [
     "PoseTrajectory",
@@ -245,9 +246,7 @@ def clean_marker_tracks(
         med = median_filter(filled, size=(int(window), 1), mode="nearest")
         dist[:, i] = np.linalg.norm(filled - med, axis=1)
         usable[:, i] = ok
-        # noise scale from second differences (white noise: sqrt(6) sigma per coordinate), robust to jumps
-        d2 = np.abs(np.diff(filled[ok], n=2, axis=0))
-        sigma[i] = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
+        sigma[i] = float(noise_level(filled[ok])) if ok.sum() >= 3 else 0.0
         speed[i] = float(np.sqrt(np.mean(np.sum(np.diff(filled[ok], axis=0) ** 2, axis=1))))
         if jump_threshold is not None:
             limit[i] = float(jump_threshold)

@@ -5,7 +5,8 @@ gives :class:`ForwardModel` objects: batched mass matrices and bias forces for c
 and ``simulate`` with the contract of :mod:`pcs_sindy.core.simulate_contract`.
 
 * :mod:`.forward` - :class:`ForwardModel`, :class:`LumpedPCSModel`, :class:`CallableModel`;
-* :mod:`.actuation` - input maps ``tau = A(q) u`` (tendons of force or servo drive, pressure chambers, linear, learned);
+* :mod:`.actuation` - input maps ``tau = A(q) u`` (tendons of force or servo drive, pressure chambers, linear,
+  learned), one kind per module, each registered by its class (:func:`actuation_kinds`);
 * :mod:`.integrators` - the one place for integration schemes of identified models
   (tableaus, ``solve_ivp`` over held inputs) with their compiled loops (``_jit_rollout``)
   and compiled dynamics (``_jit_dynamics``);
@@ -28,6 +29,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "LinearActuation",
             "LearnedActuation",
             "actuation_from_layout",
+            "actuation_kinds",
         ],
         "integrators": ["solve_held", "DOPRI5", "ROS34PW2", "COMPILED_METHODS"],
     },

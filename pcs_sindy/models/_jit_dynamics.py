@@ -18,13 +18,15 @@ stiff, damp, f0, akind, aoff, acover, amat)`` and the work arrays as
 ``W = (M, bias, J, v, acc, tau)`` (:func:`workspace`), so the rollout loops in
 :mod:`pcs_sindy.models._jit_rollout` stay independent of what is inside.  The last
 four entries of ``P`` map the inputs ``u`` to generalised forces
-(:func:`input_forces`): ``akind`` 0 (``u`` are the forces on the modelled
-strains), 1 (tendons at signed offsets ``aoff`` covering ``acover[k, i]`` of
-segment i: ``A = -dl/dq``), 2 (a constant matrix ``amat`` (n, p)), 3 (servo-wound
-elastic tendons: tendons whose tension is ``k max(0, r u pi/180 + l(q) - l(0) - s)``,
-``amat`` rows ``[k, r, s]`` (3, p)) or 4 (a map affine in the strains,
+(:func:`input_forces`); ``akind`` is the code in :data:`INPUT_MAPS` of the form an
+actuation's ``compiled()`` names: ``"forces"`` (``u`` are the forces on the modelled
+strains), ``"tendon"`` (tendons at signed offsets ``aoff`` covering ``acover[k, i]`` of
+segment i: ``A = -dl/dq``), ``"matrix"`` (a constant matrix ``amat`` (n, p)), ``"servo"``
+(servo-wound elastic tendons: tendons whose tension is ``k max(0, r u pi/180 + l(q) - l(0) - s)``,
+``amat`` rows ``[k, r, s]`` (3, p)) or ``"affine"`` (a map affine in the strains,
 ``amat = [B0 | B1 | C0 | C1]`` (n, 2 p (1 + n)): ``tau = sum_k (B0[:, k] + B1[:, k*n:(k+1)*n] q) u_k``
-plus the same with ``C`` in ``max(0, u_k)``).
+plus the same with ``C`` in ``max(0, u_k)``).  The codes live here only: the actuation
+kinds name their form (:data:`pcs_sindy.models.actuation.COMPILED_FORMS`).
 """
 
 from __future__ import annotations
@@ -36,7 +38,21 @@ import numpy as np
 
 from ..core.linalg import solve
 
-__all__ = ["moments", "moments_array", "dynamics", "input_forces", "rhs", "mass_bias_batch", "workspace"]
+__all__ = [
+    "moments",
+    "moments_array",
+    "dynamics",
+    "input_forces",
+    "rhs",
+    "mass_bias_batch",
+    "workspace",
+    "INPUT_MAPS",
+]
+
+#: codes of the input maps in ``P[10]`` (module globals: numba compiles them in as constants)
+FORCES, TENDON, MATRIX, SERVO, AFFINE = 0, 1, 2, 3, 4
+#: the code of each input map by the form name an actuation's ``compiled()`` gives
+INPUT_MAPS = {"forces": FORCES, "tendon": TENDON, "matrix": MATRIX, "servo": SERVO, "affine": AFFINE}
 
 _SERIES_RADIUS = 1.0
 _N_SERIES = 20  # 1 / 20! < 1e-18
@@ -221,11 +237,11 @@ def input_forces(q, u, P, tau):
     act, L = P[0], P[1]
     kind = P[10][0]
     n = act.size
-    if kind == 0:
+    if kind == FORCES:
         for a in range(n):
             tau[a] = u[a]
         return
-    if kind == 2:
+    if kind == MATRIX:
         amat = P[13]
         for a in range(n):
             s = 0.0
@@ -233,7 +249,7 @@ def input_forces(q, u, P, tau):
                 s += amat[a, k] * u[k]
             tau[a] = s
         return
-    if kind == 4:
+    if kind == AFFINE:
         # affine in the strains, in the inputs and in their positive parts:
         # tau_a = sum_k (B0[a, k] + sum_b B1[a, k, b] q_b) u_k + (C0 + C1 q) max(0, u_k), amat = [B0 | B1 | C0 | C1]
         amat = P[13]
@@ -261,7 +277,7 @@ def input_forces(q, u, P, tau):
     for k in range(u.size):
         d = aoff[k]
         force = u[k]
-        if kind == 3:
+        if kind == SERVO:
             # servo-wound elastic tendon: f = k max(0, r u pi/180 + l(q) - l(0) - s), amat rows [k, r, s]
             drive = P[13]
             ell = 0.0

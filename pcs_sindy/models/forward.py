@@ -497,7 +497,9 @@ class LumpedPCSModel(ForwardModel):
     fast_max_bend : float
     actuation : Actuation, optional
         Fitted input map ``A(q) u`` (:mod:`pcs_sindy.models.actuation`); default: the
-        inputs are the generalised forces.
+        inputs are the generalised forces.  A kind without a compiled form (empty
+        ``compiled_forms``) is evaluated in Python: the model then rolls out with
+        the ``solve_ivp`` methods only (:attr:`methods`).
     """
 
     methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
@@ -549,16 +551,29 @@ class LumpedPCSModel(ForwardModel):
         g = np.ascontiguousarray(self.rhoAg[:, 0] + 1j * self.rhoAg[:, 1])
         self._jit = _jit_dynamics
 
-        if self.actuation is None:
-            inputs = (np.zeros(1, dtype=np.int64), np.zeros(0), np.zeros((0, m)), np.zeros((n, 0)))
+        #: True when the actuation has no compiled form: its forces are computed in Python (``actuation.forces``)
+        #: and handed to the kernels as generalised forces, and rollouts take the solve_ivp methods only
+        self.python_inputs = self.actuation is not None and not self.actuation.compiled_forms
+        if self.actuation is None or self.python_inputs:
+            form, aoff, acover, amat = "forces", np.zeros(0), np.zeros((0, m)), np.zeros((n, 0))
         else:
-            kind, aoff, acover, amat = self.actuation.compiled()
-            inputs = (
-                np.array([kind], dtype=np.int64),
-                np.ascontiguousarray(aoff, dtype=float),
-                np.ascontiguousarray(acover, dtype=float),
-                np.ascontiguousarray(amat, dtype=float),
-            )
+            form, aoff, acover, amat = self.actuation.compiled()
+            if form not in self.actuation.compiled_forms or form not in _jit_dynamics.INPUT_MAPS:
+                raise ValueError(
+                    f"{type(self.actuation).__name__}.compiled() gave the input map {form!r}; it declares "
+                    f"compiled_forms = {self.actuation.compiled_forms!r} and the kernels evaluate "
+                    f"{sorted(_jit_dynamics.INPUT_MAPS)}"
+                )
+        inputs = (
+            np.array([_jit_dynamics.INPUT_MAPS[form]], dtype=np.int64),
+            np.ascontiguousarray(aoff, dtype=float),
+            np.ascontiguousarray(acover, dtype=float),
+            np.ascontiguousarray(amat, dtype=float),
+        )
+        if self.python_inputs:
+            self.methods = tuple(SCIPY_METHODS)
+            self.compiled_methods = ()
+            self.default_method = ForwardModel.default_method
 
         def params(nodes: int) -> tuple:
             quad = make_quadrature(L, nodes)
@@ -610,6 +625,8 @@ class LumpedPCSModel(ForwardModel):
         return W[0].copy(), W[1].copy()
 
     def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self.python_inputs:
+            return super().input_forces(q, u)
         tau = np.empty(self.n)
         self._jit.input_forces(
             np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
@@ -618,6 +635,8 @@ class LumpedPCSModel(ForwardModel):
 
     def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
         out = np.empty(y.size)
+        if self.python_inputs:  # the kernels' input map is "forces": hand them A(q) u
+            u = self.input_forces(y[: self.n], np.asarray(u, dtype=float))
         if not self._jit.rhs(
             np.ascontiguousarray(y), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
         ):
