@@ -293,11 +293,16 @@ class PoseTrajectory:
         The plane the positions are modelled in.
     plane_positions : ndarray, shape (T, N, 2) or None
         Marker positions in that plane.
+    rotations : ndarray, shape (T, N, 3, 3) or None
+        Marker orientations in the user's frame when the tracker gives them
+        (``from_positions(rotations=...)``), or the model's cross-section orientations at the
+        markers returned by a spatial ``KinematicFusion.inverse_transform``; NaN = missing.
     """
 
     positions: NDArray[np.float64] | None = None
     plane: MarkerPlane | None = None
     plane_positions: NDArray[np.float64] | None = None
+    rotations: NDArray[np.float64] | None = None
 
     def __init__(
         self,
@@ -332,6 +337,7 @@ class PoseTrajectory:
         normal: ArrayLike | None = None,
         plane: MarkerPlane | None = None,
         base_marker: bool = False,
+        rotations: ArrayLike | None = None,
     ) -> PoseTrajectory:
         """A positions-only recording: marker positions without orientations or base.
 
@@ -368,6 +374,11 @@ class PoseTrajectory:
             ``positions[:, 0]`` is a marker on the clamped base: its median position (in the
             user's frame, ``metadata["base_marker"]``) fixes the base position of the fusion, and
             the trajectory's markers are the others (``n_markers = N - 1``).
+        rotations : array_like, shape (T, N, 3, 3), optional
+            The markers' orientations (rotation matrices in the user's frame, e.g.
+            :attr:`pcs_sindy.io.MarkerData.rotations`; NaN for missing), when the tracker gives
+            them: a spatial fusion (``KinematicFusion(space="3d")``) then fits torsion too.
+            Samples whose position is missing or cleaned are missing here too.
         """
         P = np.asarray(positions, dtype=float)
         if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
@@ -390,9 +401,25 @@ class PoseTrajectory:
             raise ValueError(
                 f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)"
             )
+        rot = None
+        if rotations is not None:
+            rot = np.array(rotations, dtype=float)
+            if rot.shape != P.shape[:2] + (3, 3) or P.shape[2] != 3:
+                raise ValueError(
+                    f"rotations must have shape {P.shape[:2] + (3, 3)} (one 3-D rotation per marker sample); "
+                    f"got {rot.shape} for positions of shape {P.shape}"
+                )
+            ok_r = np.all(np.isfinite(rot), axis=(2, 3))
+            err = np.abs(np.einsum("tnji,tnjk->tnik", rot[ok_r][None], rot[ok_r][None])[0] - np.eye(3))
+            if err.size and float(err.max()) > 1e-3:
+                raise ValueError(
+                    f"rotations must be rotation matrices (orthonormal within 1e-3); the worst deviates by {err.max():.3g}"
+                )
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
         )
+        if rot is not None:
+            rot[~np.all(np.isfinite(cleaned), axis=2)] = np.nan
         base_at = None
         if base_marker:
             if not np.any(np.all(np.isfinite(cleaned[:, 0]), axis=1)):
@@ -401,6 +428,7 @@ class PoseTrajectory:
             if plane is None:  # the base marker belongs to the body's plane
                 plane = MarkerPlane.fit(cleaned, normal)
             cleaned, P = cleaned[:, 1:], P[:, 1:]
+            rot = None if rot is None else rot[:, 1:]
         ok = np.all(np.isfinite(cleaned), axis=2)
         if ok.sum() < 3:
             raise ValueError(f"positions has only {int(ok.sum())} valid marker samples; need at least 3")
@@ -428,6 +456,7 @@ class PoseTrajectory:
         obj.positions = cleaned
         obj.plane = plane
         obj.plane_positions = inplane
+        obj.rotations = rot
         obj.t = check_time(t, P.shape[0], dt=dt)
         meta = dict(metadata or {})
         meta.update(
