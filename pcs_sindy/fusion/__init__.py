@@ -63,6 +63,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "spatial_fusion": [
             "SPATIAL_BENDING",
             "SPATIAL_BENDING_TWIST",
+            "DIRECTION_PRIOR",
             "needs_3d",
             "base_rotation",
             "spatial_marker_model",
