@@ -13,7 +13,7 @@ import pytest
 from real_data import real_file
 from scipy.spatial.transform import Rotation
 
-from pcs_sindy.core import MarkerPlane, PoseTrajectory
+from pcs_sindy.core import PoseTrajectory
 from pcs_sindy.core.kinematics import forward_kinematics
 from pcs_sindy.core.spatial import SpatialPCS, SpatialStrainTrajectory
 from pcs_sindy.fusion import KinematicFusion, fit_spatial_strains, needs_3d
@@ -279,7 +279,10 @@ def test_real_trunk_in_3d_fuses_within_a_few_mm():
     seconds = time.perf_counter() - start
     (rec,) = fusion.inverse_transform([st])
     rms = np.sqrt(np.nanmean(np.sum((rec.positions - tr.positions) ** 2, axis=2)))
-    print(f"Trunk controlled_1, 3000 frames: {fusion.n_segments_} segment(s), marker RMS {1e3 * rms:.2f} mm, {seconds:.1f} s")
+    print(
+        f"Trunk controlled_1, 3000 frames: {fusion.n_segments_} segment(s), "
+        f"marker RMS {1e3 * rms:.2f} mm, {seconds:.1f} s"
+    )
     assert fusion.space_ == "3d"
     assert rms < 4e-3
     assert fusion.base_pose_[:3, 1] @ [0.0, -1.0, 0.0] > np.cos(np.deg2rad(20))  # it hangs
@@ -296,7 +299,37 @@ def test_real_trunk_at_rest_with_orientations():
     (st,) = fusion.transform(tr)
     (rec,) = fusion.inverse_transform([st])
     rms = np.sqrt(np.nanmean(np.sum((rec.positions - tr.positions) ** 2, axis=2)))
-    print(f"Trunk zeros_0g with orientations: marker RMS {1e3 * rms:.2f} mm, rotation RMS "
-          f"{np.rad2deg(fusion.rotation_rms_):.2f} deg")
+    print(
+        f"Trunk zeros_0g with orientations: marker RMS {1e3 * rms:.2f} mm, rotation RMS "
+        f"{np.rad2deg(fusion.rotation_rms_):.2f} deg"
+    )
     assert rms < 4e-3
     assert np.sqrt(np.mean(st.q[:, 2::6] ** 2)) < 1.0  # at rest: no torsion (the offsets take the rest)
+
+
+# ----------------------------------------------------------------------------- the command line
+def test_cli_fuses_a_3d_capture_without_forcing_a_plane(tmp_path, capsys):
+    from pcs_sindy.cli.main import main
+    from pcs_sindy.io import load
+    from pcs_sindy.io.data_files import read_strains
+
+    T = 300
+    P, _ = _markers(_strains(T, seed=14), _base(), np.array([0.2, 0.1, 0.0]))
+    rows = ["frame," + ",".join(f"M{k}_{a}" for k in (1, 2, 3) for a in "XYZ")]
+    rows += [f"{i}," + ",".join(f"{v:.7f}" for v in 1e3 * P[i].ravel()) for i in range(T)]  # in mm
+    f = tmp_path / "capture.csv"
+    f.write_text("\n".join(rows) + "\n")
+    out = tmp_path / "out"
+    args = ["fuse", "--markers-csv", str(f), "--markers", "M1", "M2", "M3", "--rate", "100", "--units", "mm"]
+    assert main([*args, "--arc-lengths", *map(str, ARCS), "--out", str(out)]) == 0
+    printed = capsys.readouterr().out
+    assert "3-D fusion" in printed
+    st = read_strains(out / "capture.npz")
+    assert isinstance(st, SpatialStrainTrajectory) and st.q.shape[1] % 6 == 0
+    fusion = load(out / "segmentation.json")
+    assert fusion.space_ == "3d"
+    (rec,) = fusion.inverse_transform([st])
+    assert np.sqrt(np.mean((rec.positions - P) ** 2)) < 2e-4  # the capture frame, from the files alone
+    assert main([*args, "--space", "plane", "--out", str(tmp_path / "flat")]) == 0
+    assert "3-D fusion" not in capsys.readouterr().out
+    assert main(["fuse", str(f), "--space", "3d", "--out", str(tmp_path / "x")]) != 0  # pose files are planar

@@ -547,13 +547,18 @@ def fuse(
     units: str | None = None,
     input_columns: Sequence[str] | None = None,
     arc_lengths: Sequence[float] | None = None,
+    space: str | None = None,
+    orientations: bool = False,
 ) -> tuple[Any, list[Any], list[Any]]:
     """Kinematic fusion of pose files: ``segmentation.json`` and one strain file per pose file in ``out``.
 
     With ``markers_csv`` (instead of pose files): motion-capture CSV files of marker positions
     (:func:`pcs_sindy.io.read_marker_csv` with ``markers``, ``rate``, ``units`` and the input
     columns ``input_columns``, whose values go to ``out/inputs/<stem>.npz`` for ``fit --inputs``),
-    fused from positions alone (``arc_lengths``: the markers' measured rest arc lengths).
+    fused from positions alone (``arc_lengths``: the markers' measured rest arc lengths), in their
+    best-fit plane or in 3-D (``space``: ``"auto"``, the default, ``"plane"`` or ``"3d"``, see
+    :class:`~pcs_sindy.fusion.KinematicFusion`); ``orientations`` also reads each marker's quaternion
+    columns (``qx1, qy1, qz1, w1``) for a 3-D fusion with torsion.
 
     Parameters
     ----------
@@ -581,8 +586,21 @@ def fuse(
         raise CLIError("give either pose files or --markers-csv files (not both)")
     if markers_csv:
         return _fuse_marker_csv(
-            markers_csv, out, markers, rate, units, input_columns, arc_lengths, threshold, n_jobs, quiet
+            markers_csv,
+            out,
+            markers,
+            rate,
+            units,
+            input_columns,
+            arc_lengths,
+            threshold,
+            n_jobs,
+            quiet,
+            space=space,
+            orientations=orientations,
         )
+    if space is not None or orientations:
+        raise CLIError("--space and --orientations apply to --markers-csv files (pose files are planar)")
     trajs = []
     for name in poses:
         t, arr = files.read_poses(name)
@@ -638,8 +656,14 @@ def _fuse_marker_csv(
     threshold: float | None,
     n_jobs: int | None,
     quiet: bool,
+    *,
+    space: str | None = None,
+    orientations: bool = False,
 ) -> tuple[Any, list[Any], list[Any]]:
-    """:func:`fuse` of motion-capture CSV files (positions only)."""
+    """:func:`fuse` of motion-capture CSV files (positions only, and orientations with ``orientations``)."""
+    import warnings
+
+    import numpy as np
 
     from ..core.atomic import FileSet
     from ..core.trajectory import PoseTrajectory
@@ -652,9 +676,16 @@ def _fuse_marker_csv(
     trajs, inputs, plane = [], [], None
     for name in csv_files:
         try:
-            data = read_marker_csv(name, markers, rate=rate, units=units, inputs=input_columns)
+            data = read_marker_csv(
+                name, markers, rate=rate, units=units, inputs=input_columns, orientations=orientations
+            )
             tr = PoseTrajectory.from_positions(
-                data.positions, dt=data.dt, arc_lengths=arc_lengths, plane=plane, metadata={"source": str(name)}
+                data.positions,
+                dt=data.dt,
+                arc_lengths=arc_lengths,
+                plane=plane,
+                metadata={"source": str(name)},
+                rotations=data.rotations,
             )
         except ValueError as err:
             raise CLIError(str(err)) from None
@@ -667,8 +698,11 @@ def _fuse_marker_csv(
             f"{tr.metadata['frozen_samples']} frozen and {tr.metadata['jump_samples']} jump samples set missing",
         )
     folder = files.output_dir(out)
-    fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet)
-    strains = fusion.fit(trajs).transform(trajs)
+    fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet, space=space)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the out-of-plane warning: the fused model says which it is
+        strains = fusion.fit(trajs).transform(trajs)
+    three_d = fusion.space_ == "3d"
     if any(u is not None for u in inputs):  # the logged inputs, for 'fit --inputs': all new or all old
         in_folder = files.output_dir(folder / "inputs")
         with FileSet(in_folder) as logged:
@@ -678,7 +712,7 @@ def _fuse_marker_csv(
         for name, st in zip(csv_files, strains):
             files.write_strains(folder / (Path(name).stem + ".npz"), st, into=outputs)
         seg = files.write_model_file(fusion, folder / "segmentation.json", into=outputs)
-    if input_columns:
+    if input_columns and not three_d:
         from ..fusion.position_fusion import tendon_sides
 
         sides = tendon_sides(strains, inputs)
@@ -689,9 +723,17 @@ def _fuse_marker_csv(
             + f" curvature (tendons: \"side\": {sides} in the --actuation JSON of 'fit')",
         )
     arcs = ", ".join(f"{1e3 * v:.1f}" for v in fusion.marker_arc_lengths_[1:])
+    if three_d:
+        say(
+            quiet,
+            f"3-D fusion (space={fusion.space!r}): marker RMS {1e3 * fusion.position_rms_:.2f} mm, base at "
+            f"{np.round(fusion.base_pose_[:3, 3], 4).tolist()} m pointing "
+            f"{np.round(fusion.base_pose_[:3, 1], 3).tolist()}"
+            + ("" if fusion.rotation_rms_ is None else f", orientation RMS {np.rad2deg(fusion.rotation_rms_):.2f} deg"),
+        )
     say(
         quiet,
-        f"{fusion.n_segments_} bending segment(s), lengths "
+        f"{fusion.n_segments_} {'3-D ' if three_d else ''}bending segment(s), lengths "
         f"[{', '.join(f'{v:.4f}' for v in fusion.segment_lengths_)}] m; marker arc lengths [{arcs}] mm "
         f"({fusion.total_length_source_}); segmentation -> {seg}; strain files -> {folder}"
         + ("; inputs -> " + str(folder / "inputs") if input_columns else ""),

@@ -517,6 +517,18 @@ def build_parser() -> argparse.ArgumentParser:
         help="measured rest arc lengths [m] of the --markers (default: fitted to the positions)",
     )
     p.add_argument(
+        "--space",
+        choices=["auto", "plane", "3d"],
+        help="--markers-csv: fuse in the markers' best-fit plane or in 3-D (default auto: 3-D when the motion "
+        "leaves its plane or with --orientations)",
+    )
+    p.add_argument(
+        "--orientations",
+        action="store_true",
+        help="--markers-csv: also read each marker's quaternion columns (qx1, qy1, qz1, w1; scalar anywhere, by "
+        "name) for a 3-D fusion with torsion",
+    )
+    p.add_argument(
         "--threshold",
         type=_fusion_threshold,
         help=_later(

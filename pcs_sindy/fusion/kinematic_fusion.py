@@ -895,9 +895,10 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
         A 3-D fusion (``space_ == "3d"``) takes :class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory`
         objects (its :meth:`transform`'s, or a spatial model's prediction:
-        ``SpatialStrainTrajectory(q, t, segment_lengths=fusion.segment_lengths_)``) and returns positions-only trajectories whose ``.positions`` (T, N, 3) are the markers in the
-        capture frame and ``.rotations`` (T, N, 3, 3) their frames; the marker arc lengths, base pose
-        (``"base_pose"``, 4 x 4) and offsets come from the metadata when present, else from the fit.
+        ``SpatialStrainTrajectory(q, t, segment_lengths=fusion.segment_lengths_)``) and returns
+        positions-only trajectories whose ``.positions`` (T, N, 3) are the markers in the capture frame
+        and ``.rotations`` (T, N, 3, 3) their frames; the marker arc lengths, base pose (``"base_pose"``,
+        4 x 4) and offsets come from the metadata when present, else from the fit.
         """
         check_is_fitted(self, "segment_lengths_")
         if getattr(self, "space_", "plane") == "3d":

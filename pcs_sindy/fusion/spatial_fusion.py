@@ -36,7 +36,6 @@ from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
-from scipy.optimize import least_squares
 from scipy.spatial.transform import Rotation
 
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
@@ -1222,8 +1221,9 @@ def spatial_strain_trajectories(
     Returns
     -------
     list of SpatialStrainTrajectory
-        Their ``kinematics`` is a :class:`~pcs_sindy.core.spatial.SpatialPCS` with the base pose; ``metadata``: ``marker_arc_lengths``, ``marker_offsets`` (N, 2), ``rotation_offsets``,
-        ``boundaries``, ``shape_fit="positions"``, ``estimated`` (frames whose strains were all seen).
+        Their ``kinematics`` is a :class:`~pcs_sindy.core.spatial.SpatialPCS` with the base pose;
+        ``metadata``: ``marker_arc_lengths``, ``marker_offsets`` (N, 2), ``rotation_offsets``, ``boundaries``,
+        ``shape_fit="positions"``, ``estimated`` (frames whose strains were all seen).
     """
     H = np.asarray(base_pose, dtype=float)
     lengths = np.asarray(segment_lengths, dtype=float)

@@ -321,7 +321,9 @@ def read_marker_csv(
     if columns is not None and not unnamed:
         raise DataFileError(f"{path}: columns={columns!r} applies to unnamed markers only (markers=<int>)")
     if orientations and unnamed:
-        raise DataFileError(f"{path}: orientations=True needs named markers (their quaternion columns are found by name)")
+        raise DataFileError(
+            f"{path}: orientations=True needs named markers (their quaternion columns are found by name)"
+        )
     if units is not None and units.lower() not in UNITS:
         raise DataFileError(f"{path}: units must be one of {sorted(set(UNITS))}; got {units!r}")
     text = path.read_text(encoding="utf-8-sig")
