@@ -142,6 +142,19 @@ def test_rollout_against_a_capture_compares_in_the_capture_frame(mocap, tmp_path
     assert (tmp_path / "b" / "rollout.png").stat().st_size > 0
 
 
+def test_rollout_from_the_captures_first_frame(mocap, tmp_path, capsys):
+    """--initial truth: q0 is the capture's first frame fused in the segmentation, as 'fuse' wrote it."""
+    csv = mocap / "take.csv"
+    assert main(_rollout(mocap, tmp_path / "a", "--truth", str(csv), "--initial", "truth", "--no-plot")) == 0
+    with np.load(tmp_path / "a" / "rollout.npz") as roll, np.load(mocap / "strains" / "take.npz") as fused:
+        np.testing.assert_allclose(roll["q"][0], fused["q"][0], rtol=0, atol=1e-9)
+        assert abs(fused["q"][0, 0]) > 1e-3  # not the rest state
+    recording = tmp_path / "rec.npz"
+    np.savez(recording, poses=np.zeros((800, 4, 3)))
+    line = _fail(capsys, _rollout(mocap, tmp_path / "b", "--truth", str(recording), "--initial", "truth"))
+    assert "--initial truth needs" in line
+
+
 def test_rollout_capture_truth_errors_are_one_line(mocap, tmp_path, capsys):
     truth, _ = _capture_of_model(mocap)
     short = _write_capture(tmp_path / "short.csv", truth[:-5])

@@ -82,3 +82,19 @@ def test_render_browser_format_reads_back(tmp_path):
     (video,) = render([tmp_path / "p.npz"], tmp_path / "v", video_format="browser", size=(96, 64), quiet=True)
     assert video.suffix == browser_video_format(gif=False)
     assert _count_frames(video) == T
+
+
+def test_writing_webm_says_nothing_on_stderr(tmp_path):
+    """FFmpeg notes that WebM stores VP8 by codec id when a writer opens; the writers keep it off stderr."""
+    code = (
+        "import numpy as np; from pcs_sindy.plotting import animate_rollout; "
+        "from pcs_sindy.simulation import render_video; "
+        "xy = np.zeros((4, 5, 2)); xy[..., 1] = np.linspace(0, 0.1, 5); t = np.arange(4) * 0.05; "
+        f"animate_rollout({str(tmp_path / 'a.webm')!r}, t, xy, xy, fps=20, size=(64, 64), dpi=20, progress=False); "
+        "poses = np.zeros((4, 3, 3)); poses[:, 1, 1], poses[:, 2, 1] = 0.05, 0.1; "
+        f"render_video(poses, {str(tmp_path / 'r.webm')!r}, fps=20)"
+    )
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr == ""
+    assert _count_frames(tmp_path / "a.webm") == 4 and _count_frames(tmp_path / "r.webm") == 4

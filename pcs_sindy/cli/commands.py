@@ -100,7 +100,9 @@ def pipeline_step(name: str, **params: Any) -> Any:
     """
     from ..pipeline.pcs_pipeline import make_pcs_pipeline
 
-    return make_pcs_pipeline(start="videos").named_steps[name].set_params(**_given(**params))
+    # from poses unless the extractor is asked for: the other steps need no vision (no OpenCV)
+    pipe = make_pcs_pipeline(start="videos" if name == "poses" else "poses")
+    return pipe.named_steps[name].set_params(**_given(**params))
 
 
 def scenarios() -> list[str]:
@@ -775,6 +777,10 @@ def build_regressor(
     CLIError
         If a library option is given for a library that does not have it.
     """
+    if library == "monomial":  # the seed's monomial library derives its equations with sympy
+        from ..core.optional import require_installed
+
+        require_installed("sympy", "the monomial library (--library monomial)")
     reg = pipeline_step(
         "dynamics",
         library=library,
@@ -1001,8 +1007,9 @@ def rollout(
           the positions-only ``segmentation`` written by ``fuse --markers-csv``: the prediction is mapped
           to the capture frame (:meth:`KinematicFusion.inverse_transform`) and compared with the
           measured markers (samples the tracker lost or froze left out).
-    initial : path, optional
-        Strain file whose first frame is ``q0`` (default: rest); ``qd0 = 0``.
+    initial : path or "truth", optional
+        Strain file whose first frame is ``q0`` (default: rest); ``"truth"``: the first frame of a
+        strain-file or capture ``truth`` (a capture's fused in ``segmentation``); ``qd0 = 0``.
     method : str, optional
         One of the model's ``forward_model().methods``; default its ``default_method``.
     rtol, atol : float, optional
@@ -1029,6 +1036,13 @@ def rollout(
     from ..io import data_files as files
     from .report import rollout_figure, strains_figure
 
+    if plot:  # before the rollout: a missing matplotlib is said at once
+        from ..core.optional import MissingDependencyError, require_installed
+
+        try:
+            require_installed("matplotlib", "rollout.png")
+        except MissingDependencyError as err:
+            raise CLIError(f"{err}; or --no-plot") from None
     model_name = str(model) if not isinstance(model, EulerLagrangeRegressor) else "(in memory)"
     if not isinstance(model, EulerLagrangeRegressor):
         model = files.read_model_file(model, EulerLagrangeRegressor, "model file")
@@ -1101,7 +1115,11 @@ def rollout(
                     f"truth file {str(truth)!r} has {frames} frames but tau file {str(tau)!r} has {t.shape[0]}"
                 )
     q0, qd0 = np.zeros(n), np.zeros(n)
-    if initial is not None:
+    if initial == "truth":  # the measured first frame: a strain file's, or a capture's fused in the segmentation
+        if kind not in ("strains", "capture"):
+            raise CLIError("--initial truth needs a --truth strain file or motion-capture CSV (their first frame)")
+        q0 = (true_q if kind == "strains" else capture["strains"].q)[0].copy()
+    elif initial is not None:
         st = files.read_strains(initial)
         if st.kinematics.n_q != n:
             raise CLIError(f"initial strain file {str(initial)!r} has {st.kinematics.n_q} strains; the model has {n}")

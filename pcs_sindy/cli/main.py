@@ -786,7 +786,11 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["m", "mm", "cm"],
         help="length units of a --truth CSV (default: capture.json's or the file's)",
     )
-    p.add_argument("--initial", help="strain file whose first frame is q0 (default: rest, q0 = 0); qd0 = 0")
+    p.add_argument(
+        "--initial",
+        help="strain file whose first frame is q0 (default: rest, q0 = 0), or 'truth': the first frame of a --truth "
+        "strain file or capture (a capture fused with --segmentation); qd0 = 0",
+    )
     p.add_argument(
         "--n-markers",
         type=_positive_int,
@@ -967,6 +971,7 @@ def _run(args: argparse.Namespace) -> int:
     # Only now that a command runs: the errors it may raise come from numpy and the stages.
     import numpy as np
 
+    from ..core.optional import MissingDependencyError
     from ..core.simulate_contract import SimulationError
 
     def one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -984,7 +989,7 @@ def _run(args: argparse.Namespace) -> int:
             log.debug("pcs-sindy %s: done in %.2f s", args.command, time.perf_counter() - start)
     except BrokenPipeError:
         raise  # handled by main()
-    except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:
+    except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError, MissingDependencyError) as err:
         if args.debug:
             raise
         print(f"pcs-sindy {args.command}: error: {_one_line(err)}", file=sys.stderr)

@@ -19,7 +19,7 @@ import tempfile
 from collections.abc import Iterator
 from pathlib import Path
 
-__all__ = ["VIDEO_CODECS", "BROWSER_FORMATS", "codec_works", "video_codec", "browser_video_format"]
+__all__ = ["VIDEO_CODECS", "BROWSER_FORMATS", "codec_works", "video_codec", "browser_video_format", "open_video_writer"]
 
 #: FourCC codes per suffix, in order of preference: ``.mp4`` is H.264 (``avc1``, browser-playable) when
 #: the build has an encoder for it, else MPEG-4 Part 2 (``mp4v``, which browsers often refuse)
@@ -108,6 +108,27 @@ def video_codec(suffix: str) -> str:
         if codec_works(key, fourcc):
             return fourcc
     raise OSError(f"this OpenCV build writes no {key} video (tried codecs {', '.join(VIDEO_CODECS[key])})")
+
+
+def open_video_writer(path: str | os.PathLike, fourcc: str, fps: float, size: tuple[int, int], colour: bool = True):
+    """An opened ``cv2.VideoWriter``, opened without FFmpeg's notes on standard error.
+
+    FFmpeg says ``tag 'VP80' is not supported with codec id 139 and format 'webm'`` (it stores the
+    codec by its id instead: the file is fine) when a WebM writer opens; a command's output has no
+    use for it.
+
+    Raises
+    ------
+    OSError
+        If OpenCV cannot open the writer, naming the path and the codec.
+    """
+    import cv2
+
+    with _stderr_silenced():
+        writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*fourcc), float(fps), tuple(size), colour)
+    if not writer.isOpened():
+        raise OSError(f"OpenCV cannot open a {fourcc} video writer for {str(path)!r}")
+    return writer
 
 
 def browser_video_format(gif: bool = True) -> str:

@@ -31,6 +31,10 @@ Imports only :mod:`pcs_sindy.core`; nothing but the command line imports it.
 
 import lazy_loader as _lazy
 
+from ..core.optional import require_installed
+
+require_installed("matplotlib", "pcs_sindy.plotting (figures)")  # every module here draws with matplotlib
+
 __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={

@@ -17,7 +17,7 @@ from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
-from ..core.video import VIDEO_CODECS, video_codec
+from ..core.video import VIDEO_CODECS, open_video_writer, video_codec
 from ._checks import check_scalar, check_time, finite_array
 
 __all__ = ["animate_rollout"]
@@ -159,10 +159,7 @@ def animate_rollout(
         else:
             import cv2
 
-            codec = video_codec(suffix)
-            writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
-            if not writer.isOpened():
-                raise OSError(f"OpenCV cannot open a {codec} video writer for path={str(path)!r}")
+            writer = open_video_writer(tmp, video_codec(suffix), fps, (width, height))
             write, close = (lambda rgba: writer.write(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR))), writer.release
         try:
             for k in tqdm(indices, desc="animate", unit="frame", disable=not progress):

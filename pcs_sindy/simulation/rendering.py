@@ -27,17 +27,19 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from ..core.atomic import FileSet
 from ..core.camera import Camera, camera_json_path
-from ..core.video import VIDEO_CODECS, video_codec
+from ..core.optional import require
+from ..core.video import VIDEO_CODECS, open_video_writer, video_codec
 from ._drawing import SHIFT, draw_polygon, fixed_point, subdivide
 from .checkerboard import render_checkerboard
 from .nuisances import Nuisances, degrade, draw_scene, illumination, occlude, sub_frame_poses
+
+cv2 = require("cv2", "rendering marker videos (pcs_sindy.simulation.rendering)")
 
 __all__ = ["render_frames", "render_video", "render_checkerboard", "marker_corners", "Nuisances", "RenderedVideo"]
 
@@ -300,13 +302,13 @@ def render_video(
     if suffix:
         width, height = camera.image_size
         codec = codec or video_codec(suffix)
-        fourcc = cv2.VideoWriter_fourcc(*codec)
         # written under a hidden temporary name and renamed when complete: an interrupted render
         # (Ctrl-C, a full disk) never leaves a truncated video under the name extraction reads
         with FileSet() as video, video.path_for(path) as tmp:
-            writer = cv2.VideoWriter(str(tmp), fourcc, float(fps), (width, height), True)
-            if not writer.isOpened():
-                raise OSError(f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec})")
+            try:
+                writer = open_video_writer(tmp, codec, fps, (width, height))
+            except OSError:
+                raise OSError(f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec})") from None
             try:
                 for _, frames in tqdm(chunks, desc="video", unit="chunk", disable=not progress):
                     for frame in frames:
