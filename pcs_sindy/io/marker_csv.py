@@ -20,6 +20,10 @@ conversion by hand, given the marker names in base-to-tip order:
 Missing samples (empty cells, ``NaN``) are NaN.  A frame/sample index column,
 when present, places each row: skipped indices become NaN rows.  Time stamps
 are never read: samples are ``1 / rate`` apart (the nominal rate).
+
+Inputs logged apart from the capture (a Motive export holds no input columns) are read by
+:func:`read_input_log` (CSV/TSV, ``.npy`` or ``.npz``) and put on the capture's samples by
+:func:`align_inputs`: row for row, or by a frame/index or time column of the log when it has one.
 """
 
 from __future__ import annotations
@@ -37,12 +41,13 @@ from numpy.typing import NDArray
 from ..core.trajectory import PoseTrajectory
 from .data_files import DataFileError
 
-__all__ = ["MarkerData", "read_marker_csv", "UNITS"]
+__all__ = ["MarkerData", "read_marker_csv", "UNITS", "InputLog", "read_input_log", "align_inputs"]
 
 #: length units accepted by read_marker_csv and their size in metres
 UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "meters": 1.0, "millimeters": 1e-3, "centimeters": 1e-2}
 _AXES = ("x", "y", "z")
 _FRAME_NAMES = ("frame", "frame #", "frame number", "sample", "index", "sample index", "id")
+_TIME_NAMES = ("t", "time", "t [s]", "time [s]", "t (s)", "time (s)", "time (seconds)", "t_s", "time_s", "timestamp")
 
 
 @dataclass
@@ -351,3 +356,194 @@ def read_marker_csv(
     if u is not None and not np.all(np.isfinite(u)):
         raise DataFileError(f"{path}: input columns {list(inputs or [])} have empty or NaN cells")
     return MarkerData(pos, u, 1.0 / float(rate), list(markers), unit, str(path), meta)
+
+
+@dataclass
+class InputLog:
+    """Inputs logged apart from a capture: one row per logged sample.
+
+    Attributes
+    ----------
+    inputs : ndarray, shape (K, p)
+    names : list of str
+        The input columns' names (``u0``, ``u1``, ... when the file names none).
+    index : ndarray, shape (K,), or None
+        Frame (sample) numbers of the rows, when the log has such a column.
+    t : ndarray, shape (K,), or None
+        Time stamps [s] of the rows, when the log has a time column (and no index column).
+    source : str
+    """
+
+    inputs: NDArray[np.float64]
+    names: list[str]
+    index: NDArray[np.int64] | None = None
+    t: NDArray[np.float64] | None = None
+    source: str = ""
+
+
+def _pick_columns(path: Path, names: list[str], columns: Sequence[str | int] | None, skip: set[int]) -> list[int]:
+    """Positions of the input columns: those asked for (names or 0-based positions), else all but ``skip``."""
+    if columns is None:
+        return [j for j in range(len(names)) if j not in skip]
+    out = []
+    for c in columns:
+        if isinstance(c, (int, np.integer)) and not isinstance(c, bool):
+            j = int(c)
+        elif str(c).lower() in names:
+            j = names.index(str(c).lower())
+        elif str(c).isdigit():
+            j = int(c)
+        else:
+            raise DataFileError(f"{path}: no input column named {c!r}; the log's columns are {names}")
+        if not 0 <= j < len(names):
+            raise DataFileError(f"{path}: input column {c!r} is not one of the {len(names)} columns")
+        out.append(j)
+    return out
+
+
+def read_input_log(path: str | Path, columns: Sequence[str | int] | None = None) -> InputLog:
+    """Read an input log: a CSV/TSV (a header row optional), an ``.npy`` array or an ``.npz``.
+
+    A CSV column named like a frame index (``Frame``, ``Index``, ``ID``, ``Sample``) becomes
+    :attr:`InputLog.index`, one named like a time (``t``, ``time``, ``Time (s)``, ``timestamp``)
+    :attr:`InputLog.t` [s]; every other column is an input unless ``columns`` chooses.  An ``.npz``
+    holds ``u`` (K, p) and optionally ``index`` (or ``frame``) and ``t``; an ``.npy`` is the inputs
+    alone, (K,) or (K, p).
+
+    Parameters
+    ----------
+    path : str or Path
+    columns : sequence of str or int, optional
+        The input columns (CSV: names or 0-based positions; ``.npy``/``.npz``: positions), in order.
+
+    Returns
+    -------
+    InputLog
+
+    Raises
+    ------
+    DataFileError
+        Naming the file and what is wrong with it.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise DataFileError(f"input log {str(path)!r} does not exist")
+    suffix = path.suffix.lower()
+    index = t = None
+    if suffix in (".npy", ".npz"):
+        try:
+            data = np.load(path, allow_pickle=False)
+        except (OSError, ValueError, EOFError) as err:
+            raise DataFileError(f"cannot read input log {str(path)!r}: {err}") from None
+        if isinstance(data, np.ndarray):
+            u = data
+        else:
+            with data:
+                if "u" not in data.files:
+                    raise DataFileError(f"input log {str(path)!r} lacks 'u' (the inputs; found {sorted(data.files)})")
+                u = data["u"]
+                key = next((k for k in ("index", "frame") if k in data.files), None)
+                index = None if key is None else np.asarray(data[key])
+                t = np.asarray(data["t"]) if "t" in data.files and index is None else None
+        u = np.asarray(u, dtype=float)
+        u = u[:, None] if u.ndim == 1 else u
+        if u.ndim != 2 or u.shape[0] < 1:
+            raise DataFileError(f"input log {str(path)!r}: the inputs must have shape (K,) or (K, p); got {u.shape}")
+        names = [f"u{k}" for k in range(u.shape[1])]
+        picked = _pick_columns(path, names, columns, set())
+        u, names = u[:, picked], [names[j] for j in picked]
+    else:
+        text = path.read_text(encoding="utf-8-sig")
+        delimiter = "\t" if text.count("\t") > text.count(",") else ","
+        rows = [r for r in csv.reader(text.splitlines(), delimiter=delimiter) if any(c.strip() for c in r)]
+        if not rows:
+            raise DataFileError(f"input log {str(path)!r} is empty")
+        header = not _numeric_row(rows[0])
+        names = [_norm(c) for c in rows[0]] if header else [f"u{k}" for k in range(len(rows[0]))]
+        body = rows[1:] if header else rows
+        if not body:
+            raise DataFileError(f"input log {str(path)!r} has a header but no data rows")
+        values = np.full((len(body), len(names)), np.nan)
+        for k, row in enumerate(body):
+            try:
+                vals = [_number(c) for c in row[: len(names)]]
+            except ValueError:
+                raise DataFileError(
+                    f"input log {str(path)!r}: row {k + 1 + header} is not numeric: {row[:8]}"
+                ) from None
+            values[k, : len(vals)] = vals
+        frame_col = next((j for j, c in enumerate(names) if header and c in _FRAME_NAMES), None)
+        time_col = next((j for j, c in enumerate(names) if header and c in _TIME_NAMES), None)
+        picked = _pick_columns(path, names, columns, {j for j in (frame_col, time_col) if j is not None})
+        if not picked:
+            raise DataFileError(f"input log {str(path)!r} has no input column besides the index/time ({names})")
+        u = values[:, picked]
+        names = [names[j] if header else f"u{j}" for j in picked]
+        if frame_col is not None:
+            index = values[:, frame_col]
+        elif time_col is not None:
+            t = values[:, time_col]
+    if index is not None:
+        index = np.asarray(index, dtype=float)
+        if index.shape != (u.shape[0],) or not np.all(np.isfinite(index)) or np.any(index != np.round(index)):
+            raise DataFileError(f"input log {str(path)!r}: the frame/index column must hold one integer per row")
+        index = index.astype(np.int64)
+        if np.any(np.diff(index) <= 0):
+            raise DataFileError(f"input log {str(path)!r}: the frame/index column must increase row by row")
+    if t is not None:
+        t = np.asarray(t, dtype=float)
+        if t.shape != (u.shape[0],) or not np.all(np.isfinite(t)) or np.any(np.diff(t) <= 0):
+            raise DataFileError(f"input log {str(path)!r}: the time column must hold increasing finite times [s]")
+    if not np.all(np.isfinite(u)):
+        k = int(np.argwhere(~np.isfinite(u))[0, 0])
+        raise DataFileError(f"input log {str(path)!r}: the inputs have an empty or NaN cell (row {k + 1} of the data)")
+    return InputLog(u, names, index, t, str(path))
+
+
+def align_inputs(
+    log: InputLog, n_samples: int, dt: float, first_frame: int | None = None, capture: str = ""
+) -> NDArray:
+    """The logged inputs on the capture's ``n_samples`` samples (``dt`` apart), shape (n_samples, p).
+
+    * With a frame/index column: the capture's sample k is frame ``first_frame + k`` (the capture's
+      own frame numbers; without them the log's index counts from its first row); each sample takes
+      the last input logged at or before its frame (inputs are held).
+    * With a time column [s]: the log and the capture start together (the log's first time is the
+      capture's first sample); each sample takes the last input logged at or before its time.
+    * Otherwise row k is sample k: the counts must be equal.
+
+    Raises
+    ------
+    DataFileError
+        When the counts differ (row pairing), or the log starts after the capture or ends more
+        than one logging interval before it.
+    """
+    src = log.source or "the input log"
+    if log.index is None and log.t is None:
+        if log.inputs.shape[0] != n_samples:
+            raise DataFileError(
+                f"input log {src!r} has {log.inputs.shape[0]} rows but the capture {capture!r} has {n_samples} "
+                "samples; rows pair with samples one to one, or by a frame/index column (Frame, Index, ID, Sample) "
+                "or a time column (t, time [s]) in the log"
+            )
+        return log.inputs.copy()
+    if log.index is not None:
+        start = int(first_frame) if first_frame is not None else int(log.index[0])
+        where, at = (log.index - start).astype(float), np.arange(n_samples, dtype=float)
+        unit, what = 1.0, "frame"
+    else:
+        start, where, at = 0, log.t - log.t[0], np.arange(n_samples) * float(dt)
+        unit, what = float(dt), "time"
+    if where[0] > 1e-9 * unit:
+        raise DataFileError(
+            f"input log {src!r} starts at {what} {where[0] + start:g}, after the capture's first sample "
+            f"({what} {start:g}): the capture's first inputs are not logged"
+        )
+    step = float(np.median(np.diff(where))) if where.size > 1 else unit
+    if at[-1] > where[-1] + step + 1e-9 * unit:
+        raise DataFileError(
+            f"input log {src!r} ends {at[-1] - where[-1]:g} {'frames' if what == 'frame' else 's'} before the "
+            f"capture {capture!r} does: its last inputs are not logged"
+        )
+    k = np.searchsorted(where, at + 1e-9 * unit, side="right") - 1
+    return log.inputs[k]

@@ -19,7 +19,8 @@ is importable from here:
 * :mod:`pcs_sindy.plotting.fusion` - kinematic fusion
   (:func:`plot_strain_distance_profile`, seed Fig. 6; :func:`plot_error_vs_segments`, Fig. 8);
 * :mod:`pcs_sindy.plotting.rollout` - rollouts against time
-  (:func:`plot_rollout`, Fig. 9a / 11a; :func:`plot_end_effector`, Fig. 9b);
+  (:func:`plot_rollout`, Fig. 9a / 11a; :func:`plot_end_effector`, Fig. 9b; :func:`plot_tip_positions`,
+  a measured tip against predictions), each with residual panels;
 * :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10; the
   extraction's :func:`plot_contact_sheet`);
 * :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`).
@@ -30,11 +31,15 @@ Imports only :mod:`pcs_sindy.core`; nothing but the command line imports it.
 
 import lazy_loader as _lazy
 
+from ..core.optional import require_installed
+
+require_installed("matplotlib", "pcs_sindy.plotting (figures)")  # every module here draws with matplotlib
+
 __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={
         "animation": ["animate_rollout"],
-        "rollout": ["plot_end_effector", "plot_rollout"],
+        "rollout": ["plot_end_effector", "plot_rollout", "plot_tip_positions"],
         "fusion": ["plot_error_vs_segments", "plot_strain_distance_profile"],
         "stills": ["plot_contact_sheet", "plot_stills"],
     },
