@@ -1,10 +1,68 @@
 """Hostile inputs of issue 27 that came back silently wrong or unclear: positions-only fusion (item 3),
-pose files with two markers swapped part-way, and marker CSV files that claim more than they hold (MED).
+pose files with two markers swapped part-way, marker CSV files that claim more than they hold (MED),
+a curled robot whose markers touch (Defaults).
 
 Each case was reproduced first; every one ran to exit 0 (or a message naming nothing) before.  The
 truth is independent of the code under test: closed-form forward kinematics of known robots, and
-the sizes of the arrays a file can honestly hold.  The table "finding -> test" of the whole issue is
-in docs/hostile_inputs.md.
+the sizes of the arrays a file can honestly hold.
+
+Every finding of issue 27 and its test (P: fixed by the earlier session; H: by this file's change):
+
+===================================================  ==================================================================
+finding                                              test (file)
+===================================================  ==================================================================
+1 fuse --out = input folder (P)                      test_fuse_into_the_folder_of_its_inputs_is_refused
+                                                     (test_inputs_not_outputs.py)
+1 fit --out onto a strain file (P)                   test_fit_onto_a_strain_file_is_refused (same)
+1 rollout --out onto its --tau file (P)              test_rollout_onto_its_tau_file_is_refused (same)
+1 io owns formats, no bare np.savez (P)              test_array_files_are_written_only_through_core_atomic
+                                                     (test_no_bare_writes.py)
+2 videos without camera JSON scaled each alone (P)   test_videos_without_camera_share_one_scale
+                                                     (test_cli_recordings.py)
+2 --fps silently overrides a camera JSON (P)         test_fps_overriding_a_camera_json_is_said (same)
+2 a marker 8-21 mm off, summary says fine (P)        test_a_marker_off_its_track_is_flagged (same)
+3 positions out of order (H)                         test_positions_out_of_order_are_refused
+3 positions tip first (H)                            test_positions_tip_first_are_refused
+3 positions in mm / --units m on a mm file (H)       test_positions_in_millimetres_are_refused,
+                                                     test_cli_units_m_on_a_millimetre_file_is_one_line
+3 arc_lengths=[100, 200, 300] (H)                    test_arc_lengths_in_another_unit_are_refused
+3 a robot of a few metres (H)                        test_a_robot_of_a_few_metres_fuses_with_a_warning
+3 marker swap halfway, 0.9 mm segment (H)            test_a_marker_swap_part_way_is_refused_naming_the_frames
+3 pose markers swapped for the last 30-50 % (H)      test_two_pose_markers_swapped_for_the_last_frames_are_refused
+3 no false alarm on real Trunk / tentacle (H)        test_real_trunk_and_tentacle_pass_every_check
+4 two processes saving one model (P)                 test_two_processes_saving_one_set_leave_one_complete_set
+                                                     (test_concurrent_saves.py)
+5 fits the model cannot represent pass silently      not here: the fit-quality R2 and exit code (regressor)
+6 frame index jumping to 2e7, 8.5 GB (H)             test_a_frame_index_jumping_to_2e7_is_refused_without_allocating
+6 10000x10000 PNGs in inspect (P)                    test_a_huge_png_in_a_folder_is_refused_before_decoding,
+                                                     test_inspect_refuses_a_huge_image_in_one_line
+                                                     (test_image_bombs.py)
+6 cached features() with nested powers (P)           test_hostile_cache_text_is_a_cache_miss[nested powers]
+                                                     (test_codegen_cache.py)
+6 npz header claiming 1e13 elements (P)              test_a_header_claiming_1e13_elements_is_refused_without_
+                                                     allocating (test_npz_headers.py)
+7 Ctrl-C during render leaves a truncated video (P)  test_interrupted_render_leaves_no_video_under_its_name
+                                                     (test_rendering.py)
+MED UTF-16 / binary CSV (H)                          test_utf16_latin1_and_binary_files_are_named
+MED frame index 1e300 (H)                            test_a_frame_index_that_is_no_sample_count_is_named
+MED coincident markers (H)                           test_coincident_markers_are_named_with_their_frames,
+                                                     test_pose_markers_coinciding_in_some_frames_are_named
+MED one marker accepted (H)                          test_one_marker_is_refused_with_the_minimum
+MED run_10..12 paired with run_0..2 (P)              test_numbers_are_never_cut_to_pair_files
+                                                     (test_input_checks.py)
+MED 100 MB CSV takes 1.3 GB (H)                      test_reading_a_csv_takes_a_few_times_its_array_not_ten_
+                                                     times_the_file
+MED folder, FIFO, /dev/zero "does not exist" (P, H)  test_folders_fifos_and_devices_are_named_for_what_they_are
+                                                     (test_datafiles.py and here)
+MED fit strains/*.npz catches segmentation.npz (P)   test_fit_skips_the_segmentation_arrays_a_glob_catches
+                                                     (test_input_checks.py)
+MED "found 21 ..., expected 21" (P)                  test_all_markers_found_but_not_chained_says_so
+                                                     (test_vision.py)
+Defaults: a few frames missing stop a recording (P)  test_auto_interpolates_short_gaps_and_refuses_long_ones
+                                                     (test_vision.py); markers touching:
+                                                     test_markers_touching_in_a_few_frames_do_not_stop_a_
+                                                     recording_by_default
+===================================================  ==================================================================
 """
 
 from __future__ import annotations
@@ -19,10 +77,12 @@ import pytest
 from real_data import real_file
 
 from pcs_sindy.cli.main import main
-from pcs_sindy.core import PoseTrajectory, order_markers
+from pcs_sindy.core import Camera, PoseTrajectory, order_markers
 from pcs_sindy.core.kinematics import forward_kinematics
 from pcs_sindy.fusion import KinematicFusion, check_marker_chain, check_marker_positions
 from pcs_sindy.io import DataFileError, read_marker_csv
+from pcs_sindy.simulation.rendering import render_frames
+from pcs_sindy.vision import MarkerPoseExtractor
 
 ARCS = (0.1, 0.2, 0.3)
 
@@ -187,6 +247,44 @@ def test_two_pose_markers_swapped_for_the_last_frames_are_refused(pair, fraction
         KinematicFusion().fit(P)
     with pytest.raises(ValueError, match="correct the tracking in those frames"):
         check_marker_chain(P)
+
+
+def test_pose_markers_coinciding_in_some_frames_are_named():
+    P = _two_segment_poses()
+    P[100:130, 5] = P[100:130, 6]  # the tracker gave marker 6 for both
+    with pytest.raises(ValueError, match=r"X\[0\]: markers 5 and 6 coincide .* in 30 of 500 frames, frames 100-129"):
+        KinematicFusion().fit(P)
+
+
+# ------------------------------------------------------------------------- Defaults: markers touching
+def _curled_one_segment(amplitude):
+    """Frames of a 100 mm robot of one segment curling to ``amplitude`` / 10 rad (from 4.3 rad its markers touch)."""
+    cam = Camera(3000.0, (320.0, 60.0), (640, 480))
+    q = np.zeros((24, 3))
+    t = np.linspace(0.0, 1.0, 24)
+    q[:, 0] = amplitude * np.sin(np.pi * t)
+    q[:, 2] = 0.02 * np.sin(2 * np.pi * t)
+    truth = forward_kinematics(q, [0.1], np.linspace(0.0, 0.1, 21))
+    return cam, truth, render_frames(truth, cam, marker_size=(0.008, 0.002))
+
+
+def test_markers_touching_in_a_few_frames_do_not_stop_a_recording_by_default():
+    """Another lab's curled one-segment robot stopped where three markers touch (issue 27, Defaults)."""
+    cam, truth, frames = _curled_one_segment(43.0)  # markers touch in frames 10-13
+    ex = MarkerPoseExtractor(camera=cam, fps=100, progress=False)
+    with pytest.warns(UserWarning, match=r"4 frame\(s\) could not be extracted and were interpolated .*frames 10-13"):
+        (traj,) = ex.transform([frames])
+    good = np.setdiff1d(np.arange(24), np.arange(10, 14))
+    assert np.max(np.linalg.norm(traj.poses[good, :, :2] - truth[good, :, :2], axis=-1)) < 1e-3
+    fusion = KinematicFusion().fit(traj)
+    assert fusion.n_segments_ == 1 and abs(fusion.segment_lengths_[0] - 0.1) < 1e-3
+    # touching longer than MAX_AUTO_GAP frames: refused naming the way on, which gives the same segment
+    cam, truth, frames = _curled_one_segment(45.0)
+    with pytest.raises(ValueError, match=r"consecutive frames cannot be extracted .*inspect.*--on-missing interpolate"):
+        ex.transform([frames])
+    (traj,) = ex.set_params(on_missing="interpolate").transform([frames])
+    fusion = KinematicFusion().fit(traj)
+    assert fusion.n_segments_ == 1 and abs(fusion.segment_lengths_[0] - 0.1) < 1e-3
 
 
 # ------------------------------------------------------------------------- real recordings: no false alarms
