@@ -29,8 +29,9 @@ Inputs logged apart from the capture (a Motive export holds no input columns) ar
 from __future__ import annotations
 
 import csv
+import itertools
 import re
-from collections.abc import Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -39,7 +40,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core.trajectory import PoseTrajectory
-from .data_files import DataFileError
+from .data_files import DataFileError, check_regular_file
 
 __all__ = ["MarkerData", "read_marker_csv", "UNITS", "InputLog", "read_input_log", "align_inputs"]
 
@@ -48,6 +49,16 @@ UNITS = {"m": 1.0, "mm": 1e-3, "cm": 1e-2, "meters": 1.0, "millimeters": 1e-3, "
 _AXES = ("x", "y", "z")
 _FRAME_NAMES = ("frame", "frame #", "frame number", "sample", "index", "sample index", "id")
 _TIME_NAMES = ("t", "time", "t [s]", "time [s]", "t (s)", "time (s)", "time (seconds)", "t_s", "time_s", "timestamp")
+#: a frame column may skip samples (NaN rows), up to this many samples per data row ...
+_MAX_SAMPLES_PER_ROW = 10
+#: ... plus this many: beyond, it is not the file's sample index (a 5-line file claiming 2e7 samples)
+_MAX_EXTRA_SAMPLES = 100_000
+# frame indices beyond this are not counts of samples (and lose integer precision as floats)
+_MAX_FRAME_INDEX = 2.0**53
+_HEAD_BYTES = 1 << 16  # read first: the encoding and the delimiter
+_MAX_HEADER_ROWS = 10_000
+_PEEK_ROWS = 50  # data rows read before the layout is fixed (an unnamed leading frame column)
+_BLOCK_ROWS = 4096
 
 
 @dataclass
@@ -212,6 +223,139 @@ def _is_index_column(rows: list[list[str]], j: int) -> bool:
     return v.size > 1 and bool(np.all(v == np.round(v)) and np.all(np.diff(v) > 0))
 
 
+def _check_text(path: Path, head: bytes) -> None:
+    """Refuse a file that is not 8-bit text: UTF-16/32 (by its byte-order mark or NUL bytes) or binary."""
+    if head.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise DataFileError(
+            f"{path}: the file is UTF-16 (or UTF-32) text (byte-order mark {head[:2]!r}), not UTF-8: save it as "
+            "UTF-8 (or ASCII) CSV (e.g. iconv -f UTF-16 -t UTF-8)"
+        )
+    if b"\x00" in head:
+        nul = head.count(b"\x00")
+        kind = "UTF-16 text without a byte-order mark" if 0.3 < nul / len(head) < 0.6 else "a binary file"
+        raise DataFileError(
+            f"{path}: {nul} of the first {len(head)} bytes are NUL: {kind}, not a text CSV; give the "
+            "motion-capture system's CSV/TSV text export (UTF-8 or ASCII)"
+        )
+
+
+def _data_rows(reader: Any) -> Iterator[tuple[int, list[str]]]:
+    """(line number, cells) of the rows that are not blank."""
+    for row in reader:
+        if any(c.strip() for c in row):
+            yield reader.line_num, row
+
+
+def _header_rows(path: Path, reader: Any) -> tuple[list[list[str]], Iterator[tuple[int, list[str]]]]:
+    """The rows before the first data row, and the data rows from it on (an iterator).
+
+    The first data row is the first numeric row with a few cells (a lone number, e.g. Vicon's rate, is header).
+    """
+    header: list[list[str]] = []
+    for row in reader:
+        if _numeric_row(row) and sum(c.strip() != "" for c in row) >= 3:
+            return header, itertools.chain([(reader.line_num, row)], _data_rows(reader))
+        header.append(row)
+        if len(header) > _MAX_HEADER_ROWS:
+            raise DataFileError(f"{path}: no numeric data rows in the first {_MAX_HEADER_ROWS} rows")
+    raise DataFileError(f"{path}: no numeric data rows")
+
+
+def _layout(
+    path: Path,
+    header: list[list[str]],
+    peek: list[tuple[int, list[str]]],
+    markers: Sequence[str] | int,
+    columns: Sequence[int] | None,
+    inputs: Sequence[str | int] | None,
+    frame_column: str | int | None,
+    units: str | None,
+    unnamed: bool,
+) -> dict[str, Any]:
+    """Where the markers, inputs and frame index are, and the units, from the header and the first data rows."""
+    first_row = peek[0][1]
+    if unnamed:
+        cols, names = _unnamed_columns(path, first_row, int(markers), columns)  # type: ignore[arg-type]
+        markers = list(cols)
+        header_row: list[str] = header[-1] if header else []
+    else:
+        try:
+            cols, axis_row = _find_columns(header, list(markers))  # type: ignore[arg-type]
+        except ValueError as err:
+            raise DataFileError(f"{path}: {err}") from None
+        header_row = header[axis_row]
+        names = [_norm(c) for c in header_row]
+    unit = units.lower() if units is not None else _detect_units(header)
+    if unit is None:
+        raise DataFileError(f"{path}: the file does not say its length units; give units='mm' or units='m'")
+    width_data = len(first_row)
+    in_cols = []
+    for name in inputs or []:
+        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
+            if not 0 <= name < width_data:
+                raise DataFileError(f"{path}: input column {name!r} is not one of the {width_data} columns")
+            in_cols.append(int(name))
+            continue
+        hits = [j for row in header for j, c in enumerate(row) if _norm(c) == str(name).lower()]
+        if not hits:
+            raise DataFileError(f"{path}: no input column named {name!r}; header cells: {header_row}")
+        in_cols.append(hits[0])
+    frame_col = None
+    if frame_column == "auto":
+        frame_col = next((j for j, c in enumerate(names) if c in _FRAME_NAMES), None)
+        if frame_col is None and not header and _is_index_column([row for _, row in peek], 0):
+            frame_col = 0  # a file without a header: a leading column of increasing integers is the frame
+    elif isinstance(frame_column, (int, np.integer)) and not isinstance(frame_column, bool):
+        if not 0 <= frame_column < width_data:
+            raise DataFileError(f"{path}: frame_column {frame_column!r} is not one of the {width_data} columns")
+        frame_col = int(frame_column)
+    elif frame_column is not None:
+        if frame_column.lower() not in names:
+            raise DataFileError(f"{path}: no frame column {frame_column!r} in {header_row}")
+        frame_col = names.index(frame_column.lower())
+    width = max(max(c) for c in cols.values()) + 1
+    frame_name = (
+        None
+        if frame_col is None
+        else repr(header_row[frame_col].strip())
+        if frame_col < len(header_row) and header_row[frame_col].strip()
+        else f"(column {frame_col})"
+    )
+    return {
+        "cols": cols,
+        "markers": list(markers),  # type: ignore[arg-type]
+        "in_cols": in_cols,
+        "frame_col": frame_col,
+        "frame_name": frame_name,
+        "unit": unit,
+        "width": max(width, max(in_cols, default=0) + 1, (frame_col or 0) + 1),
+    }
+
+
+def _parse_rows(path: Path, rows: Iterable[tuple[int, list[str]]], width: int) -> NDArray[np.float64]:
+    """The first ``width`` cells of every data row as numbers (NaN for empty), parsed in blocks of rows.
+
+    Rows become numbers as they are read (a list of strings per row costs ten times the array).
+    """
+    blocks: list[NDArray[np.float64]] = []
+    block: list[list[float]] = []
+    pad = [np.nan] * width
+    for line, row in rows:
+        try:
+            vals = [float(c) for c in row]
+        except ValueError:
+            if not _numeric_row(row):
+                raise DataFileError(f"{path}: row {line} is not numeric: {row[:8]}") from None
+            vals = [_number(c) for c in row]
+        block.append(vals[:width] if len(vals) >= width else vals + pad[len(vals) :])
+        if len(block) == _BLOCK_ROWS:
+            blocks.append(np.array(block, dtype=float))
+            block = []
+    if block or not blocks:
+        blocks.append(np.array(block, dtype=float).reshape(-1, width))
+    return blocks[0] if len(blocks) == 1 else np.concatenate(blocks, axis=0)
+
+
 def read_marker_csv(
     path: str | Path,
     markers: Sequence[str] | int,
@@ -272,86 +416,73 @@ def read_marker_csv(
         raise DataFileError(f"{path}: columns={columns!r} applies to unnamed markers only (markers=<int>)")
     if units is not None and units.lower() not in UNITS:
         raise DataFileError(f"{path}: units must be one of {sorted(set(UNITS))}; got {units!r}")
-    text = path.read_text(encoding="utf-8-sig")
-    delimiter = "\t" if text.count("\t") > text.count(",") else ","
-    rows = list(csv.reader(text.splitlines(), delimiter=delimiter))
-    # the first numeric row with a few cells (a lone number, e.g. Vicon's rate, is header)
-    first_data = next(
-        (k for k, row in enumerate(rows) if _numeric_row(row) and sum(c.strip() != "" for c in row) >= 3), None
+    check_regular_file(path, "marker CSV file")
+    with open(path, "rb") as raw:
+        head = raw.read(_HEAD_BYTES)
+    _check_text(path, head)
+    sample = head.decode("utf-8", errors="replace")
+    delimiter = "\t" if sample.count("\t") > sample.count(",") else ","
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as f:
+            reader = csv.reader(f, delimiter=delimiter)
+            header, rows = _header_rows(path, reader)
+            first_data = len(header)
+            peek = list(itertools.islice(rows, _PEEK_ROWS))  # the first data rows: columns and the frame index
+            layout = _layout(path, header, peek, markers, columns, inputs, frame_column, units, unnamed)
+            values = _parse_rows(path, itertools.chain(peek, rows), layout["width"])
+    except UnicodeDecodeError as err:
+        raise DataFileError(
+            f"{path}: not UTF-8 text ({err.reason}, byte {err.object[err.start : err.start + 1]!r}): save the file "
+            "as UTF-8 (or ASCII) CSV"
+        ) from None
+    cols, markers, in_cols, frame_col, unit = (
+        layout["cols"],
+        layout["markers"],
+        layout["in_cols"],
+        layout["frame_col"],
+        layout["unit"],
     )
-    if first_data is None:
-        raise DataFileError(f"{path}: no numeric data rows")
-    if unnamed:
-        cols, names = _unnamed_columns(path, rows[first_data], int(markers), columns)
-        markers = list(cols)
-        header_row: list[str] = rows[first_data - 1] if first_data else []
-    else:
-        try:
-            cols, axis_row = _find_columns(rows[:first_data], list(markers))
-        except ValueError as err:
-            raise DataFileError(f"{path}: {err}") from None
-        header_row = rows[axis_row]
-        names = [_norm(c) for c in header_row]
-    unit = units.lower() if units is not None else _detect_units(rows[:first_data])
-    if unit is None:
-        raise DataFileError(f"{path}: the file does not say its length units; give units='mm' or units='m'")
-    width_data = len(rows[first_data])
-    in_cols = []
-    for name in inputs or []:
-        if isinstance(name, (int, np.integer)) and not isinstance(name, bool):
-            if not 0 <= name < width_data:
-                raise DataFileError(f"{path}: input column {name!r} is not one of the {width_data} columns")
-            in_cols.append(int(name))
-            continue
-        hits = [j for row in rows[:first_data] for j, c in enumerate(row) if _norm(c) == str(name).lower()]
-        if not hits:
-            raise DataFileError(f"{path}: no input column named {name!r}; header cells: {header_row}")
-        in_cols.append(hits[0])
-    frame_col = None
-    if frame_column == "auto":
-        frame_col = next((j for j, c in enumerate(names) if c in _FRAME_NAMES), None)
-        if frame_col is None and first_data == 0 and _is_index_column(rows, 0):
-            frame_col = 0  # a file without a header: a leading column of increasing integers is the frame
-    elif isinstance(frame_column, (int, np.integer)) and not isinstance(frame_column, bool):
-        if not 0 <= frame_column < width_data:
-            raise DataFileError(f"{path}: frame_column {frame_column!r} is not one of the {width_data} columns")
-        frame_col = int(frame_column)
-    elif frame_column is not None:
-        if frame_column.lower() not in names:
-            raise DataFileError(f"{path}: no frame column {frame_column!r} in {header_row}")
-        frame_col = names.index(frame_column.lower())
-    data = [row for row in rows[first_data:] if any(c.strip() for c in row)]
-    width = max(max(c) for c in cols.values()) + 1
-    values = np.full((len(data), max(width, max(in_cols, default=0) + 1, (frame_col or 0) + 1)), np.nan)
-    for k, row in enumerate(data):
-        if not _numeric_row(row):
-            raise DataFileError(f"{path}: row {first_data + k + 1} is not numeric: {row[:8]}")
-        vals = [_number(c) for c in row]
-        values[k, : len(vals)] = vals[: values.shape[1]]
     scale = UNITS[unit]
     pos = np.stack([values[:, cols[name]] for name in markers], axis=1) * scale
     u = values[:, in_cols] if in_cols else None
     meta: dict[str, Any] = {}
     if frame_col is not None:
         frame = values[:, frame_col]
-        if np.any(~np.isfinite(frame)) or np.any(frame != np.round(frame)):
-            raise DataFileError(f"{path}: the frame column holds non-integer or empty values")
-        idx = (frame - frame[0]).astype(int)
+        column = layout["frame_name"]
+        bad = np.flatnonzero(~np.isfinite(frame) | (frame != np.round(frame)) | (np.abs(frame) > _MAX_FRAME_INDEX))
+        if bad.size:
+            k = int(bad[0])
+            raise DataFileError(
+                f"{path}: the frame column {column} holds {float(frame[k]):.6g} in data row {k + 1}: not a whole "
+                f"sample index (at most {_MAX_FRAME_INDEX:.0e}); fix the column or read with frame_column=None"
+            )
+        idx = (frame - frame[0]).astype(np.int64)
         if np.any(np.diff(idx) <= 0):
             k = int(np.argmax(np.diff(idx) <= 0))
             raise DataFileError(f"{path}: frame indices must increase; row {first_data + k + 2} repeats or goes back")
-        if idx[-1] + 1 != idx.size:  # skipped samples: NaN rows at their places
-            full = np.full((idx[-1] + 1,) + pos.shape[1:], np.nan)
+        n_samples = int(idx[-1]) + 1
+        limit = _MAX_SAMPLES_PER_ROW * idx.size + _MAX_EXTRA_SAMPLES
+        if n_samples > limit:
+            k = int(np.argmax(np.diff(idx)))  # the largest jump (two rows at least: idx[-1] > 0)
+            raise DataFileError(
+                f"{path}: the frame column {column} runs from {int(frame[0])} to {int(frame[-1])} (it jumps from "
+                f"{int(frame[k])} to {int(frame[k + 1])} after data row {k + 1}): "
+                f"{n_samples} samples for {idx.size} rows, more than {limit} (the rows times "
+                f"{_MAX_SAMPLES_PER_ROW}, plus {_MAX_EXTRA_SAMPLES}); the column is not this file's sample index: "
+                "fix it or read with frame_column=None"
+            )
+        if n_samples != idx.size:  # skipped samples: NaN rows at their places
+            full = np.full((n_samples,) + pos.shape[1:], np.nan)
             full[idx] = pos
             pos = full
             if u is not None:
-                uf = np.full((idx[-1] + 1, u.shape[1]), np.nan)
+                uf = np.full((n_samples, u.shape[1]), np.nan)
                 uf[idx] = u
                 # inputs are held: a skipped sample keeps the last logged input
                 ok = np.isfinite(uf[:, 0])
                 last = np.maximum.accumulate(np.where(ok, np.arange(ok.size), 0))
                 u = uf[last]
-            meta["skipped_samples"] = int(idx[-1] + 1 - idx.size)
+            meta["skipped_samples"] = int(n_samples - idx.size)
         meta["first_frame"] = int(frame[0])
     if u is not None and not np.all(np.isfinite(u)):
         raise DataFileError(f"{path}: input columns {list(inputs or [])} have empty or NaN cells")
