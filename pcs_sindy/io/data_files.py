@@ -505,9 +505,11 @@ def read_training_files(
             )
         dt = float(np.median(np.diff(st.t))) if st.n_frames > 1 else 1.0
         if np.max(np.abs((t - t[0]) - (st.t - st.t[0]))) > 0.5 * dt:
+            dt_tau = float(np.median(np.diff(t))) if t.size > 1 else dt
             raise DataFileError(
                 f"time stamps of tau file {str(tfile)!r} and strain file {str(sfile)!r} differ by more than half a "
-                "sample"
+                f"sample: the strains are sampled at {1.0 / dt:.6g} Hz, the {key} at {1.0 / dt_tau:.6g} Hz "
+                "(check the frame rate given to extract, --fps, against the rate of the inputs)"
             )
         taus.append(tau)
     return strains, taus
