@@ -1,4 +1,4 @@
-"""Figures of the seed: strain-distance profile, error trade-off, rollouts, stills, animation.
+"""Figures of the seed: strain-distance profile, error trade-off, rollouts, stills, animation; 3-D figures.
 
 Plain functions on numpy arrays (the fitted estimators expose everything they
 need: e.g. ``KinematicFusion.distance_profile_``, ``boundaries_``,
@@ -9,7 +9,8 @@ accepts an ``ax``/``axes`` argument to draw into existing axes; none calls
 uses its own Agg canvas, so it works without a display.
 
 Conventions (docs/method.md, "Configuration"): positions in metres, angles in radians, strains
-``[kappa_be 1/m, sigma_sh -, sigma_ax -]`` per segment.  Drawings of the robot
+``[kappa_be 1/m, sigma_sh -, sigma_ax -]`` per segment (spatial robots: the six strains of
+docs/spatial.md).  Drawings of the robot
 follow the renderer: the base at the top and image-down = +y, so the y axis of
 robot drawings in metres is inverted.
 
@@ -23,7 +24,10 @@ is importable from here:
   a measured tip against predictions), each with residual panels;
 * :mod:`pcs_sindy.plotting.stills` - images with overlays (:func:`plot_stills`, Fig. 3 / 10; the
   extraction's :func:`plot_contact_sheet`);
-* :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`).
+* :mod:`pcs_sindy.plotting.animation` - a rollout video (:func:`animate_rollout`);
+* :mod:`pcs_sindy.plotting.spatial` - spatial (3-D) robots: measured positions against predicted ones
+  in 3-D, per coordinate and as an error over time (:func:`plot_positions_3d`), backbone shapes with
+  markers (:func:`plot_shapes_3d`).
 
 Takes in arrays and fitted estimators' attributes, gives :class:`matplotlib.figure.Figure` objects.
 Imports only :mod:`pcs_sindy.core`; nothing but the command line imports it.
@@ -42,5 +46,6 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "rollout": ["plot_end_effector", "plot_rollout", "plot_tip_positions"],
         "fusion": ["plot_error_vs_segments", "plot_strain_distance_profile"],
         "stills": ["plot_contact_sheet", "plot_stills"],
+        "spatial": ["plot_positions_3d", "plot_shapes_3d"],
     },
 )

@@ -10,17 +10,17 @@ there, not guessed from two overlapping lines.
 from __future__ import annotations
 
 import re
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Any
 
 import numpy as np
 from matplotlib.axes import Axes
 from matplotlib.figure import Figure
-from numpy.typing import ArrayLike, NDArray
+from numpy.typing import ArrayLike
 
 from ..core.kinematics import wrap_angle
 from ..core.metrics import end_effector_errors
-from ._checks import check_time, finite_array, new_axes
+from ._checks import check_time, finite_array, new_axes, predictions
 
 __all__ = ["plot_rollout", "plot_end_effector", "plot_tip_positions"]
 
@@ -46,40 +46,6 @@ def _residual_axes(axes: Any, n: int, residuals: bool, figsize: tuple[float, flo
 
 def _zero_line(ax: Axes) -> None:
     ax.axhline(0.0, color="0.6", linewidth=0.8, zorder=1)
-
-
-def _predictions(
-    pred: Any, labels: Sequence[str] | None, shape: tuple[int, ...], name: str
-) -> tuple[list[NDArray[np.float64]], list[str]]:
-    """Normalise one prediction, a sequence of them or a ``{label: array}`` mapping."""
-    if isinstance(pred, Mapping):
-        if labels is not None:
-            raise ValueError(f"labels must be None when {name} is a mapping (its keys are the labels); got {labels!r}")
-        labels = [str(k) for k in pred]
-        arrays = list(pred.values())
-    elif isinstance(pred, (list, tuple)) and len(pred) > 0 and np.ndim(pred[0]) == len(shape):
-        arrays = list(pred)
-    else:
-        arrays = [pred]
-    if len(arrays) == 0:
-        raise ValueError(f"{name} must hold at least one prediction")
-    if labels is None:
-        labels = ["model"] if len(arrays) == 1 else [f"model {k + 1}" for k in range(len(arrays))]
-    elif isinstance(labels, str):
-        labels = [labels]
-    labels = [str(v) for v in labels]
-    if len(labels) != len(arrays):
-        raise ValueError(
-            f"labels must have one entry per prediction in {name} ({len(arrays)}); got {len(labels)}: {labels!r}"
-        )
-    out = []
-    for k, arr in enumerate(arrays):
-        key = name if len(arrays) == 1 else f"{name}[{labels[k]!r}]"
-        arr = finite_array(arr, key)
-        if arr.shape != shape:
-            raise ValueError(f"{key} must have shape {shape} (like the truth); got {arr.shape}")
-        out.append(arr)
-    return out, labels
 
 
 def _default_strain_names(n: int) -> list[str]:
@@ -143,7 +109,7 @@ def plot_rollout(
     if q_true.ndim != 2 or q_true.shape[0] != t.size or q_true.shape[1] < 1:
         raise ValueError(f"q_true must have shape ({t.size}, n) to match t; got {q_true.shape}")
     n = q_true.shape[1]
-    preds, labels = _predictions(q_pred, labels, q_true.shape, "q_pred")
+    preds, labels = predictions(q_pred, labels, q_true.shape, "q_pred")
     names = _default_strain_names(n) if names is None else [str(v) for v in names]
     if len(names) != n:
         raise ValueError(f"names must have one entry per strain ({n}); got {len(names)}: {names!r}")
@@ -240,7 +206,7 @@ def plot_end_effector(
     tip_true = finite_array(tip_true, "tip_true")
     if tip_true.shape != (t.size, 3):
         raise ValueError(f"tip_true must have shape ({t.size}, 3) ([x, y, theta] per time stamp); got {tip_true.shape}")
-    preds, labels = _predictions(tip_pred, labels, tip_true.shape, "tip_pred")
+    preds, labels = predictions(tip_pred, labels, tip_true.shape, "tip_pred")
     if show_errors:
         full = []
         for tip, lab in zip(preds, labels):
@@ -334,7 +300,7 @@ def plot_tip_positions(
     names = [str(v) for v in axis_names]
     if len(names) < d:
         raise ValueError(f"axis_names must name the {d} coordinates; got {axis_names!r}")
-    preds, labels = _predictions(tip_pred, labels, tip_true.shape, "tip_pred")
+    preds, labels = predictions(tip_pred, labels, tip_true.shape, "tip_pred")
     errors = [1e3 * np.linalg.norm(p[measured] - tip_true[measured], axis=1) for p in preds]
     if residuals:
         full = [
