@@ -60,6 +60,8 @@ file formats (all .npz, read without pickle; extra keys are ignored):
   pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
                optional rest_length (): the robot's measured length in m (written by 'extract --robot-length')
   tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
+  input file   t (T,), u (T, p): actuator inputs held on [t_k, t_k+1)  (written by 'fuse --markers-csv' to
+               OUT/inputs/; actuated recordings qualify)
   strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
                base_pose (3,), base_poses (T, 3), marker_arc_lengths (N+1,)  (written by 'fuse')
   model files  JSON + .npz sibling written by pcs_sindy.io.model_files (no pickle)
@@ -540,9 +542,11 @@ def read_training_files(
             )
         dt = float(np.median(np.diff(st.t))) if st.n_frames > 1 else 1.0
         if np.max(np.abs((t - t[0]) - (st.t - st.t[0]))) > 0.5 * dt:
+            dt_tau = float(np.median(np.diff(t))) if t.size > 1 else dt
             raise DataFileError(
                 f"time stamps of tau file {str(tfile)!r} and strain file {str(sfile)!r} differ by more than half a "
-                "sample"
+                f"sample: the strains are sampled at {1.0 / dt:.6g} Hz, the {key} at {1.0 / dt_tau:.6g} Hz "
+                "(check the frame rate given to extract, --fps, against the rate of the inputs)"
             )
         taus.append(tau)
     return strains, taus
