@@ -45,11 +45,19 @@ from numba import njit
 
 from ._kernels import ACT_IDENTITY, ACT_TENDON
 
-GEO_SIZE = 14
+GEO_SIZE = 16
 
 _SWITCH = 3.0  # u below which the scalar functions use their Taylor series in u² (24 terms)
 _SWITCH_AB = 0.5
 _N_TERMS = 24
+# terms of the u² series that leave every omitted tail below 2e-18 of the value (measured over the seven
+# rows at the bracket's upper end): (u bound, terms)
+_TERMS_BY_U = np.array([[0.25, 7], [0.5, 8], [1.0, 10], [2.0, 13], [_SWITCH, 15]])
+
+# Gauss-Legendre nodes a segment needs at |ω_i| L_i up to the bound: with them M, G and C q̇ agree with a
+# 48-node quadrature to <= 2e-14 relative (measured at random strain directions, shears up to 0.3,
+# velocities ~3); above the last bound the robot's n_quadrature.  16 nodes reach ~3e-14 at 8 rad.
+QUADRATURE_TIERS = ((0.15, 5), (0.5, 6), (1.0, 7), (2.0, 8), (3.0, 10), (6.0, 12), (8.0, 14))
 
 
 def _series_tables() -> np.ndarray:
@@ -79,26 +87,35 @@ V_OF_Q = np.array([0, 2, 1])  # q3 -> v_x, q4 -> v_z, q5 -> v_y
 # scalars and 3-vectors (tuples: no allocation)
 # --------------------------------------------------------------------------
 @njit(cache=True)
-def _horner(row, x):
-    out = SERIES[row, _N_TERMS - 1]
-    for k in range(_N_TERMS - 2, -1, -1):
+def _horner(row, x, terms):
+    out = SERIES[row, terms - 1]
+    for k in range(terms - 2, -1, -1):
         out = out * x + SERIES[row, k]
     return out
+
+
+@njit(cache=True)
+def _series_terms(u):
+    for row in range(_TERMS_BY_U.shape[0]):
+        if u < _TERMS_BY_U[row, 0]:
+            return int(_TERMS_BY_U[row, 1])
+    return _N_TERMS
 
 
 @njit(cache=True)
 def coefficients(u):
     """``(a, b, c, b1, c1, b2, c2)`` of ``u >= 0`` (module docstring)."""
     x = u * u
+    nt = _series_terms(u)
     if u < _SWITCH_AB:
-        a = _horner(0, x)
-        b = _horner(1, x)
+        a = _horner(0, x, nt)
+        b = _horner(1, x, nt)
     else:
         a = np.sin(u) / u
         h = np.sin(0.5 * u) / u
         b = 2.0 * h * h
     if u < _SWITCH:
-        return a, b, _horner(2, x), _horner(3, x), _horner(4, x), _horner(5, x), _horner(6, x)
+        return a, b, _horner(2, x, nt), _horner(3, x, nt), _horner(4, x, nt), _horner(5, x, nt), _horner(6, x, nt)
     sn, cs = np.sin(u), np.cos(u)
     sh = np.sin(0.5 * u)
     u2 = x
@@ -198,7 +215,7 @@ def workspace(geo):
     """Scratch arrays of one state (layout in :func:`geometry`)."""
     L, ell = geo[0], geo[1]
     m = L.shape[0]
-    K = ell.shape[1] - 1
+    K = ell.shape[2] - 1  # n_quadrature, the most nodes a segment uses
     n = 6 * m
     co = np.empty((m, K + 1, 7))
     wv = np.empty((m, K + 1, 9))  # W, V, r (local position) per node and segment end
@@ -210,89 +227,137 @@ def workspace(geo):
     chol = np.empty((n, n))
     vec = np.empty((5, n))  # static forces (G + K q), Coriolis, right-hand side, solution, actuation A(q) u
     ends = np.empty((m, 3, 13))  # per segment end: [∂p/∂q_i (6) | ∂θ/∂q_i (6) | p_end] in the base frame
-    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends
+    tier = np.zeros(m, dtype=np.int64)  # quadrature tier of each segment (node i K + k is node k of segment i)
+    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends, tier
 
 
 @njit(cache=True)
-def geometry(q, geo, ws):
-    """Local terms, node rotations and the Jacobians ``J_p`` (base) and ``J_w`` (body) at the nodes."""
-    L, ell, base_p, base_R = geo[0], geo[1], geo[7], geo[8]
-    co_a, wv, R0a, Rn, jp, jw, ends = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[9]
+def _select_tiers(q, geo, tier, full):
+    """Quadrature tier of each segment: the first whose bound covers ``|ω_i| L_i`` (the last if ``full``)."""
+    L, bounds = geo[0], geo[15]
+    last = bounds.shape[0] - 1
+    for i in range(L.shape[0]):
+        t = last
+        if not full:
+            b = 6 * i
+            u = np.sqrt(q[b] * q[b] + q[b + 1] * q[b + 1] + q[b + 2] * q[b + 2]) * L[i]
+            for tt in range(last):
+                if u <= bounds[tt]:
+                    t = tt
+                    break
+        tier[i] = t
+
+
+@njit(cache=True)
+def geometry(q, geo, ws, full):
+    """Local terms, node rotations and the Jacobians ``J_p`` (base) and ``J_w`` (body) at the nodes.
+
+    Each segment uses the nodes of its quadrature tier (``full``: every segment the n_quadrature nodes).
+    """
+    L, ell, base_p, base_R, tier_K = geo[0], geo[1], geo[7], geo[8], geo[14]
+    co_a, wv, R0a, Rn, jp, jw, ends, tier = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[9], ws[10]
     m = L.shape[0]
-    K = ell.shape[1] - 1
+    Kmax = ell.shape[2] - 1
+    _select_tiers(q, geo, tier, full)
     p0 = (base_p[0], base_p[1], base_p[2])
     R0 = base_R.copy()
     R = np.empty((3, 3))
     Rl = np.empty((3, 3))
+    Jl = np.empty((3, 3))
+    D = np.empty((3, 3))
+    RJ = np.empty((3, 3))
+    RD = np.empty((3, 3))
     for i in range(m):
         R0a[i] = R0
         om, v = _twist(q, i)
+        t = tier[i]
+        K = tier_K[t]
         for k in range(K + 1):
-            s = ell[i, k]
+            s = ell[t, i, k]
             W = (s * om[0], s * om[1], s * om[2])
             V = (s * v[0], s * v[1], s * v[2])
-            co = coefficients(np.sqrt(_dot(W, W)))
+            w2 = _dot(W, W)
+            co = coefficients(np.sqrt(w2))
             for j in range(7):
                 co_a[i, k, j] = co[j]
-            r = _jl(W, V, co)
+            a, b, c = co[0], co[1], co[2]
+            WV = _cross(W, V)
+            WWV = _cross(W, WV)
+            r = _axpy(c, WWV, _axpy(b, WV, V))  # J(W) V
             wv[i, k, 0], wv[i, k, 1], wv[i, k, 2] = W
             wv[i, k, 3], wv[i, k, 4], wv[i, k, 5] = V
             wv[i, k, 6], wv[i, k, 7], wv[i, k, 8] = r
-            # R_loc = I + a Ŵ + b Ŵ² (Ŵ² = W Wᵀ − |W|² I)
-            a, b = co[0], co[1]
-            w2 = _dot(W, W)
-            Rl[0, 0] = 1.0 + b * (W[0] * W[0] - w2)
-            Rl[1, 1] = 1.0 + b * (W[1] * W[1] - w2)
-            Rl[2, 2] = 1.0 + b * (W[2] * W[2] - w2)
-            Rl[0, 1] = -a * W[2] + b * W[0] * W[1]
-            Rl[1, 0] = a * W[2] + b * W[0] * W[1]
-            Rl[0, 2] = a * W[1] + b * W[0] * W[2]
-            Rl[2, 0] = -a * W[1] + b * W[0] * W[2]
-            Rl[1, 2] = -a * W[0] + b * W[1] * W[2]
-            Rl[2, 1] = a * W[0] + b * W[1] * W[2]
+            # R_loc = I + a Ŵ + b Ŵ², J = I + b Ŵ + c Ŵ² (Ŵ² = W Wᵀ − |W|² I)
+            for x in range(3):
+                for y in range(3):
+                    ww = W[x] * W[y]
+                    Rl[x, y] = b * ww
+                    Jl[x, y] = c * ww
+                Rl[x, x] += 1.0 - b * w2
+                Jl[x, x] += 1.0 - c * w2
+            Rl[0, 1] -= a * W[2]
+            Rl[1, 0] += a * W[2]
+            Rl[0, 2] += a * W[1]
+            Rl[2, 0] -= a * W[1]
+            Rl[1, 2] -= a * W[0]
+            Rl[2, 1] += a * W[0]
+            Jl[0, 1] -= b * W[2]
+            Jl[1, 0] += b * W[2]
+            Jl[0, 2] += b * W[1]
+            Jl[2, 0] -= b * W[1]
+            Jl[1, 2] -= b * W[0]
+            Jl[2, 1] += b * W[0]
+            # D = ∂(J(W) V)/∂W = (b1 W×V + c1 W×(W×V) − c V) Wᵀ − [b V + c W×V]ₓ + c (W·V) I
+            P = _axpy(-c, V, _axpy(co[4], WWV, _axpy(co[3], WV, (0.0, 0.0, 0.0))))
+            Y = _axpy(c, WV, (b * V[0], b * V[1], b * V[2]))
+            cwv = c * _dot(W, V)
+            for x in range(3):
+                for y in range(3):
+                    D[x, y] = P[x] * W[y]
+                D[x, x] += cwv
+            D[0, 1] += Y[2]
+            D[1, 0] -= Y[2]
+            D[0, 2] -= Y[1]
+            D[2, 0] += Y[1]
+            D[1, 2] += Y[0]
+            D[2, 1] -= Y[0]
             for x in range(3):
                 for y in range(3):
                     R[x, y] = R0[x, 0] * Rl[0, y] + R0[x, 1] * Rl[1, y] + R0[x, 2] * Rl[2, y]
+                    RJ[x, y] = s * (R0[x, 0] * Jl[0, y] + R0[x, 1] * Jl[1, y] + R0[x, 2] * Jl[2, y])
+                    RD[x, y] = s * (R0[x, 0] * D[0, y] + R0[x, 1] * D[1, y] + R0[x, 2] * D[2, y])
             p = _add(p0, _mv(R0, r))
-            node = k < K
-            pn = i * K + k
-            if node:
+            if k < K:
+                pn = i * Kmax + k
                 Rn[pn] = R
-            # own columns: derivatives of the local pose along each strain, rotated to the base frame
-            for c in range(6):
-                e = (0.0, 0.0, 0.0)
-                if c < 3:
-                    j = OMEGA_OF_Q[c]
-                    Wd = (s if j == 0 else 0.0, s if j == 1 else 0.0, s if j == 2 else 0.0)
-                    dr = _djl(W, Wd, V, co)
-                    dth = _mv(R0, _jl(W, Wd, co))
-                else:
-                    j = V_OF_Q[c - 3]
-                    Vd = (s if j == 0 else 0.0, s if j == 1 else 0.0, s if j == 2 else 0.0)
-                    dr = _jl(W, Vd, co)
-                    dth = e
-                dp = _mv(R0, dr)
-                if node:
-                    wb = _mtv(R, dth)
+                # own columns: ∂p/∂ω_j = s R0 D e_j, ∂p/∂v_j = s R0 J e_j; body ∂θ/∂ω_j = s Jᵀ e_j (= Rlᵀ J),
+                # ∂θ/∂v_j = 0 (left at zero by the workspace)
+                for cq in range(3):
+                    jo = OMEGA_OF_Q[cq]
+                    jv = V_OF_Q[cq]
                     for x in range(3):
-                        jp[pn, x, 6 * i + c] = dp[x]
-                        jw[pn, x, 6 * i + c] = wb[x]
-                else:
-                    for x in range(3):
-                        ends[i, x, c] = dp[x]
-                        ends[i, x, 6 + c] = dth[x]
-            if node:
+                        jp[pn, x, 6 * i + cq] = RD[x, jo]
+                        jw[pn, x, 6 * i + cq] = s * Jl[jo, x]
+                        jp[pn, x, 6 * i + 3 + cq] = RJ[x, jv]
                 # earlier segments: their end's variation, carried rigidly to the node
                 for jseg in range(i):
                     lever = (p[0] - ends[jseg, 0, 12], p[1] - ends[jseg, 1, 12], p[2] - ends[jseg, 2, 12])
-                    for c in range(6):
-                        dth = (ends[jseg, 0, 6 + c], ends[jseg, 1, 6 + c], ends[jseg, 2, 6 + c])
+                    for cq in range(6):
+                        dth = (ends[jseg, 0, 6 + cq], ends[jseg, 1, 6 + cq], ends[jseg, 2, 6 + cq])
                         sw = _cross(dth, lever)
                         wb = _mtv(R, dth)
                         for x in range(3):
-                            jp[pn, x, 6 * jseg + c] = ends[jseg, x, c] + sw[x]
-                            jw[pn, x, 6 * jseg + c] = wb[x]
+                            jp[pn, x, 6 * jseg + cq] = ends[jseg, x, cq] + sw[x]
+                            jw[pn, x, 6 * jseg + cq] = wb[x]
             else:
+                for cq in range(3):
+                    jo = OMEGA_OF_Q[cq]
+                    jv = V_OF_Q[cq]
+                    for x in range(3):
+                        ends[i, x, cq] = RD[x, jo]
+                        ends[i, x, 6 + cq] = RJ[x, jo]
+                        ends[i, x, 3 + cq] = RJ[x, jv]
+                        ends[i, x, 9 + cq] = 0.0
                 for x in range(3):
                     ends[i, x, 12] = p[x]
                 p0 = p
@@ -302,28 +367,32 @@ def geometry(q, geo, ws):
 @njit(cache=True)
 def mass(geo, ws, M):
     """``M = Σ w (ρA J_pᵀ J_p + J_wᵀ I_b J_w)`` from the Jacobians in ``ws``."""
-    ell, w_lin, w_rot = geo[1], geo[2], geo[3]
-    jp, jw = ws[4], ws[5]
-    K = ell.shape[1] - 1
+    ell, w_lin, w_rot, tier_K = geo[1], geo[2], geo[3], geo[14]
+    jp, jw, tier = ws[4], ws[5], ws[10]
+    Kmax = ell.shape[2] - 1
     n = M.shape[0]
     for a in range(n):
         for b in range(a, n):
             M[a, b] = 0.0
-    for pn in range(w_lin.shape[0]):
-        wl = w_lin[pn]
-        ncol = 6 * (pn // K + 1)  # later segments do not move this node
-        for a in range(ncol):
-            pa = (wl * jp[pn, 0, a], wl * jp[pn, 1, a], wl * jp[pn, 2, a])
-            ra = (w_rot[pn, 0] * jw[pn, 0, a], w_rot[pn, 1] * jw[pn, 1, a], w_rot[pn, 2] * jw[pn, 2, a])
-            for b in range(a, ncol):
-                M[a, b] += (
-                    pa[0] * jp[pn, 0, b]
-                    + pa[1] * jp[pn, 1, b]
-                    + pa[2] * jp[pn, 2, b]
-                    + ra[0] * jw[pn, 0, b]
-                    + ra[1] * jw[pn, 1, b]
-                    + ra[2] * jw[pn, 2, b]
-                )
+    for i in range(tier.shape[0]):
+        t = tier[i]
+        ncol = 6 * (i + 1)  # later segments do not move these nodes
+        for k in range(tier_K[t]):
+            pn = i * Kmax + k
+            wl = w_lin[t, i, k]
+            w0, w1, w2 = w_rot[t, i, k, 0], w_rot[t, i, k, 1], w_rot[t, i, k, 2]
+            for a in range(ncol):
+                pa = (wl * jp[pn, 0, a], wl * jp[pn, 1, a], wl * jp[pn, 2, a])
+                ra = (w0 * jw[pn, 0, a], w1 * jw[pn, 1, a], w2 * jw[pn, 2, a])
+                for b in range(a, ncol):
+                    M[a, b] += (
+                        pa[0] * jp[pn, 0, b]
+                        + pa[1] * jp[pn, 1, b]
+                        + pa[2] * jp[pn, 2, b]
+                        + ra[0] * jw[pn, 0, b]
+                        + ra[1] * jw[pn, 1, b]
+                        + ra[2] * jw[pn, 2, b]
+                    )
     for a in range(n):
         for b in range(a + 1, n):
             M[b, a] = M[a, b]
@@ -332,24 +401,27 @@ def mass(geo, ws, M):
 @njit(cache=True)
 def gravity_forces(geo, ws, out):
     """``G = −Σ w ρA J_pᵀ g`` into ``out``."""
-    ell, w_lin, g = geo[1], geo[2], geo[6]
-    jp = ws[4]
-    K = ell.shape[1] - 1
+    ell, w_lin, g, tier_K = geo[1], geo[2], geo[6], geo[14]
+    jp, tier = ws[4], ws[10]
+    Kmax = ell.shape[2] - 1
     for a in range(out.shape[0]):
         out[a] = 0.0
-    for pn in range(w_lin.shape[0]):
-        wl = w_lin[pn]
-        for a in range(6 * (pn // K + 1)):
-            out[a] -= wl * (jp[pn, 0, a] * g[0] + jp[pn, 1, a] * g[1] + jp[pn, 2, a] * g[2])
+    for i in range(tier.shape[0]):
+        t = tier[i]
+        for k in range(tier_K[t]):
+            pn = i * Kmax + k
+            wl = w_lin[t, i, k]
+            for a in range(6 * (i + 1)):
+                out[a] -= wl * (jp[pn, 0, a] * g[0] + jp[pn, 1, a] * g[1] + jp[pn, 2, a] * g[2])
 
 
 @njit(cache=True)
 def coriolis(qd, geo, ws, out):
     """``C(q, q̇) q̇`` into ``out`` from the geometry of q in ``ws``."""
-    L, ell, w_lin, w_rot = geo[0], geo[1], geo[2], geo[3]
-    co_a, wv, R0a, Rn, jp, jw = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
+    L, ell, w_lin, w_rot, tier_K = geo[0], geo[1], geo[2], geo[3], geo[14]
+    co_a, wv, R0a, Rn, jp, jw, tier = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[10]
     m = L.shape[0]
-    K = ell.shape[1] - 1
+    Kmax = ell.shape[2] - 1
     for a in range(out.shape[0]):
         out[a] = 0.0
     zero = (0.0, 0.0, 0.0)
@@ -359,8 +431,10 @@ def coriolis(qd, geo, ws, out):
         omd, vd = _twist(qd, i)
         vd = (vd[0], vd[1] - 1.0, vd[2])
         Om_e, al_e, pdd_e = zero, zero, zero
+        t = tier[i]
+        K = tier_K[t]
         for k in range(K + 1):
-            s = ell[i, k]
+            s = ell[t, i, k]
             c_ik = co_a[i, k]
             co = (c_ik[0], c_ik[1], c_ik[2], c_ik[3], c_ik[4], c_ik[5], c_ik[6])
             W = (wv[i, k, 0], wv[i, k, 1], wv[i, k, 2])
@@ -377,14 +451,16 @@ def coriolis(qd, geo, ws, out):
             pdd = _add(_add(pdd0, _cross(al0, rb)), _add(_cross(Om0, Om0_rb), _axpy(2.0, _cross(Om0, rdb), rddb)))
             al = _add(_add(al0, _cross(Om0, Om_loc)), _mv(R0, _djl(W, Wd, Wd, co)))
             if k < K:
-                pn = i * K + k
+                pn = i * Kmax + k
                 R = Rn[pn]
                 wb = _mtv(R, Om)
                 ab = _mtv(R, al)
-                Iw = (w_rot[pn, 0] * wb[0], w_rot[pn, 1] * wb[1], w_rot[pn, 2] * wb[2])
+                wr = (w_rot[t, i, k, 0], w_rot[t, i, k, 1], w_rot[t, i, k, 2])
+                Iw = (wr[0] * wb[0], wr[1] * wb[1], wr[2] * wb[2])
                 gyro = _cross(wb, Iw)
-                rot = (w_rot[pn, 0] * ab[0] + gyro[0], w_rot[pn, 1] * ab[1] + gyro[1], w_rot[pn, 2] * ab[2] + gyro[2])
-                lin = (w_lin[pn] * pdd[0], w_lin[pn] * pdd[1], w_lin[pn] * pdd[2])
+                rot = (wr[0] * ab[0] + gyro[0], wr[1] * ab[1] + gyro[1], wr[2] * ab[2] + gyro[2])
+                wl = w_lin[t, i, k]
+                lin = (wl * pdd[0], wl * pdd[1], wl * pdd[2])
                 for a in range(6 * (i + 1)):
                     out[a] += (
                         jp[pn, 0, a] * lin[0]
@@ -532,7 +608,7 @@ def rhs_ws(y, u, geo, ws, out):
     n = y.shape[0] // 2
     q = y[:n]
     qd = y[n:]
-    geometry(q, geo, ws)
+    geometry(q, geo, ws, False)
     M, chol, vec = ws[6], ws[7], ws[8]
     mass(geo, ws, M)
     gravity_forces(geo, ws, vec[0])
@@ -589,7 +665,7 @@ def terms_batch(Q, QD, geo, need_coriolis):
     C = np.zeros((B, n))
     ws = workspace(geo)
     for b in range(B):
-        geometry(Q[b], geo, ws)
+        geometry(Q[b], geo, ws, False)
         mass(geo, ws, M[b])
         gravity_forces(geo, ws, G[b])
         if need_coriolis:
@@ -606,7 +682,7 @@ def jacobian_batch(Q, geo):
     jp = np.empty((B, P, 3, n))
     jw = np.empty((B, P, 3, n))
     for b in range(B):
-        geometry(Q[b], geo, ws)
+        geometry(Q[b], geo, ws, True)
         jp[b] = ws[4]
         jw[b] = ws[5]
     return jp, jw

@@ -268,6 +268,21 @@ class SpatialPCSRobot:
         self._w_lin = (weights * (self.density * self.area)[:, None]).reshape(-1)
         inertia = (self.density * self.second_moment)[:, None] * np.array([1.0, 2.0, 1.0])[None, :]  # (m, 3)
         self._w_rot = (weights[:, :, None] * inertia[:, None, :]).reshape(-1, 3)
+        # the compiled kernels' quadrature tiers: fewer nodes where a segment bends little, as accurate
+        tiers = [(bound, k) for bound, k in _spatial_kernels.QUADRATURE_TIERS if k < K] + [(np.inf, K)]
+        m = L.size
+        self._tier_nodes = np.array([k for _, k in tiers], dtype=np.int64)
+        self._tier_bounds = np.array([bound for bound, _ in tiers])
+        self._tier_ell = np.zeros((len(tiers), m, K + 1))
+        self._tier_w_lin = np.zeros((len(tiers), m, K))
+        self._tier_w_rot = np.zeros((len(tiers), m, K, 3))
+        for t, (_, k) in enumerate(tiers):
+            xk, wk = np.polynomial.legendre.leggauss(k)
+            wk = 0.5 * wk[None, :] * L[:, None]
+            self._tier_ell[t, :, :k] = 0.5 * (xk + 1.0)[None, :] * L[:, None]
+            self._tier_ell[t, :, k] = L
+            self._tier_w_lin[t, :, :k] = wk * (self.density * self.area)[:, None]
+            self._tier_w_rot[t, :, :k] = wk[:, :, None] * inertia[:, None, :]
 
     def _jit_geometry(self) -> tuple:
         """Robot structure for :mod:`._spatial_kernels` (layout in its docstring); rebuilt at every call
@@ -275,9 +290,9 @@ class SpatialPCSRobot:
         kind, offset, span, matrix = self._act
         return (
             np.ascontiguousarray(self.segment_lengths, dtype=float),
-            np.ascontiguousarray(self._ell),
-            np.ascontiguousarray(self._w_lin),
-            np.ascontiguousarray(self._w_rot),
+            self._tier_ell,
+            self._tier_w_lin,
+            self._tier_w_rot,
             np.ascontiguousarray(self.stiffness, dtype=float),
             np.ascontiguousarray(self.damping, dtype=float),
             np.ascontiguousarray(self.gravity, dtype=float),
@@ -288,6 +303,8 @@ class SpatialPCSRobot:
             np.ascontiguousarray(span, dtype=float),
             np.ascontiguousarray(matrix, dtype=float),
             int(self.n_segments),
+            self._tier_nodes,
+            self._tier_bounds,
         )
 
     def _trajectory(self, q: NDArray, t: NDArray, qd: NDArray, metadata: dict) -> SpatialStrainTrajectory:
