@@ -78,6 +78,10 @@ def _series_tables() -> np.ndarray:
 
 SERIES = _series_tables()
 
+# floating-point liberties of the kernels' sums and products (reassociation, fused multiply-adds), never
+# of NaN or inf: the checks on non-finite states stay.  Not for the series and closed forms of the scalars.
+_FAST = {"contract", "reassoc", "nsz"}
+
 # q index of ω_x, ω_y, ω_z and of v_x, v_y, v_z; and the inverse maps
 OMEGA_OF_Q = np.array([2, 0, 1])  # q0 -> ω_z, q1 -> ω_x, q2 -> ω_y
 V_OF_Q = np.array([0, 2, 1])  # q3 -> v_x, q4 -> v_z, q5 -> v_y
@@ -128,28 +132,28 @@ def coefficients(u):
     return a, b, c, b1, c1, b2, c2
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _axpy(alpha, x, y):
     """``alpha x + y``."""
     return (alpha * x[0] + y[0], alpha * x[1] + y[1], alpha * x[2] + y[2])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _mv(R, x):
     """``R x`` for a (3, 3) array."""
     return (
@@ -159,7 +163,7 @@ def _mv(R, x):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _mtv(R, x):
     """``Rᵀ x``."""
     return (
@@ -169,14 +173,14 @@ def _mtv(R, x):
     )
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _jl(W, X, co):
     """``J(W) X``."""
     WX = _cross(W, X)
     return _axpy(co[2], _cross(W, WX), _axpy(co[1], WX, X))
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _djl(W, Wd, X, co):
     """``(∂J/∂W · Ẇ) X``."""
     wwd = _dot(W, Wd)
@@ -187,7 +191,7 @@ def _djl(W, Wd, X, co):
     return _axpy(co[2], _add(_cross(Wd, WX), _cross(W, WdX)), out)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _ddjl(W, Wd, X, co):
     """Second derivative of ``J(W) X`` along ``Ẇ`` twice (``Ẅ = 0``)."""
     wwd = _dot(W, Wd)
@@ -200,7 +204,7 @@ def _ddjl(W, Wd, X, co):
     return _axpy(2.0 * co[2], _cross(Wd, WdX), out)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _twist(q, i):
     """``ω``, ``v`` of segment i (v with the rest axial strain 1)."""
     b = 6 * i
@@ -210,7 +214,7 @@ def _twist(q, i):
 # --------------------------------------------------------------------------
 # one state: geometry, mass, static forces, Coriolis
 # --------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def workspace(geo):
     """Scratch arrays of one state (layout in :func:`geometry`)."""
     L, ell = geo[0], geo[1]
@@ -228,10 +232,16 @@ def workspace(geo):
     vec = np.empty((5, n))  # static forces (G + K q), Coriolis, right-hand side, solution, actuation A(q) u
     ends = np.empty((m, 3, 13))  # per segment end: [∂p/∂q_i (6) | ∂θ/∂q_i (6) | p_end] in the base frame
     tier = np.zeros(m, dtype=np.int64)  # quadrature tier of each segment (node i K + k is node k of segment i)
-    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends, tier
+    pos = np.empty((m * K, 3))  # node positions (base frame)
+    twist = np.empty((m, 6, 6))  # per segment end and own strain: its variation as a twist (v, θ) at the origin
+    # per segment's nodes, about the origin: Σ w ρA, Σ w ρA p, Σ w ρA (|p|² I − p pᵀ) + R I_b Rᵀ
+    comp = np.empty((m, 13))
+    wrench = np.empty((m, 6, 6))  # per segment and own strain b: Σ w ρA J_p,b and its moment about the origin
+    inertial = np.empty((m + 1, 6))  # per segment: net inertial force and moment (origin) of its nodes; a sum
+    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends, tier, pos, twist, comp, wrench, inertial
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _select_tiers(q, geo, tier, full):
     """Quadrature tier of each segment: the first whose bound covers ``|ω_i| L_i`` (the last if ``full``)."""
     L, bounds = geo[0], geo[15]
@@ -248,14 +258,15 @@ def _select_tiers(q, geo, tier, full):
         tier[i] = t
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def geometry(q, geo, ws, full):
     """Local terms, node rotations and the Jacobians ``J_p`` (base) and ``J_w`` (body) at the nodes.
 
     Each segment uses the nodes of its quadrature tier (``full``: every segment the n_quadrature nodes).
     """
     L, ell, base_p, base_R, tier_K = geo[0], geo[1], geo[7], geo[8], geo[14]
-    co_a, wv, R0a, Rn, jp, jw, ends, tier = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[9], ws[10]
+    co_a, wv, R0a, Rn, jp, jw = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5]
+    ends, tier, pos, twist = ws[9], ws[10], ws[11], ws[12]
     m = L.shape[0]
     Kmax = ell.shape[2] - 1
     _select_tiers(q, geo, tier, full)
@@ -330,6 +341,7 @@ def geometry(q, geo, ws, full):
             if k < K:
                 pn = i * Kmax + k
                 Rn[pn] = R
+                pos[pn, 0], pos[pn, 1], pos[pn, 2] = p
                 # own columns: ∂p/∂ω_j = s R0 D e_j, ∂p/∂v_j = s R0 J e_j; body ∂θ/∂ω_j = s Jᵀ e_j (= Rlᵀ J),
                 # ∂θ/∂v_j = 0 (left at zero by the workspace)
                 for cq in range(3):
@@ -339,8 +351,9 @@ def geometry(q, geo, ws, full):
                         jp[pn, x, 6 * i + cq] = RD[x, jo]
                         jw[pn, x, 6 * i + cq] = s * Jl[jo, x]
                         jp[pn, x, 6 * i + 3 + cq] = RJ[x, jv]
-                # earlier segments: their end's variation, carried rigidly to the node
-                for jseg in range(i):
+                # earlier segments: their end's variation, carried rigidly to the node (the dynamics terms use
+                # the segment ends' twists instead; only node_jacobians asks for these columns)
+                for jseg in range(i if full else 0):
                     lever = (p[0] - ends[jseg, 0, 12], p[1] - ends[jseg, 1, 12], p[2] - ends[jseg, 2, 12])
                     for cq in range(6):
                         dth = (ends[jseg, 0, 6 + cq], ends[jseg, 1, 6 + cq], ends[jseg, 2, 6 + cq])
@@ -360,70 +373,160 @@ def geometry(q, geo, ws, full):
                         ends[i, x, 9 + cq] = 0.0
                 for x in range(3):
                     ends[i, x, 12] = p[x]
+                for cq in range(6):
+                    th = (ends[i, 0, 6 + cq], ends[i, 1, 6 + cq], ends[i, 2, 6 + cq])
+                    lin = _cross(p, th)  # e − θ × p_end
+                    for x in range(3):
+                        twist[i, cq, x] = ends[i, x, cq] + lin[x]
+                        twist[i, cq, 3 + x] = th[x]
                 p0 = p
                 R0 = R.copy()
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
+def _dot6(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3] + a[4] * b[4] + a[5] * b[5]
+
+
+@njit(cache=True, fastmath=_FAST)
+def _twist_dot(S, tw_c, tw_b):
+    """``tw_cᵀ S tw_b`` for the composite inertia ``S`` (a row of ``comp``) of rigidly carried nodes."""
+    mass_, h = S[0], (S[1], S[2], S[3])
+    v_b, th_b = (tw_b[0], tw_b[1], tw_b[2]), (tw_b[3], tw_b[4], tw_b[5])
+    P = _axpy(mass_, v_b, _cross(th_b, h))
+    hv = _cross(h, v_b)
+    Lm = (
+        hv[0] + S[4] * th_b[0] + S[5] * th_b[1] + S[6] * th_b[2],
+        hv[1] + S[7] * th_b[0] + S[8] * th_b[1] + S[9] * th_b[2],
+        hv[2] + S[10] * th_b[0] + S[11] * th_b[1] + S[12] * th_b[2],
+    )
+    return tw_c[0] * P[0] + tw_c[1] * P[1] + tw_c[2] * P[2] + tw_c[3] * Lm[0] + tw_c[4] * Lm[1] + tw_c[5] * Lm[2]
+
+
+@njit(cache=True, fastmath=_FAST)
 def mass(geo, ws, M):
-    """``M = Σ w (ρA J_pᵀ J_p + J_wᵀ I_b J_w)`` from the Jacobians in ``ws``."""
+    """``M = Σ w (ρA J_pᵀ J_p + J_wᵀ I_b J_w)`` from the own Jacobian columns and segment-end twists in ``ws``.
+
+    A node of segment i moves with an earlier segment j's strains rigidly (``J_p = v + θ × p``,
+    ``J_w = Rᵀ θ`` for the end's twist ``(v, θ)`` at the origin), so those entries are projections of
+    segment i's own-column wrenches, and entries between two rigid columns use the composite inertia of
+    the later segments' nodes: the same sums as node by node, regrouped.
+    """
     ell, w_lin, w_rot, tier_K = geo[1], geo[2], geo[3], geo[14]
-    jp, jw, tier = ws[4], ws[5], ws[10]
+    jp, jw, tier, pos, Rn = ws[4], ws[5], ws[10], ws[11], ws[3]
+    twist, comp, wrench = ws[12], ws[13], ws[14]
     Kmax = ell.shape[2] - 1
+    m = tier.shape[0]
     n = M.shape[0]
     for a in range(n):
         for b in range(a, n):
             M[a, b] = 0.0
-    for i in range(tier.shape[0]):
+    for i in range(m):
         t = tier[i]
-        ncol = 6 * (i + 1)  # later segments do not move these nodes
+        o = 6 * i
+        for j in range(13):
+            comp[i, j] = 0.0
+        for b in range(6):
+            for x in range(6):
+                wrench[i, b, x] = 0.0
         for k in range(tier_K[t]):
             pn = i * Kmax + k
             wl = w_lin[t, i, k]
             w0, w1, w2 = w_rot[t, i, k, 0], w_rot[t, i, k, 1], w_rot[t, i, k, 2]
-            for a in range(ncol):
-                pa = (wl * jp[pn, 0, a], wl * jp[pn, 1, a], wl * jp[pn, 2, a])
-                ra = (w0 * jw[pn, 0, a], w1 * jw[pn, 1, a], w2 * jw[pn, 2, a])
-                for b in range(a, ncol):
-                    M[a, b] += (
-                        pa[0] * jp[pn, 0, b]
-                        + pa[1] * jp[pn, 1, b]
-                        + pa[2] * jp[pn, 2, b]
-                        + ra[0] * jw[pn, 0, b]
-                        + ra[1] * jw[pn, 1, b]
-                        + ra[2] * jw[pn, 2, b]
-                    )
+            p = (pos[pn, 0], pos[pn, 1], pos[pn, 2])
+            R = Rn[pn]
+            for a in range(6):
+                pa = (wl * jp[pn, 0, o + a], wl * jp[pn, 1, o + a], wl * jp[pn, 2, o + a])
+                ra = (w0 * jw[pn, 0, o + a], w1 * jw[pn, 1, o + a], w2 * jw[pn, 2, o + a])
+                for b in range(a, 6):
+                    v = pa[0] * jp[pn, 0, o + b] + pa[1] * jp[pn, 1, o + b] + pa[2] * jp[pn, 2, o + b]
+                    if b < 3:  # the own elongation and shear columns do not rotate the cross-section
+                        v += ra[0] * jw[pn, 0, o + b] + ra[1] * jw[pn, 1, o + b] + ra[2] * jw[pn, 2, o + b]
+                    M[o + a, o + b] += v
+                if i > 0:
+                    moment = _add(_cross(p, pa), _mv(R, ra))
+                    for x in range(3):
+                        wrench[i, a, x] += pa[x]
+                        wrench[i, a, 3 + x] += moment[x]
+            if i > 0:  # the composite of the first segment's nodes is never used
+                p2 = _dot(p, p)
+                comp[i, 0] += wl
+                for x in range(3):
+                    comp[i, 1 + x] += wl * p[x]
+                    for y in range(3):
+                        v = R[x, 0] * w0 * R[y, 0] + R[x, 1] * w1 * R[y, 1] + R[x, 2] * w2 * R[y, 2] - wl * p[x] * p[y]
+                        if x == y:
+                            v += wl * p2
+                        comp[i, 4 + 3 * x + y] += v
+        # earlier segments' columns against this segment's own: the wrench projected on their end twists
+        for j in range(i):
+            for c in range(6):
+                for b in range(6):
+                    M[6 * j + c, o + b] += _dot6(twist[j, c], wrench[i, b])
+    # two rigid columns: the composite inertia of the segments after the later one
+    S = np.zeros(13)
+    for i in range(m - 2, -1, -1):
+        for x in range(13):
+            S[x] += comp[i + 1, x]
+        for j in range(i + 1):
+            for c in range(6):
+                for b in range(c if j == i else 0, 6):
+                    M[6 * j + c, 6 * i + b] += _twist_dot(S, twist[j, c], twist[i, b])
     for a in range(n):
         for b in range(a + 1, n):
             M[b, a] = M[a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def gravity_forces(geo, ws, out):
-    """``G = −Σ w ρA J_pᵀ g`` into ``out``."""
+    """``G = −Σ w ρA J_pᵀ g`` into ``out`` (earlier segments' columns through their end twists)."""
     ell, w_lin, g, tier_K = geo[1], geo[2], geo[6], geo[14]
-    jp, tier = ws[4], ws[10]
+    jp, tier, pos, twist = ws[4], ws[10], ws[11], ws[12]
     Kmax = ell.shape[2] - 1
-    for a in range(out.shape[0]):
-        out[a] = 0.0
-    for i in range(tier.shape[0]):
+    m = tier.shape[0]
+    later_mass = 0.0
+    later_h = (0.0, 0.0, 0.0)  # Σ w ρA p over the nodes of the later segments
+    for i in range(m - 1, -1, -1):
+        # the later segments' weight, through this segment's end: −(m v·g + θ·(h × g))
+        hg = _cross(later_h, (g[0], g[1], g[2]))
+        for c in range(6):
+            tw = twist[i, c]
+            lin = later_mass * (tw[0] * g[0] + tw[1] * g[1] + tw[2] * g[2])
+            out[6 * i + c] = -(lin + tw[3] * hg[0] + tw[4] * hg[1] + tw[5] * hg[2])
         t = tier[i]
         for k in range(tier_K[t]):
             pn = i * Kmax + k
             wl = w_lin[t, i, k]
-            for a in range(6 * (i + 1)):
+            for c in range(6):
+                a = 6 * i + c
                 out[a] -= wl * (jp[pn, 0, a] * g[0] + jp[pn, 1, a] * g[1] + jp[pn, 2, a] * g[2])
+            later_mass += wl
+            later_h = _axpy(wl, (pos[pn, 0], pos[pn, 1], pos[pn, 2]), later_h)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def coriolis(qd, geo, ws, out):
     """``C(q, q̇) q̇`` into ``out`` from the geometry of q in ``ws``."""
     L, ell, w_lin, w_rot, tier_K = geo[0], geo[1], geo[2], geo[3], geo[14]
-    co_a, wv, R0a, Rn, jp, jw, tier = ws[0], ws[1], ws[2], ws[3], ws[4], ws[5], ws[10]
+    co_a, wv, R0a, Rn, jp, jw, tier, pos, twist, inertial = (
+        ws[0],
+        ws[1],
+        ws[2],
+        ws[3],
+        ws[4],
+        ws[5],
+        ws[10],
+        ws[11],
+        ws[12],
+        ws[15],
+    )
     m = L.shape[0]
     Kmax = ell.shape[2] - 1
     for a in range(out.shape[0]):
         out[a] = 0.0
+    net = inertial[m]  # net force and moment (origin) of the nodes of the later segments
+    for x in range(6):
+        net[x] = 0.0
     zero = (0.0, 0.0, 0.0)
     Om0, al0, pdd0 = zero, zero, zero
     for i in range(m):
@@ -433,6 +536,9 @@ def coriolis(qd, geo, ws, out):
         Om_e, al_e, pdd_e = zero, zero, zero
         t = tier[i]
         K = tier_K[t]
+        if i > 0:
+            for x in range(6):
+                inertial[i, x] = 0.0
         for k in range(K + 1):
             s = ell[t, i, k]
             c_ik = co_a[i, k]
@@ -461,7 +567,13 @@ def coriolis(qd, geo, ws, out):
                 rot = (wr[0] * ab[0] + gyro[0], wr[1] * ab[1] + gyro[1], wr[2] * ab[2] + gyro[2])
                 wl = w_lin[t, i, k]
                 lin = (wl * pdd[0], wl * pdd[1], wl * pdd[2])
-                for a in range(6 * (i + 1)):
+                if i > 0:
+                    p = (pos[pn, 0], pos[pn, 1], pos[pn, 2])
+                    moment = _add(_cross(p, lin), _mv(R, rot))
+                    for x in range(3):
+                        inertial[i, x] += lin[x]
+                        inertial[i, 3 + x] += moment[x]
+                for a in range(6 * i, 6 * (i + 1)):
                     out[a] += (
                         jp[pn, 0, a] * lin[0]
                         + jp[pn, 1, a] * lin[1]
@@ -473,12 +585,18 @@ def coriolis(qd, geo, ws, out):
             else:
                 Om_e, al_e, pdd_e = Om, al, pdd
         Om0, al0, pdd0 = Om_e, al_e, pdd_e
+    # earlier segments' columns: the net wrench of the later segments' nodes on their end twists
+    for i in range(m - 1, 0, -1):
+        for x in range(6):
+            net[x] += inertial[i, x]
+        for c in range(6):
+            out[6 * (i - 1) + c] += _dot6(twist[i - 1, c], net)
 
 
 # --------------------------------------------------------------------------
 # actuation τ = A(q) u
 # --------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def tendon_terms(q, offset, span, length, dlength):
     """Lengths ``ℓ_k(q)`` (p,) and gradients ``∂ℓ_k/∂q`` (p, n) of tendons, into the given arrays.
 
@@ -514,7 +632,7 @@ def tendon_terms(q, offset, span, length, dlength):
         length[k] = total
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def tendon_batch(Q, offset, span):
     """:func:`tendon_terms` for configurations (B, n): lengths (B, p) and gradients (B, p, n)."""
     B, n = Q.shape
@@ -526,7 +644,7 @@ def tendon_batch(Q, offset, span):
     return length, dlength
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def actuation_forces(q, u, geo, tau):
     """Generalised forces ``τ = A(q) u`` (n,) of the inputs ``u`` (p,), into ``tau``."""
     kind, offset, span, matrix = geo[9], geo[10], geo[11], geo[12]
@@ -555,7 +673,7 @@ def actuation_forces(q, u, geo, tau):
 # --------------------------------------------------------------------------
 # state derivative, its Jacobian, batches
 # --------------------------------------------------------------------------
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _cholesky(M, Lc):
     n = M.shape[0]
     for j in range(n):
@@ -574,7 +692,7 @@ def _cholesky(M, Lc):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _cholesky_solve(Lc, r, out):
     n = Lc.shape[0]
     for i in range(n):
@@ -589,7 +707,7 @@ def _cholesky_solve(Lc, r, out):
         out[i] = s / Lc[i, i]
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def _accel_given_geometry(qd, geo, ws, out):
     """``q̈`` at ``(q, qd)`` when ``ws`` holds the geometry, Cholesky factor, static and actuation forces of q."""
     damping = geo[5]
@@ -601,7 +719,7 @@ def _accel_given_geometry(qd, geo, ws, out):
     _cholesky_solve(chol, r, out)
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def rhs_ws(y, u, geo, ws, out):
     """State derivative ``[q̇, q̈]`` with scratch arrays; False (and NaN accelerations) if M is not definite."""
     stiffness = geo[4]
@@ -627,7 +745,7 @@ def rhs_ws(y, u, geo, ws, out):
     return True
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def accel_jacobian(y, f0, u, geo, ws, jac):
     """Forward differences ``jac = [∂q̈/∂q, ∂q̈/∂q̇]`` (n, 2n) at ``y`` with ``f0 = rhs(y)``.
 
@@ -656,7 +774,7 @@ def accel_jacobian(y, f0, u, geo, ws, jac):
             jac[r, n + c] = (qdd[r] - f0[n + r]) / delta
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def terms_batch(Q, QD, geo, need_coriolis):
     """Mass matrices (B, n, n), gravity forces (B, n) and (if asked) Coriolis forces (B, n) of states (B, n)."""
     B, n = Q.shape
@@ -673,7 +791,7 @@ def terms_batch(Q, QD, geo, need_coriolis):
     return M, G, C
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def jacobian_batch(Q, geo):
     """Node Jacobians ``J_p`` (B, m K, 3, n) (base frame) and ``J_w`` (B, m K, 3, n) (body frame)."""
     B, n = Q.shape
@@ -688,7 +806,7 @@ def jacobian_batch(Q, geo):
     return jp, jw
 
 
-@njit(cache=True)
+@njit(cache=True, fastmath=_FAST)
 def actuation_batch(Q, U, geo):
     """:func:`actuation_forces` for configurations (B, n) and inputs (B, p); τ (B, n)."""
     out = np.empty(Q.shape)
