@@ -91,11 +91,20 @@ V_OF_Q = np.array([0, 2, 1])  # q3 -> v_x, q4 -> v_z, q5 -> v_y
 # scalars and 3-vectors (tuples: no allocation)
 # --------------------------------------------------------------------------
 @njit(cache=True)
-def _horner(row, x, terms):
-    out = SERIES[row, terms - 1]
+def _horner7(x, terms):
+    """The seven series at ``x = u²``, each by Horner's rule, interleaved (seven independent chains)."""
+    k = terms - 1
+    s0, s1, s2, s3 = SERIES[0, k], SERIES[1, k], SERIES[2, k], SERIES[3, k]
+    s4, s5, s6 = SERIES[4, k], SERIES[5, k], SERIES[6, k]
     for k in range(terms - 2, -1, -1):
-        out = out * x + SERIES[row, k]
-    return out
+        s0 = s0 * x + SERIES[0, k]
+        s1 = s1 * x + SERIES[1, k]
+        s2 = s2 * x + SERIES[2, k]
+        s3 = s3 * x + SERIES[3, k]
+        s4 = s4 * x + SERIES[4, k]
+        s5 = s5 * x + SERIES[5, k]
+        s6 = s6 * x + SERIES[6, k]
+    return s0, s1, s2, s3, s4, s5, s6
 
 
 @njit(cache=True)
@@ -110,16 +119,16 @@ def _series_terms(u):
 def coefficients(u):
     """``(a, b, c, b1, c1, b2, c2)`` of ``u >= 0`` (module docstring)."""
     x = u * u
-    nt = _series_terms(u)
-    if u < _SWITCH_AB:
-        a = _horner(0, x, nt)
-        b = _horner(1, x, nt)
-    else:
-        a = np.sin(u) / u
-        h = np.sin(0.5 * u) / u
-        b = 2.0 * h * h
     if u < _SWITCH:
-        return a, b, _horner(2, x, nt), _horner(3, x, nt), _horner(4, x, nt), _horner(5, x, nt), _horner(6, x, nt)
+        a, b, c, b1, c1, b2, c2 = _horner7(x, _series_terms(u))
+        if u >= _SWITCH_AB:
+            a = np.sin(u) / u
+            h = np.sin(0.5 * u) / u
+            b = 2.0 * h * h
+        return a, b, c, b1, c1, b2, c2
+    a = np.sin(u) / u
+    h = np.sin(0.5 * u) / u
+    b = 2.0 * h * h
     sn, cs = np.sin(u), np.cos(u)
     sh = np.sin(0.5 * u)
     u2 = x
@@ -171,6 +180,38 @@ def _mtv(R, x):
         R[0, 1] * x[0] + R[1, 1] * x[1] + R[2, 1] * x[2],
         R[0, 2] * x[0] + R[1, 2] * x[1] + R[2, 2] * x[2],
     )
+
+
+@njit(cache=True, fastmath=_FAST)
+def _mv_at(Rs, k, x):
+    """``Rs[k] x`` without taking a view (a view costs two atomic reference counts)."""
+    return (
+        Rs[k, 0, 0] * x[0] + Rs[k, 0, 1] * x[1] + Rs[k, 0, 2] * x[2],
+        Rs[k, 1, 0] * x[0] + Rs[k, 1, 1] * x[1] + Rs[k, 1, 2] * x[2],
+        Rs[k, 2, 0] * x[0] + Rs[k, 2, 1] * x[1] + Rs[k, 2, 2] * x[2],
+    )
+
+
+@njit(cache=True, fastmath=_FAST)
+def _mtv_at(Rs, k, x):
+    """``Rs[k]ᵀ x`` without taking a view."""
+    return (
+        Rs[k, 0, 0] * x[0] + Rs[k, 1, 0] * x[1] + Rs[k, 2, 0] * x[2],
+        Rs[k, 0, 1] * x[0] + Rs[k, 1, 1] * x[1] + Rs[k, 2, 1] * x[2],
+        Rs[k, 0, 2] * x[0] + Rs[k, 1, 2] * x[1] + Rs[k, 2, 2] * x[2],
+    )
+
+
+@njit(cache=True, fastmath=_FAST)
+def _row6(A, i, j):
+    """``A[i, j, :6]`` as a tuple (no view)."""
+    return (A[i, j, 0], A[i, j, 1], A[i, j, 2], A[i, j, 3], A[i, j, 4], A[i, j, 5])
+
+
+@njit(cache=True, fastmath=_FAST)
+def _net(A, m):
+    """``A[m, :6]`` of a 2-D array as a tuple (no view)."""
+    return (A[m, 0], A[m, 1], A[m, 2], A[m, 3], A[m, 4], A[m, 5])
 
 
 @njit(cache=True, fastmath=_FAST)
@@ -228,7 +269,7 @@ def workspace(geo):
     jp = np.zeros((m * K, 3, n))
     jw = np.zeros((m * K, 3, n))  # body frame
     M = np.empty((n, n))
-    chol = np.empty((n, n))
+    chol = np.empty((n, n))  # Cholesky factor of M: lower triangle, reciprocal diagonal
     vec = np.empty((5, n))  # static forces (G + K q), Coriolis, right-hand side, solution, actuation A(q) u
     ends = np.empty((m, 3, 13))  # per segment end: [∂p/∂q_i (6) | ∂θ/∂q_i (6) | p_end] in the base frame
     tier = np.zeros(m, dtype=np.int64)  # quadrature tier of each segment (node i K + k is node k of segment i)
@@ -238,10 +279,12 @@ def workspace(geo):
     comp = np.empty((m, 13))
     wrench = np.empty((m, 6, 6))  # per segment and own strain b: Σ w ρA J_p,b and its moment about the origin
     inertial = np.empty((m + 1, 6))  # per segment: net inertial force and moment (origin) of its nodes; a sum
-    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends, tier, pos, twist, comp, wrench, inertial
+    mats = np.empty((7, 3, 3))  # geometry's 3x3 scratch (allocation costs as much as the work it holds)
+    later = np.empty(13)  # mass: composite inertia of the later segments
+    return co, wv, R0, Rn, jp, jw, M, chol, vec, ends, tier, pos, twist, comp, wrench, inertial, mats, later
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def _select_tiers(q, geo, tier, full):
     """Quadrature tier of each segment: the first whose bound covers ``|ω_i| L_i`` (the last if ``full``)."""
     L, bounds = geo[0], geo[15]
@@ -258,7 +301,7 @@ def _select_tiers(q, geo, tier, full):
         tier[i] = t
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def geometry(q, geo, ws, full):
     """Local terms, node rotations and the Jacobians ``J_p`` (base) and ``J_w`` (body) at the nodes.
 
@@ -271,15 +314,13 @@ def geometry(q, geo, ws, full):
     Kmax = ell.shape[2] - 1
     _select_tiers(q, geo, tier, full)
     p0 = (base_p[0], base_p[1], base_p[2])
-    R0 = base_R.copy()
-    R = np.empty((3, 3))
-    Rl = np.empty((3, 3))
-    Jl = np.empty((3, 3))
-    D = np.empty((3, 3))
-    RJ = np.empty((3, 3))
-    RD = np.empty((3, 3))
+    mats = ws[16]
+    R0, R, Rl, Jl, D, RJ, RD = mats[0], mats[1], mats[2], mats[3], mats[4], mats[5], mats[6]
+    R0[:, :] = base_R
     for i in range(m):
-        R0a[i] = R0
+        for x in range(3):
+            for y in range(3):
+                R0a[i, x, y] = R0[x, y]
         om, v = _twist(q, i)
         t = tier[i]
         K = tier_K[t]
@@ -340,7 +381,9 @@ def geometry(q, geo, ws, full):
             p = _add(p0, _mv(R0, r))
             if k < K:
                 pn = i * Kmax + k
-                Rn[pn] = R
+                for x in range(3):
+                    for y in range(3):
+                        Rn[pn, x, y] = R[x, y]
                 pos[pn, 0], pos[pn, 1], pos[pn, 2] = p
                 # own columns: ∂p/∂ω_j = s R0 D e_j, ∂p/∂v_j = s R0 J e_j; body ∂θ/∂ω_j = s Jᵀ e_j (= Rlᵀ J),
                 # ∂θ/∂v_j = 0 (left at zero by the workspace)
@@ -380,7 +423,7 @@ def geometry(q, geo, ws, full):
                         twist[i, cq, x] = ends[i, x, cq] + lin[x]
                         twist[i, cq, 3 + x] = th[x]
                 p0 = p
-                R0 = R.copy()
+                R0[:, :] = R
 
 
 @njit(cache=True, fastmath=_FAST)
@@ -403,7 +446,7 @@ def _twist_dot(S, tw_c, tw_b):
     return tw_c[0] * P[0] + tw_c[1] * P[1] + tw_c[2] * P[2] + tw_c[3] * Lm[0] + tw_c[4] * Lm[1] + tw_c[5] * Lm[2]
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def mass(geo, ws, M):
     """``M = Σ w (ρA J_pᵀ J_p + J_wᵀ I_b J_w)`` from the own Jacobian columns and segment-end twists in ``ws``.
 
@@ -434,7 +477,6 @@ def mass(geo, ws, M):
             wl = w_lin[t, i, k]
             w0, w1, w2 = w_rot[t, i, k, 0], w_rot[t, i, k, 1], w_rot[t, i, k, 2]
             p = (pos[pn, 0], pos[pn, 1], pos[pn, 2])
-            R = Rn[pn]
             for a in range(6):
                 pa = (wl * jp[pn, 0, o + a], wl * jp[pn, 1, o + a], wl * jp[pn, 2, o + a])
                 ra = (w0 * jw[pn, 0, o + a], w1 * jw[pn, 1, o + a], w2 * jw[pn, 2, o + a])
@@ -444,7 +486,7 @@ def mass(geo, ws, M):
                         v += ra[0] * jw[pn, 0, o + b] + ra[1] * jw[pn, 1, o + b] + ra[2] * jw[pn, 2, o + b]
                     M[o + a, o + b] += v
                 if i > 0:
-                    moment = _add(_cross(p, pa), _mv(R, ra))
+                    moment = _add(_cross(p, pa), _mv_at(Rn, pn, ra))
                     for x in range(3):
                         wrench[i, a, x] += pa[x]
                         wrench[i, a, 3 + x] += moment[x]
@@ -454,7 +496,12 @@ def mass(geo, ws, M):
                 for x in range(3):
                     comp[i, 1 + x] += wl * p[x]
                     for y in range(3):
-                        v = R[x, 0] * w0 * R[y, 0] + R[x, 1] * w1 * R[y, 1] + R[x, 2] * w2 * R[y, 2] - wl * p[x] * p[y]
+                        v = (
+                            Rn[pn, x, 0] * w0 * Rn[pn, y, 0]
+                            + Rn[pn, x, 1] * w1 * Rn[pn, y, 1]
+                            + Rn[pn, x, 2] * w2 * Rn[pn, y, 2]
+                            - wl * p[x] * p[y]
+                        )
                         if x == y:
                             v += wl * p2
                         comp[i, 4 + 3 * x + y] += v
@@ -462,22 +509,23 @@ def mass(geo, ws, M):
         for j in range(i):
             for c in range(6):
                 for b in range(6):
-                    M[6 * j + c, o + b] += _dot6(twist[j, c], wrench[i, b])
+                    M[6 * j + c, o + b] += _dot6(_row6(twist, j, c), _row6(wrench, i, b))
     # two rigid columns: the composite inertia of the segments after the later one
-    S = np.zeros(13)
+    S = ws[17]
+    S[:] = 0.0
     for i in range(m - 2, -1, -1):
         for x in range(13):
             S[x] += comp[i + 1, x]
         for j in range(i + 1):
             for c in range(6):
                 for b in range(c if j == i else 0, 6):
-                    M[6 * j + c, 6 * i + b] += _twist_dot(S, twist[j, c], twist[i, b])
+                    M[6 * j + c, 6 * i + b] += _twist_dot(S, _row6(twist, j, c), _row6(twist, i, b))
     for a in range(n):
         for b in range(a + 1, n):
             M[b, a] = M[a, b]
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def gravity_forces(geo, ws, out):
     """``G = −Σ w ρA J_pᵀ g`` into ``out`` (earlier segments' columns through their end twists)."""
     ell, w_lin, g, tier_K = geo[1], geo[2], geo[6], geo[14]
@@ -490,7 +538,7 @@ def gravity_forces(geo, ws, out):
         # the later segments' weight, through this segment's end: −(m v·g + θ·(h × g))
         hg = _cross(later_h, (g[0], g[1], g[2]))
         for c in range(6):
-            tw = twist[i, c]
+            tw = _row6(twist, i, c)
             lin = later_mass * (tw[0] * g[0] + tw[1] * g[1] + tw[2] * g[2])
             out[6 * i + c] = -(lin + tw[3] * hg[0] + tw[4] * hg[1] + tw[5] * hg[2])
         t = tier[i]
@@ -504,7 +552,7 @@ def gravity_forces(geo, ws, out):
             later_h = _axpy(wl, (pos[pn, 0], pos[pn, 1], pos[pn, 2]), later_h)
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def coriolis(qd, geo, ws, out):
     """``C(q, q̇) q̇`` into ``out`` from the geometry of q in ``ws``."""
     L, ell, w_lin, w_rot, tier_K = geo[0], geo[1], geo[2], geo[3], geo[14]
@@ -524,13 +572,11 @@ def coriolis(qd, geo, ws, out):
     Kmax = ell.shape[2] - 1
     for a in range(out.shape[0]):
         out[a] = 0.0
-    net = inertial[m]  # net force and moment (origin) of the nodes of the later segments
     for x in range(6):
-        net[x] = 0.0
+        inertial[m, x] = 0.0  # net force and moment (origin) of the nodes of the later segments
     zero = (0.0, 0.0, 0.0)
     Om0, al0, pdd0 = zero, zero, zero
     for i in range(m):
-        R0 = R0a[i]
         omd, vd = _twist(qd, i)
         vd = (vd[0], vd[1] - 1.0, vd[2])
         Om_e, al_e, pdd_e = zero, zero, zero
@@ -541,26 +587,32 @@ def coriolis(qd, geo, ws, out):
                 inertial[i, x] = 0.0
         for k in range(K + 1):
             s = ell[t, i, k]
-            c_ik = co_a[i, k]
-            co = (c_ik[0], c_ik[1], c_ik[2], c_ik[3], c_ik[4], c_ik[5], c_ik[6])
+            co = (
+                co_a[i, k, 0],
+                co_a[i, k, 1],
+                co_a[i, k, 2],
+                co_a[i, k, 3],
+                co_a[i, k, 4],
+                co_a[i, k, 5],
+                co_a[i, k, 6],
+            )
             W = (wv[i, k, 0], wv[i, k, 1], wv[i, k, 2])
             V = (wv[i, k, 3], wv[i, k, 4], wv[i, k, 5])
             r = (wv[i, k, 6], wv[i, k, 7], wv[i, k, 8])
             Wd = (s * omd[0], s * omd[1], s * omd[2])
             Vd = (s * vd[0], s * vd[1], s * vd[2])
-            rb = _mv(R0, r)
-            rdb = _mv(R0, _add(_djl(W, Wd, V, co), _jl(W, Vd, co)))
-            Om_loc = _mv(R0, _jl(W, Wd, co))
-            rddb = _mv(R0, _axpy(2.0, _djl(W, Wd, Vd, co), _ddjl(W, Wd, V, co)))
+            rb = _mv_at(R0a, i, r)
+            rdb = _mv_at(R0a, i, _add(_djl(W, Wd, V, co), _jl(W, Vd, co)))
+            Om_loc = _mv_at(R0a, i, _jl(W, Wd, co))
+            rddb = _mv_at(R0a, i, _axpy(2.0, _djl(W, Wd, Vd, co), _ddjl(W, Wd, V, co)))
             Om = _add(Om0, Om_loc)
             Om0_rb = _cross(Om0, rb)
             pdd = _add(_add(pdd0, _cross(al0, rb)), _add(_cross(Om0, Om0_rb), _axpy(2.0, _cross(Om0, rdb), rddb)))
-            al = _add(_add(al0, _cross(Om0, Om_loc)), _mv(R0, _djl(W, Wd, Wd, co)))
+            al = _add(_add(al0, _cross(Om0, Om_loc)), _mv_at(R0a, i, _djl(W, Wd, Wd, co)))
             if k < K:
                 pn = i * Kmax + k
-                R = Rn[pn]
-                wb = _mtv(R, Om)
-                ab = _mtv(R, al)
+                wb = _mtv_at(Rn, pn, Om)
+                ab = _mtv_at(Rn, pn, al)
                 wr = (w_rot[t, i, k, 0], w_rot[t, i, k, 1], w_rot[t, i, k, 2])
                 Iw = (wr[0] * wb[0], wr[1] * wb[1], wr[2] * wb[2])
                 gyro = _cross(wb, Iw)
@@ -569,7 +621,7 @@ def coriolis(qd, geo, ws, out):
                 lin = (wl * pdd[0], wl * pdd[1], wl * pdd[2])
                 if i > 0:
                     p = (pos[pn, 0], pos[pn, 1], pos[pn, 2])
-                    moment = _add(_cross(p, lin), _mv(R, rot))
+                    moment = _add(_cross(p, lin), _mv_at(Rn, pn, rot))
                     for x in range(3):
                         inertial[i, x] += lin[x]
                         inertial[i, 3 + x] += moment[x]
@@ -588,9 +640,9 @@ def coriolis(qd, geo, ws, out):
     # earlier segments' columns: the net wrench of the later segments' nodes on their end twists
     for i in range(m - 1, 0, -1):
         for x in range(6):
-            net[x] += inertial[i, x]
+            inertial[m, x] += inertial[i, x]
         for c in range(6):
-            out[6 * (i - 1) + c] += _dot6(twist[i - 1, c], net)
+            out[6 * (i - 1) + c] += _dot6(_row6(twist, i - 1, c), _net(inertial, m))
 
 
 # --------------------------------------------------------------------------
@@ -644,7 +696,7 @@ def tendon_batch(Q, offset, span):
     return length, dlength
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def actuation_forces(q, u, geo, tau):
     """Generalised forces ``τ = A(q) u`` (n,) of the inputs ``u`` (p,), into ``tau``."""
     kind, offset, span, matrix = geo[9], geo[10], geo[11], geo[12]
@@ -673,8 +725,9 @@ def actuation_forces(q, u, geo, tau):
 # --------------------------------------------------------------------------
 # state derivative, its Jacobian, batches
 # --------------------------------------------------------------------------
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def _cholesky(M, Lc):
+    """Cholesky factor of M into the lower triangle of Lc, its diagonal as reciprocals; False if M is not definite."""
     n = M.shape[0]
     for j in range(n):
         d = M[j, j]
@@ -682,32 +735,32 @@ def _cholesky(M, Lc):
             d -= Lc[j, k] * Lc[j, k]
         if not d > 0.0:
             return False
-        d = np.sqrt(d)
-        Lc[j, j] = d
+        inv = 1.0 / np.sqrt(d)
+        Lc[j, j] = inv
         for i in range(j + 1, n):
             s = M[i, j]
             for k in range(j):
                 s -= Lc[i, k] * Lc[j, k]
-            Lc[i, j] = s / d
+            Lc[i, j] = s * inv
     return True
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def _cholesky_solve(Lc, r, out):
     n = Lc.shape[0]
     for i in range(n):
         s = r[i]
         for k in range(i):
             s -= Lc[i, k] * out[k]
-        out[i] = s / Lc[i, i]
+        out[i] = s * Lc[i, i]
     for i in range(n - 1, -1, -1):
         s = out[i]
         for k in range(i + 1, n):
             s -= Lc[k, i] * out[k]
-        out[i] = s / Lc[i, i]
+        out[i] = s * Lc[i, i]
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def _accel_given_geometry(qd, geo, ws, out):
     """``q̈`` at ``(q, qd)`` when ``ws`` holds the geometry, Cholesky factor, static and actuation forces of q."""
     damping = geo[5]
@@ -719,7 +772,7 @@ def _accel_given_geometry(qd, geo, ws, out):
     _cholesky_solve(chol, r, out)
 
 
-@njit(cache=True, fastmath=_FAST)
+@njit(cache=True, fastmath=_FAST, inline="always")
 def rhs_ws(y, u, geo, ws, out):
     """State derivative ``[q̇, q̈]`` with scratch arrays; False (and NaN accelerations) if M is not definite."""
     stiffness = geo[4]
@@ -730,8 +783,9 @@ def rhs_ws(y, u, geo, ws, out):
     M, chol, vec = ws[6], ws[7], ws[8]
     mass(geo, ws, M)
     gravity_forces(geo, ws, vec[0])
+    static, qdd = vec[0], vec[3]
     for a in range(n):
-        vec[0][a] += stiffness[a] * q[a]
+        static[a] += stiffness[a] * q[a]
     actuation_forces(q, u, geo, vec[4])
     for a in range(n):
         out[a] = qd[a]
@@ -739,9 +793,9 @@ def rhs_ws(y, u, geo, ws, out):
         for a in range(n):
             out[n + a] = np.nan
         return False
-    _accel_given_geometry(qd, geo, ws, vec[3])
+    _accel_given_geometry(qd, geo, ws, qdd)
     for a in range(n):
-        out[n + a] = vec[3][a]
+        out[n + a] = qdd[a]
     return True
 
 
