@@ -20,17 +20,26 @@ follow from the base-frame recursion ``p̈ = p̈0 + α0×R0r + Ω0×(Ω0×R0r) +
 Dynamics (issue 26 conventions): ``M = Σ w (ρA J_pᵀJ_p + J_wᵀ I_b J_w)`` over Gauss–Legendre nodes
 with ``I_b = diag(ρI, 2ρI, ρI)`` in the body frame (y the tangent) and ``J_w`` the body angular
 Jacobian; ``C q̇ = Σ w (ρA J_pᵀ J̇_p q̇ + J_wᵀ (I_b J̇_w q̇ + ω_b × I_b ω_b))``;
-``G = −Σ w ρA J_pᵀ g``.
+``G = −Σ w ρA J_pᵀ g``.  Only a node's own segment's columns are summed node by node: a node of a
+later segment moves rigidly with an earlier segment's strains (``J_p = v + θ × p``, ``J_w = Rᵀ θ`` for
+that segment end's twist ``(v, θ)`` at the origin), so those entries of M, G and C q̇ are the same
+sums regrouped: projections of per-segment wrenches and composite inertias on the end twists.
+
+Quadrature tiers: each segment uses the fewest Gauss–Legendre nodes that are as accurate at its
+``|ω_i| L_i`` (:data:`QUADRATURE_TIERS`, measured against a 48-node rule), the robot's
+``n_quadrature`` above the last bound; the node Jacobians (``jacobian_batch``) use all of them.
 
 Robot structure is the tuple ``geo`` built by ``SpatialPCSRobot._jit_geometry``, of
 :data:`GEO_SIZE` entries (the planar tuple has 13):
 
-``(L (m,), ell (m, K+1), w_lin (m K,), w_rot (m K, 3), stiffness (n,), damping (n,),
+``(L (m,), ell (T, m, K+1), w_lin (T, m, K), w_rot (T, m, K, 3), stiffness (n,), damping (n,),
 gravity (3,), base_position (3,), base_rotation (3, 3), act_kind (int), tendon_offset (p, 2),
-tendon_span (p, m), act_matrix (n, p), n_segments (int))``
+tendon_span (p, m), act_matrix (n, p), n_segments (int), tier_nodes (T,), tier_bounds (T,))``
 
-``ell`` holds the K nodes of each segment followed by its length, ``w_lin`` the weights times
-``ρA`` and ``w_rot`` the weights times the body inertia diagonal.  Actuation: ``act_kind``
+with K = n_quadrature and T tiers: tier t has ``tier_nodes[t]`` nodes for a segment with
+``|ω_i| L_i <= tier_bounds[t]`` (the last bound infinite, its nodes K).  ``ell[t, i]`` holds tier t's
+nodes of segment i followed by its length, ``w_lin`` the weights times ``ρA`` and ``w_rot`` the
+weights times the body inertia diagonal (zero-padded to K).  Actuation: ``act_kind``
 :data:`~pcs_sindy.simulation._kernels.ACT_IDENTITY` (``u`` is τ) or
 :data:`~pcs_sindy.simulation._kernels.ACT_TENDON` (tendons at body offsets ``(d_x, d_z)`` covering
 ``tendon_span[k, i]`` of segment i: ``A = −∂ℓ/∂q``).

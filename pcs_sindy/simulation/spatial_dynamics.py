@@ -177,7 +177,12 @@ class SpatialPCSRobot:
     base_rotation : array_like, shape (3, 3), optional
         Pose of the base frame (default identity: the robot along +y at rest).
     n_quadrature : int, default 16
-        Gauss–Legendre nodes per segment.
+        Gauss–Legendre nodes per segment, at most: the dynamics terms give a segment that bends
+        little fewer nodes, as many as keep M, G and C q̇ within 2e-14 (relative) of a 48-node
+        rule (measured, as close as 16 nodes get): 5 nodes up to ``|ω_i| L_i`` = 0.15 rad, 6 up to
+        0.5, 7 up to 1, 8 up to 2, 10 up to 3, 12 up to 6, 14 up to 8 (11 nodes reach only 1e-12
+        at 6 rad), ``n_quadrature`` above.
+        :meth:`node_jacobians` and the energies use all ``n_quadrature`` nodes.
     actuation : SpatialTendons or None, default None
         None drives the strains directly (``u`` is τ); otherwise ``τ = A(q) u``.
 
