@@ -281,9 +281,12 @@ def radau_run(
                             Z[i, c] = v
                 else:
                     Z[:, :] = 0.0
-                rhs_ws(y, u, geo, ws, f0)
-                if not _all_finite(f0):
-                    return NONFINITE, time, b
+                # fixed steps use f0 only for a new Jacobian: skip it otherwise (one state derivative in ~7)
+                have_f0 = not fixed or jac_state == 0
+                if have_f0:
+                    rhs_ws(y, u, geo, ws, f0)
+                    if not _all_finite(f0):
+                        return NONFINITE, time, b
                 if jac_state == 0:
                     accel_jacobian(y, f0, u, geo, ws, jac)
                     stats[2] += 1
@@ -337,6 +340,10 @@ def radau_run(
                     stats[3] += 1
                     have_z = False
                     if jac_state != 2:
+                        if not have_f0:
+                            rhs_ws(y, u, geo, ws, f0)
+                            if not _all_finite(f0):
+                                return NONFINITE, time, b
                         accel_jacobian(y, f0, u, geo, ws, jac)
                         stats[2] += 1
                         jac_state = 2
