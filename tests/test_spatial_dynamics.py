@@ -358,3 +358,32 @@ def test_accelerations_against_the_mpmath_reference_at_every_magnitude(magnitude
     qdd = ref_module.reference_accelerations(q, qd, tau, lengths, damping=damping, dps=30, **REF_PARAMS)
     # measured: ~1e-14 (the conditioning of M) at every magnitude
     assert rel(robot.forward_dynamics(q, qd, tau), qdd) <= 1e-9
+
+
+@pytest.mark.parametrize("bend", [0.1, 0.4, 0.9, 1.8, 2.9, 5.5, 7.5, 10.0])
+def test_nodes_chosen_by_bend_agree_with_a_48_node_rule(bend, monkeypatch):
+    """The default robot picks fewer nodes for slightly bent segments: M, G and C qd stay at round-off.
+
+    Truth: the same robot with 48 Gauss-Legendre nodes on every segment (the node table switched off).
+    """
+    from pcs_sindy.simulation import _spatial_kernels
+
+    lengths, params = (0.07, 0.1), dict(density=1070.0, youngs_modulus=1e4, shear_modulus=1e3, damping=np.ones(12))
+    fast = SpatialPCSRobot(lengths, **params)
+    monkeypatch.setattr(_spatial_kernels, "QUADRATURE_TIERS", ())
+    dense = SpatialPCSRobot(lengths, n_quadrature=48, **params)
+    rng = np.random.default_rng(int(10 * bend))
+    q, qd = np.zeros((20, 12)), rng.normal(0.0, 3.0, (20, 12))
+    for i, length in enumerate(lengths):
+        axis = rng.normal(size=(20, 3))
+        omega = axis / np.linalg.norm(axis, axis=1, keepdims=True) * bend / length
+        q[:, 6 * i + 1], q[:, 6 * i + 2], q[:, 6 * i + 0] = omega.T
+        q[:, 6 * i + 3 : 6 * i + 6] = rng.uniform(-0.3, 0.3, (20, 3))
+    for name, a, b in (
+        ("M", fast.mass_matrix(q), dense.mass_matrix(q)),
+        ("G", fast.gravity_forces(q), dense.gravity_forces(q)),
+        ("C qd", fast.coriolis_forces(q, qd), dense.coriolis_forces(q, qd)),
+    ):
+        scale = np.abs(b).reshape(20, -1).max(axis=1)
+        err = np.abs(a - b).reshape(20, -1).max(axis=1) / scale
+        assert err.max() < 1e-12, (name, err.max())
