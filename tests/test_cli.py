@@ -268,8 +268,10 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
     assert "L = " in printed and "D = diag(" in printed and "stiffness:" in printed
     assert model.is_file()
     # identified bending stiffness near the simulator's E I (f_L = 1): 1e4 * pi * 0.02**4 / 4
-    stiffness = float(printed.split("stiffness: be_1 ")[1].split(",")[0])
-    assert stiffness == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
+    value, unit = printed.split("stiffness: be_1 ")[1].split(",")[0].split()
+    assert float(value) == pytest.approx(1e4 * np.pi * 0.02**4 / 4, rel=0.15)
+    assert unit == "N·m³"  # K q is a generalised force: N·m² per curvature unit 1/m
+    assert "damping:   be_1 " in printed and printed.split("damping:   be_1 ")[1].split(",")[0].endswith("N·m³·s")
 
     out = work / "rollout"
     assert (

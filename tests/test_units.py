@@ -170,3 +170,20 @@ def test_printed_models_show_units():
     assert text[-1] == "D = diag(be_1: 6 N·m³·s, sh_1: 7 N·m·s, ax_1: 8 N·m·s)"
     weighed = PhysicalPCSLibrary([0.1], mass=0.25)
     assert "mass = sum_i rhoA_i L_i = 0.25 kg" in weighed.equations(np.ones(weighed.n_coefficients_))[3]
+
+
+def test_learned_and_linear_gains_print_the_force_per_input_unit():
+    """gain x input = generalised force of the row's strain (x the column strain for the '*q' terms)."""
+    from pcs_sindy.core import PlanarPCS
+    from pcs_sindy.models.actuation import LearnedActuation, LinearActuation
+
+    kin = PlanarPCS((0.1, 0.1))
+    learned = LearnedActuation(n_inputs=2).fit(kin)
+    line = learned.describe()[-1]
+    assert "a_be_1_u1 = 0 N·m²/u" in line  # bending: N·m² per input unit
+    assert "a_be_2_u2_be_1 = 0 N·m³/u" in line  # times a curvature [1/m] gives N·m²
+    pattern = np.zeros((6, 1), dtype=bool)
+    pattern[[0, 2], 0] = True
+    linear = LinearActuation(pattern).fit(kin)
+    text = linear.describe()[0]
+    assert "a_be_1_1 = " in text and "N·m²/u" in text and "a_ax_1_1 = " in text and "N·m/u" in text

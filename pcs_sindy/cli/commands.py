@@ -902,6 +902,7 @@ def fit(
     EulerLagrangeRegressor
         The fitted model.
     """
+    from ..core.units import SECOND, generalised_force_unit, strain_unit
     from ..io import data_files as files
 
     if (tau is None) == (inputs is None):
@@ -950,8 +951,12 @@ def fit(
             f"{model.n_regression_samples_} samples; removed strains: {model.removed_strains_ or 'none'}",
         )
         model.print()
-        say(quiet, "stiffness: " + ", ".join(f"{nm} {k:.4g}" for nm, k in zip(names, model.stiffness_)))
-        say(quiet, "damping:   " + ", ".join(f"{nm} {d:.4g}" for nm, d in zip(names, model.damping_)))
+        force = [generalised_force_unit(nm) / strain_unit(nm) for nm in names]  # K q and D qd are forces
+        say(quiet, "stiffness: " + ", ".join(f"{nm} {k:.4g} {u}" for nm, k, u in zip(names, model.stiffness_, force)))
+        say(
+            quiet,
+            "damping:   " + ", ".join(f"{nm} {d:.4g} {u * SECOND}" for nm, d, u in zip(names, model.damping_, force)),
+        )
         say(quiet, f"model -> {path}")
     return model
 

@@ -24,7 +24,7 @@ from sklearn.base import BaseEstimator
 from ...core.kinematics import PlanarPCS
 from ...core.validation import validate_parameters
 
-__all__ = ["Actuation", "registered_kinds", "COMPILED_FORMS"]
+__all__ = ["Actuation", "registered_kinds", "COMPILED_FORMS", "gain_unit"]
 
 #: The input maps the compiled kernels of :class:`~pcs_sindy.models.LumpedPCSModel` evaluate, by the
 #: name :meth:`Actuation.compiled` gives, with the arrays each reads (``offsets`` (p,), ``cover``
@@ -316,3 +316,24 @@ class Actuation(BaseEstimator, ABC):
             "type": self.kind,
             **{k: (np.asarray(v).tolist() if v is not None else None) for k, v in self.get_params().items()},
         }
+
+
+def gain_unit(gain_name: str, strain_names: list[str]) -> str:
+    """Unit of an input-map gain named ``a_<strain>_<input>[_<strain b>]``, per unit of the input.
+
+    The gain turns an input into the generalised force of ``<strain>`` (N·m² for a curvature, N·m
+    for a shear or axial strain), divided by the unit of ``<strain b>`` when it scales with that
+    strain; inputs keep the user's units (servo degrees, bar, ...), written ``/u``.
+    """
+    from ...core.units import generalised_force_unit, strain_unit
+
+    by_length = sorted(strain_names, key=len, reverse=True)
+    rest = gain_name[2:] if gain_name.startswith("a_") else gain_name
+    row = next((nm for nm in by_length if rest.startswith(nm + "_")), None)
+    if row is None:
+        return "?"
+    unit = generalised_force_unit(row)
+    col = next((nm for nm in by_length if rest.endswith("_" + nm) and len(rest) > len(row) + len(nm) + 1), None)
+    if col is not None:
+        unit = unit / strain_unit(col)
+    return f"{unit}/u"

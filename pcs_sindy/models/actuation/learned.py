@@ -13,7 +13,7 @@ import numpy as np
 
 from ...core.kinematics import PlanarPCS
 from ...core.validation import Check, Interval, Options
-from .base import Actuation
+from .base import Actuation, gain_unit
 
 __all__ = ["LearnedActuation"]
 
@@ -167,10 +167,14 @@ class LearnedActuation(Actuation):
         return "affine", np.zeros(0), np.zeros((0, self.kinematics_.n_segments)), amat
 
     def describe(self, precision: int = 3) -> list[str]:
-        body = ", ".join(f"{nm} = {v:.{precision}g}" for nm, v in zip(self.gain_names_, self.gains_, strict=True))
+        strains = self.kinematics_.strain_names(active_only=True)
+        body = ", ".join(
+            f"{nm} = {v:.{precision}g} {gain_unit(nm, strains)}"
+            for nm, v in zip(self.gain_names_, self.gains_, strict=True)
+        )
         return [
             "tau = sum_k (a_k + sum_b a_k,b q_b) u_k [+ the same in max(0, u_k)] (learned, zero with the inputs off)",
-            f"gains: {body}",
+            f"gains (u: the input's own unit): {body}",
         ]
 
     def layout(self) -> dict[str, Any]:

@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ...core.validation import Check
+from .base import gain_unit
 from .constant import ConstantActuation
 
 __all__ = ["LinearActuation"]
@@ -57,7 +58,10 @@ class LinearActuation(ConstantActuation):
         return out, pat.shape[1]
 
     def describe(self, precision: int = 3) -> list[str]:
+        strains = self.kinematics_.strain_names()
         return [
-            "A = const (linear layout): "
-            + ", ".join(f"{nm} = {v:.{precision}g}" for nm, v in zip(self.gain_names_, self.gains_))
+            "A = const (linear layout; u: the input's own unit): "
+            + ", ".join(
+                f"{nm} = {v:.{precision}g} {gain_unit(nm, strains)}" for nm, v in zip(self.gain_names_, self.gains_)
+            )
         ]
