@@ -156,6 +156,7 @@ def test_simulate_writes_recordings_with_true_poses(work):
     data = work / "data"
     summary = json.loads((data / "scenario.json").read_text())
     assert summary["files"] == ["train_00.npz", "train_01.npz"]
+    assert summary["units"]["marker_arc_lengths"] == "m" and summary["units"]["noise"] == ["m", "rad"]
     kin = PlanarPCS((0.1,))
     s = np.asarray(summary["marker_arc_lengths"])
     for name in summary["files"]:

@@ -188,6 +188,13 @@ def simulate(
             "actuation": spec.actuation,  # the layout of an actuated robot (None: driven by tau directly)
             "files": [p.name for p in paths],
             "seconds": round(time.perf_counter() - start, 2),
+            "units": {
+                "noise": ["m", "rad"],
+                "marker_arc_lengths": "m",
+                "segment_lengths": "m",
+                "seconds": "s",
+                "recordings": "t [s], q [1/m for be, - for sh and ax], poses [m, m, rad], tau [N·m², N·m, N·m]",
+            },
         }
         outputs.write_text(folder / "scenario.json", json.dumps(summary, indent=2))
     say(quiet, f"simulated {spec.name} ({len(paths)} recordings) in {summary['seconds']} s -> {folder}")
