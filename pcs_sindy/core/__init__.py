@@ -3,6 +3,8 @@
 Takes in nothing of the package and gives every other stage:
 
 * planar PCS kinematics and SE(2) pose algebra (:mod:`.kinematics`: :class:`PlanarPCS`);
+* spatial (3-D) PCS kinematics and SE(3) pose algebra, six strains per segment (:mod:`.spatial`:
+  :class:`SpatialPCS`);
 * the trajectory containers that flow through every estimator (:mod:`.trajectory`:
   :class:`PoseTrajectory`, :class:`StrainTrajectory`);
 * the seed's task-space error metrics (:mod:`.metrics`);
@@ -39,6 +41,26 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "se2_matrix",
             "se2_from_matrix",
             "wrap_angle",
+        ],
+        "spatial": [
+            "SpatialPCS",
+            "SPATIAL_STRAIN_NAMES",
+            "SPATIAL_Q_MAX",
+            "tangent_coefficients",
+            "strains_to_twist",
+            "twist_to_strains",
+            "se3_exp",
+            "se3_log",
+            "se3_compose",
+            "se3_inverse",
+            "se3_relative",
+            "se3_matrix",
+            "se3_from_matrix",
+            "quaternion_to_rotation",
+            "rotation_to_quaternion",
+            "planar_to_spatial_strains",
+            "spatial_to_planar_strains",
+            "planar_to_spatial_pose",
         ],
         "trajectory": [
             "PoseTrajectory",
