@@ -44,6 +44,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         ],
         "spatial": [
             "SpatialPCS",
+            "SpatialStrainTrajectory",
             "SPATIAL_STRAIN_NAMES",
             "SPATIAL_Q_MAX",
             "tangent_coefficients",

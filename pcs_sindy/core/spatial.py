@@ -38,6 +38,7 @@ This module is part of the ground floor and imports nothing else of the package.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from math import factorial
 from typing import Any
@@ -46,6 +47,8 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.special import bernoulli
+
+from .trajectory import check_time
 
 __all__ = [
     "SPATIAL_STRAIN_NAMES",
@@ -66,6 +69,7 @@ __all__ = [
     "spatial_to_planar_strains",
     "planar_to_spatial_pose",
     "SpatialPCS",
+    "SpatialStrainTrajectory",
 ]
 
 #: the six strains of a segment, in the order of ``q_i`` (module docstring)
@@ -939,3 +943,85 @@ def _advance_points(advance, start_pt, R0_pt, W, V, r, co, Wd, Vd):
         fold(Vd, True),
     )
     return [np.moveaxis(x.reshape((B, K, C, 3)), 2, 1) for x in res]
+
+
+class SpatialStrainTrajectory:
+    """Strains of a spatial PCS segmentation over time, carrying the segmentation.
+
+    The spatial counterpart of :class:`~pcs_sindy.core.StrainTrajectory` (what
+    ``SpatialPCSRobot.simulate`` returns).
+
+    Parameters
+    ----------
+    q : array_like, shape (T, 6m)
+        Full strains ``[q_1, ..., q_m]`` (order of :data:`SPATIAL_STRAIN_NAMES`); strains that are
+        not modelled are 0.
+    t : array_like, shape (T,), optional
+        Time stamps in seconds.
+    segment_lengths : sequence of float
+    active_strains : array_like of bool, shape (m, 6), optional
+    qd : array_like, shape (T, 6m), optional
+        Strain rates when known (simulation).
+    dt : float, optional
+        Sample period, used when ``t`` is not given.
+    base_position : sequence of float, shape (3,), optional
+    base_rotation : array_like, shape (3, 3), optional
+    metadata : mapping, optional
+    """
+
+    def __init__(
+        self,
+        q: ArrayLike,
+        t: ArrayLike | None = None,
+        *,
+        segment_lengths: Sequence[float],
+        active_strains: ArrayLike | None = None,
+        qd: ArrayLike | None = None,
+        dt: float | None = None,
+        base_position: Sequence[float] = (0.0, 0.0, 0.0),
+        base_rotation: ArrayLike | None = None,
+        metadata: Mapping[str, Any] | None = None,
+    ) -> None:
+        self.kinematics = SpatialPCS(
+            tuple(np.atleast_1d(segment_lengths)), active_strains, tuple(base_position), base_rotation
+        )
+        n = self.kinematics.n_q
+        q = np.asarray(q, dtype=float)
+        if q.ndim != 2 or q.shape[1] != n:
+            raise ValueError(f"q must have shape (T, {n}) for {self.kinematics.n_segments} segment(s); got {q.shape}")
+        if not np.all(np.isfinite(q)):
+            raise ValueError(f"q contains NaN or inf (first at frame {np.argwhere(~np.isfinite(q))[0][0]})")
+        self.q = q
+        self.t = check_time(t, q.shape[0], dt=dt)
+        if qd is not None:
+            qd = np.asarray(qd, dtype=float)
+            if qd.shape != q.shape:
+                raise ValueError(f"qd must have the shape of q {q.shape}; got {qd.shape}")
+            _finite(qd, "qd")
+        self.qd = qd
+        self.metadata = dict(metadata or {})
+
+    @property
+    def segment_lengths(self) -> tuple[float, ...]:
+        return self.kinematics.segment_lengths
+
+    @property
+    def active_strains(self) -> NDArray[np.bool_]:
+        return self.kinematics.active_strains
+
+    @property
+    def n_frames(self) -> int:
+        return self.q.shape[0]
+
+    def __len__(self) -> int:
+        return self.n_frames
+
+    def poses(self, s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Positions (T, K, 3) and rotations (T, K, 3, 3) at global arc lengths ``s``."""
+        return self.kinematics.forward_kinematics(self.q, s)
+
+    def __repr__(self) -> str:
+        return (
+            f"SpatialStrainTrajectory(n_frames={self.n_frames}, segment_lengths={list(self.segment_lengths)}, "
+            f"n_active={self.kinematics.n_active})"
+        )

@@ -265,9 +265,7 @@ class WeakEulerLagrangeSINDy(SINDy):
         out = [p[:, active] for p in self.regressor_.predict(X)]
         return out[0] if single else out
 
-    def score(
-        self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = None, **metric_kws: Any
-    ) -> float:
+    def score(self, x: Any, t: Any, x_dot: Any = None, u: Any = None, metric: Any = None, **metric_kws: Any) -> float:
         """``metric`` (default ``sklearn.metrics.r2_score``) of the predicted against the recorded forces ``u``.
 
         Trajectories stacked; ``t`` gives the rates and accelerations of the prediction.

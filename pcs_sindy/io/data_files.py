@@ -263,9 +263,7 @@ def read_layout(path: str | Path) -> dict[str, Any]:
     return layout
 
 
-def write_tau(
-    path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet | None = None, key: str = "tau"
-) -> Path:
+def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet | None = None, key: str = "tau") -> Path:
     """Write a tau file (``t``, ``tau``); returns its path (``into`` as in :func:`write_poses`).
 
     ``key="u"`` writes an input file (actuator inputs ``u``, read by ``fit --inputs``) instead.

@@ -5,6 +5,8 @@ would record: strains and rates, marker poses (noisy on request), the forces or 
 inputs that drove the robot, and rendered videos of it.
 
 * :mod:`.dynamics` - :class:`PCSRobot`: the PCS dynamics, integrated by its own stiff solver;
+* :mod:`.spatial_dynamics` - :class:`SpatialPCSRobot`: the spatial (3-D) PCS dynamics, six strains per
+  segment, integrated by the same solvers, and its :class:`SpatialTendons`;
 * :mod:`.actuation` - the robot's actuators: :class:`Tendons` (tensions or servo-wound),
   :class:`PressureChambers`;
 * :mod:`.pac` - :class:`PACRobot`, kinematics only (curvature affine in arc length);
@@ -24,6 +26,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={
         "dynamics": ["PCSRobot", "SimulationError"],
+        "spatial_dynamics": ["SpatialPCSRobot", "SpatialTendons"],
         "pac": ["PACRobot"],
         "scenarios": ["Scenario", "ScenarioData", "Recording"],
         "catalog": ["get_scenario", "list_scenarios", "describe_scenarios"],

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 from ..core.linalg import lu_factor, lu_solve  # dense LU for the Newton systems
-from ._kernels import accel_jacobian, rhs_ws, workspace
+from ._dispatch import accel_jacobian, rhs_ws, workspace  # the planar or spatial robot, by its geometry
 
 # Radau IIA, 3 stages, order 5 (Hairer & Wanner, Solving ODEs II, §IV.8)
 _S6 = np.sqrt(6.0)

@@ -1,4 +1,10 @@
-"""Time integration of the ground-truth robot: :meth:`PCSRobot.simulate` and :meth:`PCSRobot.advance`.
+"""Time integration of the ground-truth robots: :meth:`PCSRobot.simulate` and :meth:`PCSRobot.advance`.
+
+The same code integrates the spatial robot (:class:`~pcs_sindy.simulation.SpatialPCSRobot`): a robot
+gives its compiled kernels a geometry tuple (``robot._jit_geometry()``) and
+:mod:`pcs_sindy.simulation._dispatch` picks the planar or spatial kernels from it; a robot with a
+``_trajectory(q, t, qd, metadata)`` method builds its own trajectory container (the planar robot
+returns a :class:`~pcs_sindy.core.StrainTrajectory`).
 
 Two paths, one contract (:mod:`pcs_sindy.core.simulate_contract`):
 
@@ -28,7 +34,7 @@ from tqdm.auto import tqdm
 
 from ..core.simulate_contract import SCIPY_METHODS, SimulationError, canonical_method
 from ..core.trajectory import StrainTrajectory
-from . import _kernels, _radau
+from . import _dispatch, _radau
 
 __all__ = [
     "METHODS_SUPPORTED",
@@ -110,7 +116,7 @@ def simulate(
     if fixed_step is not UNSET:
         warnings.warn("fixed_step is deprecated; use step", FutureWarning, stacklevel=3)
         step = fixed_step
-    method = canonical_method(method, METHODS_SUPPORTED, owner="PCSRobot.simulate")
+    method = canonical_method(method, METHODS_SUPPORTED, owner=f"{type(robot).__name__}.simulate")
     q0 = robot._check("q0", q0)
     qd0 = robot._check("qd0", qd0, q0)
     if q0.ndim > 2:
@@ -141,14 +147,20 @@ def simulate(
         robot, y0, t, u_rows, u_fn, method=method, rtol=rtol, atol=atol, step=step, max_step=max_step, progress=progress
     )
     meta = {"method": method, "step": step, "rtol": rtol, "atol": atol, "counts": counts}
+    build = getattr(robot, "_trajectory", None)
+    if build is None:
+
+        def build(q, t, qd, metadata):
+            return StrainTrajectory(
+                q, t, segment_lengths=robot.segment_lengths, qd=qd, base_pose=tuple(robot.base_pose), metadata=metadata
+            )
+
     runs = [
-        StrainTrajectory(
+        build(
             out[:, b, : robot.n_q],
             t,
-            segment_lengths=robot.segment_lengths,
-            qd=out[:, b, robot.n_q :],
-            base_pose=tuple(robot.base_pose),
-            metadata={**meta, "u": u if u_rows is None else u_rows[:, b]},
+            out[:, b, robot.n_q :],
+            {**meta, "u": u if u_rows is None else u_rows[:, b]},
         )
         for b in range(out.shape[1])
     ]
@@ -457,7 +469,7 @@ def _scipy(geo, y0, t, u_rows, u_fn, method, rtol, atol, max_step, progress):
 
 def _derivative(geo, inputs, B, N):
     def fun(time: float, y: NDArray) -> NDArray:
-        return _kernels.rhs_batch(y.reshape(B, N), inputs(time), geo).reshape(-1)
+        return _dispatch.rhs_batch(y.reshape(B, N), inputs(time), geo).reshape(-1)
 
     return fun
 
@@ -470,7 +482,7 @@ class _NonFiniteJacobian(Exception):
 
 def _jacobian(geo, inputs, B, N, method):
     def jac(time: float, y: NDArray):
-        blocks = _kernels.state_jacobian_batch(y.reshape(B, N), inputs(time), geo)
+        blocks = _dispatch.state_jacobian_batch(y.reshape(B, N), inputs(time), geo)
         if not np.all(np.isfinite(blocks)):
             raise _NonFiniteJacobian(time)  # scipy's factorisation would fail with a bare ValueError
         if B == 1:
