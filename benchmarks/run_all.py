@@ -45,9 +45,14 @@ ORDER = [
     "atomic_writes",
     "position_fusion_speed",
     "real_robots",
+    "spatial_rollout_speed",
 ]
 # arguments of the benchmarks that write docs/results.md only when asked to
-ARGS = {"position_fusion_speed": ["--write"], "real_robots": ["--write", "--plots", "docs"]}
+ARGS = {
+    "position_fusion_speed": ["--write"],
+    "real_robots": ["--write", "--plots", "docs"],
+    "spatial_rollout_speed": ["--write"],
+}
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
 

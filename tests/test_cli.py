@@ -298,10 +298,11 @@ def test_fit_and_rollout_reproduce_a_training_recording(work, capsys):
         pred = roll["poses"][:, 1:]
         ep = np.linalg.norm(pred[..., :2] - truth[..., :2], axis=-1)
         eth = np.abs(np.angle(np.exp(1j * (pred[..., 2] - truth[..., 2]))))
-        assert metrics["e_p_ee"] == pytest.approx(ep[:, -1].mean(), rel=1e-12)
-        assert metrics["e_theta_ee"] == pytest.approx(eth[:, -1].mean(), rel=1e-12)
-        assert metrics["e_p_dist"] == pytest.approx(ep.mean(), rel=1e-12)
-        assert metrics["e_theta_dist"] == pytest.approx(eth.mean(), rel=1e-12)
+        # stored as printed: positions in mm, angles in rad, the unit in the key
+        assert metrics["e_p_ee_mm"] == pytest.approx(1e3 * ep[:, -1].mean(), rel=1e-12)
+        assert metrics["e_theta_ee_rad"] == pytest.approx(eth[:, -1].mean(), rel=1e-12)
+        assert metrics["e_p_dist_mm"] == pytest.approx(1e3 * ep.mean(), rel=1e-12)
+        assert metrics["e_theta_dist_rad"] == pytest.approx(eth.mean(), rel=1e-12)
         assert ep[:, -1].mean() < 2e-3  # the identified model tracks the recording it was fitted on
         np.testing.assert_allclose(
             roll["poses"],
@@ -351,7 +352,7 @@ def test_commands_are_python_functions(work, tmp_path):
     result = rollout(model, recs[0], tmp_path / "roll", truth=recs[0], plot=False, quiet=True)
     with np.load(recs[0]) as rec:
         tip_err = np.linalg.norm(result.poses[:, -1, :2] - rec["poses_true"][:, -1, :2], axis=-1).mean()
-    assert result.metrics["e_p_ee"] == pytest.approx(tip_err, rel=1e-12)
+    assert result.metrics["e_p_ee_mm"] == pytest.approx(1e3 * tip_err, rel=1e-12)
     assert not (tmp_path / "roll" / "rollout.png").exists()
 
 
@@ -672,8 +673,10 @@ def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
     video.release()
     metrics = json.loads((rep / "metrics.json").read_text())
     # the scenario's true segmentation, recovered from the rendered videos
-    np.testing.assert_allclose(metrics["this_run"]["segment_lengths"], [0.07, 0.1], atol=3e-3)
-    assert metrics["this_run"]["e_p_ee"] < 0.02
+    np.testing.assert_allclose(metrics["this_run"]["segment_lengths_m"], [0.07, 0.1], atol=3e-3)
+    assert metrics["this_run"]["e_p_ee_mm"] < 20
+    assert metrics["seed"]["e_p_ee_mm"] == pytest.approx(5.22)  # the seed's 5.22 mm, stored in mm as printed
+    assert metrics["this_run"]["stiffness"]["be_1"]["unit"] == "N·m³"
     text = (rep / "report.md").read_text()
     assert "| 5.22 |" in text and "| 0.138 |" in text  # the seed's numbers beside ours
     assert (rep / "equations.txt").read_text().startswith("L = ")
@@ -750,7 +753,7 @@ def test_fit_and_rollout_from_actuator_inputs(tmp_path):
         == 0
     )
     metrics = json.loads((tmp_path / "roll" / "metrics.json").read_text())
-    assert metrics["e_p_ee"] < 1e-3
+    assert metrics["e_p_ee_mm"] < 1
     assert main(["fit", *strains, "--inputs", *train, "--out", model, "--quiet"]) == 2  # no layout
 
 

@@ -33,8 +33,10 @@ def test_physical_equations_exactly():
     assert lib.equations(np.arange(1.0, 9.0)) == [
         "L = 1/2 qd^T M(q) qd + sum_i int_0^L_i rhoA_i g . p ds - 1/2 (k_be_1 be_1^2 + k_sh_1 sh_1^2 + k_ax_1 ax_1^2)",
         "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jo^T Jo) ds",
-        "rhoA_1 = 1, rhoI_1 = 2, k_be_1 = 3, k_sh_1 = 4, k_ax_1 = 5",
-        "D = diag(be_1: 6, sh_1: 7, ax_1: 8)",
+        "units: be [1/m], sh, ax [-]; tau_be [N·m²], tau_sh, tau_ax [N·m]; k = f_L (E I, c_sh G A, E A), "
+        "f_L = 1 m (seed) or L_i",
+        "rhoA_1 = 1 kg/m, rhoI_1 = 2 kg·m, k_be_1 = 3 N·m³, k_sh_1 = 4 N·m, k_ax_1 = 5 N·m",
+        "D = diag(be_1: 6 N·m³·s, sh_1: 7 N·m·s, ax_1: 8 N·m·s)",
     ]
 
 
@@ -48,14 +50,15 @@ def test_monomial_equations_exactly():
     coef[names.index("ax_1^2")] = -3.25
     coef[lib.damping_index_] = [1e-5, 0.15, 0.15]
     # terms in column order, zero coefficients hidden; no physical template for a monomial model
+    # each coefficient in J over its function's unit: dax^2 in 1/s^2, be^2 in 1/m^2, sh^2 and ax^2 pure
+    units = "units: be [1/m], sh, ax [-]; tau_be [N·m²], tau_sh, tau_ax [N·m]; L [J]"
+    damping = "D = diag(be_1: 1e-05 N·m³·s, sh_1: 0.15 N·m·s, ax_1: 0.15 N·m·s)"
     assert lib.equations(coef) == [
-        "L = 0.00125 IEE(u1) dax_1^2 - 3.25 ax_1^2 - 0.5 be_1^2 - 2 sh_1^2",
-        "D = diag(be_1: 1e-05, sh_1: 0.15, ax_1: 0.15)",
+        "L = 0.00125 [kg·m²] IEE(u1) dax_1^2 - 3.25 [N·m] ax_1^2 - 0.5 [N·m³] be_1^2 - 2 [N·m] sh_1^2",
+        units,
+        damping,
     ]
-    assert lib.equations(coef, threshold=1.0) == [
-        "L = -3.25 ax_1^2 - 2 sh_1^2",
-        "D = diag(be_1: 1e-05, sh_1: 0.15, ax_1: 0.15)",
-    ]
+    assert lib.equations(coef, threshold=1.0) == ["L = -3.25 [N·m] ax_1^2 - 2 [N·m] sh_1^2", units, damping]
 
 
 def test_regressor_prints_what_its_library_prints():

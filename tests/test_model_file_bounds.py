@@ -101,9 +101,16 @@ def _objects(node, name):
             yield from _objects(v, name)
 
 
-def _array_key(doc: dict, obj_name: str, attr: str) -> str:
-    node = next(_objects(doc["object"], obj_name))
-    return node["state"][attr]["$array"]
+def _read_array(node: dict, arrays: dict[str, np.ndarray]) -> np.ndarray:
+    """The array a JSON node stores: in place (``$ndarray``, small) or in the npz (``$array``)."""
+    if "$array" in node:
+        return arrays[node["$array"]]
+    return np.array(node["values"], dtype=node["$ndarray"]).reshape(node["shape"])
+
+
+def _inline(arr: np.ndarray) -> dict:
+    """The JSON node of a small array written in place, as a forger would write it."""
+    return {"$ndarray": arr.dtype.name, "shape": list(arr.shape), "values": arr.tolist()}
 
 
 # ----------------------------------------------------------------------
@@ -214,8 +221,7 @@ def test_segment_count_that_disagrees_with_the_coefficients_is_refused(basis, re
     arrays = _arrays(path)
     kin = doc["object"]["state"]["kinematics_"]
     kin["params"]["segment_lengths"] = {"$tuple": [0.05, 0.05]}
-    key = kin["params"]["active_strains"]["$array"]
-    arrays[key] = np.ones((2, 3), dtype=bool)
+    kin["params"]["active_strains"] = _inline(np.ones((2, 3), dtype=bool))
     _write(path, doc, arrays)
     with within(), pytest.raises(ValueError, match="inconsistent file"):
         load(path)
@@ -227,9 +233,10 @@ def test_tampered_coef_is_refused(basis, regressors, tmp_path):
     path = save(regressors[basis], tmp_path / "m")
     doc = json.loads(path.read_text())
     arrays = _arrays(path)
-    key = doc["object"]["state"]["coef_"]["$array"]
-    arrays[key] = arrays[key].copy()
-    arrays[key][0] += 1.0
+    state = doc["object"]["state"]
+    coef = _read_array(state["coef_"], arrays).copy()
+    coef[0] += 1.0
+    state["coef_"] = _inline(coef)
     _write(path, doc, arrays)
     with within(), pytest.raises(ValueError, match=r"model_coef_ differs from coef_\[column_map_\]"):
         load(path)
@@ -240,11 +247,9 @@ def test_coefficients_of_the_wrong_length_are_refused(basis, regressors, tmp_pat
     path = save(regressors[basis], tmp_path / "m")
     doc = json.loads(path.read_text())
     arrays = _arrays(path)
-    for attr in ("coef_", "model_coef_"):
-        key = doc["object"]["state"][attr]["$array"]
-        arrays[key] = arrays[key][:-1]
-    key = doc["object"]["state"]["column_map_"]["$array"]
-    arrays[key] = arrays[key][:-1]
+    state = doc["object"]["state"]
+    for attr in ("coef_", "model_coef_", "column_map_"):
+        state[attr] = _inline(_read_array(state[attr], arrays)[:-1])
     _write(path, doc, arrays)
     with within(), pytest.raises(ValueError, match="inconsistent file: coef_ has"):
         load(path)

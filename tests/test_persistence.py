@@ -8,6 +8,7 @@ create must not appear).
 
 from __future__ import annotations
 
+import copy
 import hashlib
 import io
 import json
@@ -23,7 +24,7 @@ from pcs_sindy.core import PoseTrajectory, StrainTrajectory
 from pcs_sindy.core.saving import PersistenceMixin
 from pcs_sindy.fusion import KinematicFusion
 from pcs_sindy.identification import EulerLagrangeRegressor
-from pcs_sindy.io import FORMAT_NAME, FORMAT_VERSION, load, save
+from pcs_sindy.io import FORMAT_NAME, FORMAT_VERSION, INLINE_ARRAY_SIZE, load, save
 from pcs_sindy.simulation import get_scenario
 from pcs_sindy.vision import MarkerPoseExtractor
 
@@ -340,7 +341,10 @@ def test_unsupported_values_are_refused_at_save(fusion, tmp_path):
 # ----------------------------------------------------------------------
 @pytest.fixture()
 def saved(fusion, tmp_path):
-    return save(fusion, tmp_path / "model")
+    """A fitted fusion with one array large enough for the npz (small arrays are written into the JSON)."""
+    obj = copy.deepcopy(fusion)
+    obj.big_ = np.arange(INLINE_ARRAY_SIZE + 1.0)
+    return save(obj, tmp_path / "model")
 
 
 @pytest.mark.parametrize("name", ["os.system", "builtins.eval", "posix.system", "subprocess.Popen", "__import__"])
@@ -384,7 +388,7 @@ def test_pickle_posing_as_npz_is_refused(saved, sentinel):
 
 def test_npz_from_another_model_is_refused(saved, fusion, tmp_path):
     other = KinematicFusion(threshold=0.3)
-    other.fit_marker_ = np.ones(4)
+    other.fit_marker_ = np.ones(INLINE_ARRAY_SIZE + 1)
     save(other, tmp_path / "other")
     (tmp_path / "model.npz").write_bytes((tmp_path / "other.npz").read_bytes())
     with pytest.raises(ValueError, match="sha256 mismatch"):
@@ -420,7 +424,7 @@ def test_wrong_format_missing_and_truncated_files(saved, tmp_path):
     good.write_text(text[: len(text) // 2])
     with pytest.raises(ValueError, match="not valid JSON"):
         load(good)
-    good.write_text(text.replace('"format_version": 1', '"format_version": NaN'))
+    good.write_text(text.replace(f'"format_version": {FORMAT_VERSION}', '"format_version": NaN'))
     with pytest.raises(ValueError, match="not valid JSON"):
         load(good)
     good.write_text(text)

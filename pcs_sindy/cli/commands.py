@@ -981,7 +981,10 @@ def rollout(
     if true_poses is not None:
         e_p, e_th = end_effector_errors(poses[:, 1:], true_poses[:, 1:])
         d_p, d_th = distributed_errors(poses[:, 1:], true_poses[:, 1:])
-        metrics.update(truth=str(truth), e_p_ee=e_p, e_theta_ee=e_th, e_p_dist=d_p, e_theta_dist=d_th)
+        # the units in the keys, the numbers as printed below
+        metrics.update(
+            truth=str(truth), e_p_ee_mm=1e3 * e_p, e_theta_ee_rad=e_th, e_p_dist_mm=1e3 * d_p, e_theta_dist_rad=d_th
+        )
     with FileSet(folder) as outputs:  # rollout.npz, metrics.json and rollout.png: all new or all old
         outputs.savez(
             folder / "rollout.npz",

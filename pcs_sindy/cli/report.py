@@ -18,9 +18,19 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..core import atomic
+from ..core.kinematics import STRAIN_NAMES
+from ..core.units import generalised_force_unit, strain_rate_unit, strain_unit
 from ..io.data_files import output_dir, read_arrays, read_poses
 
-__all__ = ["SEED_TWO_SEGMENT", "DEMO_SIZE", "DEMO_MARKER_SIZE", "rollout_figure", "demo_report", "write_report_md"]
+__all__ = [
+    "SEED_TWO_SEGMENT",
+    "DEMO_SIZE",
+    "DEMO_MARKER_SIZE",
+    "rollout_figure",
+    "demo_report",
+    "stored_metrics",
+    "write_report_md",
+]
 
 SEED_TWO_SEGMENT = {  # the seed's dynamics table, two_segment, no noise
     "segment_lengths": [0.068, 0.102],
@@ -298,9 +308,8 @@ def demo_report(
         "removed_strains": list(model.removed_strains_),
         "sweep": [list(map(float, r)) for r in rows],
     }
-    atomic.write_text(
-        rep / "metrics.json", json.dumps({"this_run": metrics, "seed": SEED_TWO_SEGMENT}, indent=2) + "\n"
-    )
+    stored = {"this_run": stored_metrics(metrics, model), "seed": stored_metrics(SEED_TWO_SEGMENT)}
+    atomic.write_text(rep / "metrics.json", json.dumps(stored, indent=2, ensure_ascii=False) + "\n")
     files["metrics"] = "metrics.json"
     return {
         "dir": rep,
@@ -311,6 +320,59 @@ def demo_report(
         "duration": float(t[-1] - t[0]),
         "n_train": len(train_files),
     }
+
+
+#: how a demo metric is stored in metrics.json: its key there (the unit in the name) and the factor from SI
+_STORED = {
+    "segment_lengths": ("segment_lengths_m", 1.0),
+    "e_p_dist_fusion": ("e_p_dist_fusion_mm", 1e3),
+    "e_theta_dist_fusion": ("e_theta_dist_fusion_rad", 1.0),
+    "e_p_ee": ("e_p_ee_mm", 1e3),
+    "e_theta_ee": ("e_theta_ee_rad", 1.0),
+    "e_p_dist_rollout": ("e_p_dist_rollout_mm", 1e3),
+    "e_theta_dist_rollout": ("e_theta_dist_rollout_rad", 1.0),
+}
+
+
+def stored_metrics(metrics: dict[str, Any], model: Any = None) -> dict[str, Any]:
+    """A demo's metrics as ``metrics.json`` stores them: every number with its unit, as ``report.md`` prints it.
+
+    Parameters
+    ----------
+    metrics : dict
+        In SI units (metres, radians), as :func:`demo_report` returns them (or :data:`SEED_TWO_SEGMENT`).
+    model : EulerLagrangeRegressor, optional
+        The identified model: names and units of ``stiffness`` and ``damping`` (per modelled strain).
+
+    Returns
+    -------
+    dict
+        Positions in mm, angles in rad, lengths in m, the unit in each key (``e_p_ee_mm``);
+        ``stiffness`` and ``damping`` as ``{strain: {"value": ..., "unit": ...}}``; the threshold
+        sweep as rows ``{"h", "n_segments", "e_p_dist_mm", "e_theta_dist_rad"}``.
+    """
+    out: dict[str, Any] = {}
+    for key, value in metrics.items():
+        if key in _STORED:
+            name, factor = _STORED[key]
+            out[name] = [factor * float(v) for v in value] if isinstance(value, list) else factor * float(value)
+        elif key in ("stiffness", "damping") and model is not None:
+            kin = model.kinematics_
+            units = {"stiffness": lambda s: generalised_force_unit(s) / strain_unit(s)}
+            units["damping"] = lambda s: generalised_force_unit(s) / strain_rate_unit(s)
+            out[key] = {
+                s: {"value": float(v), "unit": str(units[key](s))}
+                for s, v, a in zip(kin.strain_names(), value, kin.active_mask)
+                if a and np.isfinite(v)
+            }
+        elif key == "sweep":
+            out[key] = [
+                {"h": float(h), "n_segments": int(n), "e_p_dist_mm": 1e3 * float(p), "e_theta_dist_rad": float(t)}
+                for h, n, p, t in value
+            ]
+        else:
+            out[key] = value
+    return out
 
 
 def write_report_md(
@@ -363,8 +425,8 @@ def write_report_md(
         "| quantity | this run | seed |",
         "|---|---|---|",
         f"| fused segment lengths [m] | [{lengths}] | {s['segment_lengths']} |",
-        f"| e_p^dist fusion, training, vs noise-free poses [m] | {m['e_p_dist_fusion']:.3g} "
-        f"| {s['e_p_dist_fusion']:.3g} |",
+        f"| e_p^dist fusion, training, vs noise-free poses [mm] | {m['e_p_dist_fusion'] * 1e3:.3g} "
+        f"| {s['e_p_dist_fusion'] * 1e3:.3g} |",
         f"| e_θ^dist fusion, training, vs noise-free poses [rad] | {m['e_theta_dist_fusion']:.3g} "
         f"| {s['e_theta_dist_fusion']:.3g} |",
         f"| e_p^EE rollout [mm] | {m['e_p_ee'] * 1e3:.3g} | {s['e_p_ee'] * 1e3:.3g} |",
@@ -372,8 +434,12 @@ def write_report_md(
         f"| e_p^dist rollout [mm] | {m['e_p_dist_rollout'] * 1e3:.3g} | – |",
         f"| e_θ^dist rollout [rad] | {m['e_theta_dist_rollout']:.3g} | – |",
         "",
-        "Identified stiffness per strain (be, sh, ax of each segment): "
-        + ", ".join(f"{v:.4g}" for v in m["stiffness"])
+        "Identified stiffness per strain: "
+        + ", ".join(
+            f"{name} {v:.4g} {generalised_force_unit(name) / strain_unit(name)}"
+            for name, v in ((f"{STRAIN_NAMES[i % 3]}_{i // 3 + 1}", v) for i, v in enumerate(m["stiffness"]))
+            if np.isfinite(v)
+        )
         + f"; removed strains: {', '.join(m['removed_strains']) or 'none'}.",
         "",
         "## Identified equations",

@@ -11,6 +11,8 @@ Takes in nothing of the package and gives every other stage:
 * unlabelled markers put in order along the body from the base (:mod:`.marker_order`), for fusion and
   for the static identification alike;
 * per-recording arrays that scikit-learn's metrics read stacked (:mod:`.recording_list`: :class:`RecordingList`);
+* the units of what is printed and stored (:mod:`.units`: :class:`Unit`, the strains' and generalised
+  forces' units);
 * the camera model between the base frame and image pixels (:mod:`.camera`: :class:`Camera`);
 * the simulate contract shared by the ground truth and identified models
   (:mod:`.simulate_contract`: :class:`SimulationError`, the method names);
@@ -78,7 +80,15 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "atomic": ["FileSet", "recover"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "recording_list": ["RecordingList"],
-        "metrics": ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"],
+        "units": ["Unit", "strain_unit", "generalised_force_unit"],
+        "metrics": [
+            "distributed_errors",
+            "end_effector_errors",
+            "pose_errors",
+            "rollout_scorer",
+            "rollout_r2_scorer",
+            "noise_level",
+        ],
         "validation": [
             "validate_parameters",
             "InvalidParameterError",

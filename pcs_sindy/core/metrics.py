@@ -5,7 +5,8 @@ the estimate and the truth.  The distributed metrics average over the tracked
 cross-sections passed in (leave the base out, as the seed does); the
 end-effector metrics use the last point.  Angle differences are wrapped to
 [-π, π) so that a 2π offset is not an error.  :func:`rollout_scorer` scores
-rollouts for scikit-learn's model selection.
+rollouts for scikit-learn's model selection.  :func:`noise_level` estimates a
+signal's white-noise level from its second differences (robust to jumps).
 """
 
 from __future__ import annotations
@@ -17,7 +18,43 @@ from numpy.typing import ArrayLike
 
 from .kinematics import wrap_angle
 
-__all__ = ["distributed_errors", "end_effector_errors", "pose_errors", "rollout_scorer", "rollout_r2_scorer"]
+__all__ = [
+    "distributed_errors",
+    "end_effector_errors",
+    "pose_errors",
+    "rollout_scorer",
+    "rollout_r2_scorer",
+    "noise_level",
+]
+
+#: median absolute deviation -> standard deviation of a Gaussian
+_MAD_TO_SIGMA = 1.4826
+
+
+def noise_level(values: ArrayLike, axis: int | tuple[int, ...] | None = None) -> np.ndarray:
+    """White-noise standard deviation of samples along their first axis, from second differences.
+
+    The second difference of white noise of level σ has standard deviation √6 σ while a smooth
+    signal contributes little to it; the median of its absolute value (times 1.4826, the
+    Gaussian MAD factor) ignores the few samples a jump or an outlier spoils.
+
+    Parameters
+    ----------
+    values : array_like, shape (T, ...)
+        Samples in time order along axis 0 (T >= 3).
+    axis : int or tuple of int, optional
+        Axes of the second differences over which the median is taken (default: all).
+
+    Returns
+    -------
+    ndarray
+        σ, with the remaining axes (a 0-d array when ``axis`` is None).
+    """
+    x = np.asarray(values, dtype=float)
+    if x.ndim < 1 or x.shape[0] < 3:
+        raise ValueError(f"values must hold at least 3 samples along axis 0; got shape {x.shape}")
+    d2 = np.abs(np.diff(x, n=2, axis=0))
+    return _MAD_TO_SIGMA * np.median(d2, axis=axis) / np.sqrt(6.0)
 
 
 def _pair(estimate: ArrayLike, truth: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

@@ -17,6 +17,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .kinematics import PlanarPCS
+from .metrics import noise_level
 
 __all__ = [
     "PoseTrajectory",
@@ -245,9 +246,7 @@ def clean_marker_tracks(
         med = median_filter(filled, size=(int(window), 1), mode="nearest")
         dist[:, i] = np.linalg.norm(filled - med, axis=1)
         usable[:, i] = ok
-        # noise scale from second differences (white noise: sqrt(6) sigma per coordinate), robust to jumps
-        d2 = np.abs(np.diff(filled[ok], n=2, axis=0))
-        sigma[i] = 1.4826 * float(np.median(d2)) / np.sqrt(6.0) if d2.size else 0.0
+        sigma[i] = float(noise_level(filled[ok])) if ok.sum() >= 3 else 0.0
         speed[i] = float(np.sqrt(np.mean(np.sum(np.diff(filled[ok], axis=0) ** 2, axis=1))))
         if jump_threshold is not None:
             limit[i] = float(jump_threshold)
@@ -294,11 +293,16 @@ class PoseTrajectory:
         The plane the positions are modelled in.
     plane_positions : ndarray, shape (T, N, 2) or None
         Marker positions in that plane.
+    rotations : ndarray, shape (T, N, 3, 3) or None
+        Marker orientations in the user's frame when the tracker gives them
+        (``from_positions(rotations=...)``), or the model's cross-section orientations at the
+        markers returned by a spatial ``KinematicFusion.inverse_transform``; NaN = missing.
     """
 
     positions: NDArray[np.float64] | None = None
     plane: MarkerPlane | None = None
     plane_positions: NDArray[np.float64] | None = None
+    rotations: NDArray[np.float64] | None = None
 
     def __init__(
         self,
@@ -333,6 +337,7 @@ class PoseTrajectory:
         normal: ArrayLike | None = None,
         plane: MarkerPlane | None = None,
         base_marker: bool = False,
+        rotations: ArrayLike | None = None,
     ) -> PoseTrajectory:
         """A positions-only recording: marker positions without orientations or base.
 
@@ -369,6 +374,11 @@ class PoseTrajectory:
             ``positions[:, 0]`` is a marker on the clamped base: its median position (in the
             user's frame, ``metadata["base_marker"]``) fixes the base position of the fusion, and
             the trajectory's markers are the others (``n_markers = N - 1``).
+        rotations : array_like, shape (T, N, 3, 3), optional
+            The markers' orientations (rotation matrices in the user's frame, e.g.
+            :attr:`pcs_sindy.io.MarkerData.rotations`; NaN for missing), when the tracker gives
+            them: a spatial fusion (``KinematicFusion(space="3d")``) then fits torsion too.
+            Samples whose position is missing or cleaned are missing here too.
         """
         P = np.asarray(positions, dtype=float)
         if P.ndim != 3 or P.shape[2] not in (2, 3) or P.shape[1] < 1:
@@ -391,9 +401,25 @@ class PoseTrajectory:
             raise ValueError(
                 f"base_marker=True needs the base marker and at least one more; got {P.shape[1]} marker(s)"
             )
+        rot = None
+        if rotations is not None:
+            rot = np.array(rotations, dtype=float)
+            if rot.shape != P.shape[:2] + (3, 3) or P.shape[2] != 3:
+                raise ValueError(
+                    f"rotations must have shape {P.shape[:2] + (3, 3)} (one 3-D rotation per marker sample); "
+                    f"got {rot.shape} for positions of shape {P.shape}"
+                )
+            ok_r = np.all(np.isfinite(rot), axis=(2, 3))
+            err = np.abs(np.einsum("tnji,tnjk->tnik", rot[ok_r][None], rot[ok_r][None])[0] - np.eye(3))
+            if err.size and float(err.max()) > 1e-3:
+                raise ValueError(
+                    f"rotations must be rotation matrices (orthonormal within 1e-3); the worst deviates by {err.max():.3g}"
+                )
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor
         )
+        if rot is not None:
+            rot[~np.all(np.isfinite(cleaned), axis=2)] = np.nan
         base_at = None
         if base_marker:
             if not np.any(np.all(np.isfinite(cleaned[:, 0]), axis=1)):
@@ -402,6 +428,7 @@ class PoseTrajectory:
             if plane is None:  # the base marker belongs to the body's plane
                 plane = MarkerPlane.fit(cleaned, normal)
             cleaned, P = cleaned[:, 1:], P[:, 1:]
+            rot = None if rot is None else rot[:, 1:]
         ok = np.all(np.isfinite(cleaned), axis=2)
         if ok.sum() < 3:
             raise ValueError(f"positions has only {int(ok.sum())} valid marker samples; need at least 3")
@@ -429,6 +456,7 @@ class PoseTrajectory:
         obj.positions = cleaned
         obj.plane = plane
         obj.plane_positions = inplane
+        obj.rotations = rot
         obj.t = check_time(t, P.shape[0], dt=dt)
         meta = dict(metadata or {})
         meta.update(

@@ -12,7 +12,9 @@ fused segmentation (``KinematicFusion.segment_lengths_``) and
 * :mod:`.input_checks` - marker order, duplicates and angle units checked before fusion;
 * :mod:`.shape_fit` - least-squares strains and continuously refined segment boundaries;
 * :mod:`.position_fit`, :mod:`.position_fusion` - positions-only markers (motion capture): base pose,
-  marker arc lengths, bending strains and Algorithm 1 on them.
+  marker arc lengths, bending strains and Algorithm 1 on them;
+* :mod:`.spatial_fusion` - the same in 3-D (``KinematicFusion(space="3d")``): a base in SE(3), the two
+  bendings (and torsion, from orientations) of a spatial PCS.
 
 Fusion knows no images and no dynamics.
 """
@@ -57,6 +59,21 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "position_strain_trajectories",
             "positions_in_user_frame",
             "tendon_sides",
+        ],
+        "spatial_fusion": [
+            "SPATIAL_BENDING",
+            "SPATIAL_BENDING_TWIST",
+            "DIRECTION_PRIOR",
+            "needs_3d",
+            "base_rotation",
+            "spatial_marker_model",
+            "fit_spatial_strains",
+            "fit_spatial_geometry",
+            "spatial_marker_geometry",
+            "fuse_spatial_segments",
+            "choose_spatial_threshold",
+            "spatial_strain_trajectories",
+            "spatial_marker_positions",
         ],
     },
 )

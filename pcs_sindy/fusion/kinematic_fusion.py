@@ -16,6 +16,8 @@ plain functions on numpy arrays in the modules named after what they hold:
   (:func:`fit_strains_least_squares`) and boundaries (:func:`refine_boundaries`);
 * :mod:`pcs_sindy.fusion.position_fusion`, :mod:`pcs_sindy.fusion.position_fit` - recordings of
   marker positions only (:meth:`PoseTrajectory.from_positions`): base pose, arc lengths, bending strains;
+* :mod:`pcs_sindy.fusion.spatial_fusion` - the same for robots that move in 3-D (``space="3d"``):
+  a fixed base in SE(3), the two bendings (and torsion, with orientations) of a spatial PCS;
 * :mod:`pcs_sindy.fusion.threshold_selection` - the rules that choose the merge
   threshold from a sweep (:func:`select_threshold`, :func:`choose_threshold`, used by
   ``threshold="auto"``).
@@ -42,6 +44,7 @@ from tqdm.auto import tqdm
 from ..core.kinematics import SEED_Q_MAX, forward_kinematics, se2_compose
 from ..core.metrics import distributed_errors
 from ..core.saving import PersistenceMixin
+from ..core.spatial import SPATIAL_Q_MAX, SpatialStrainTrajectory, se3_from_matrix, se3_matrix
 from ..core.trajectory import (
     MarkerPlane,
     PoseTrajectory,
@@ -71,6 +74,14 @@ from .position_fusion import (
     shared_marker_plane,
 )
 from .shape_fit import fit_frame_strains, fit_strains_least_squares, lengths_from_ends, refine_boundaries
+from .spatial_fusion import (
+    choose_spatial_threshold,
+    fuse_spatial_segments,
+    needs_3d,
+    spatial_marker_geometry,
+    spatial_marker_positions,
+    spatial_strain_trajectories,
+)
 from .threshold_selection import SELECTION_RULES, SweepRow, choose_threshold
 
 __all__ = ["KinematicFusion", "threshold_sweep"]
@@ -80,6 +91,7 @@ _SHAPE_FITS = ("end_pose", "least_squares")
 #: numbers that 300 evenly spread frames determine to well within their model uncertainty
 POSITION_GEOMETRY_FRAMES = 300
 _SCALINGS = ("q_max", "data")
+_SPACES = ("auto", "plane", "3d")
 
 
 def _three_scales(value: Any) -> bool:
@@ -99,7 +111,8 @@ def _finite_vector(value: Any) -> bool:
     if isinstance(value, str):
         return False
     v = np.asarray(value, dtype=float)
-    return v.ndim == 1 and v.size >= 1 and bool(np.all(np.isfinite(v)))
+    shape_ok = (v.ndim == 1 and v.size >= 1) or (v.ndim == 2 and v.shape[0] >= 1 and v.shape[1] == 2)
+    return shape_ok and bool(np.all(np.isfinite(v)))
 
 
 def _nonzero_int(value: Any) -> bool:
@@ -187,6 +200,19 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         Positions-only recordings: fuse into this many segments (the closest adjacent segments merge
         one by one) instead of by ``threshold`` - e.g. the count chosen by held-out prediction.
         Then :attr:`threshold_` is None and :attr:`threshold_choice_` ``{"rule": "n_segments", ...}``.
+    space : {"auto", "plane", "3d"}, default "auto"
+        Positions-only recordings: fuse a planar PCS in the markers' plane (``"plane"``, the path
+        above) or a spatial one in the capture frame (``"3d"``, :mod:`pcs_sindy.fusion.spatial_fusion`:
+        the two bendings of every segment, and torsion when the recordings carry marker orientations,
+        ``from_positions(rotations=...)``).  ``"auto"``: 3-D when a recording carries orientations or
+        leaves its best-fit plane by more than 0.2 of its in-plane motion RMS (and 1 mm; the
+        criterion of the warning of ``from_positions``), else the plane; with
+        ``shared_plane="base_axis"`` always the plane.  Pose recordings are always planar.
+        In 3-D, ``q_max``'s bending scale applies to both bendings, the torsion scale is
+        :data:`~pcs_sindy.core.spatial.SPATIAL_Q_MAX`'s, ``marker_offsets`` may also give ``(N, 2)``
+        offsets along the cross-section's x and z axes (``"fit"`` fits both), ``shared_plane`` does not
+        apply (the best-fit plane of all recordings fixes the gauge: the base's z axis is its normal,
+        so a planar motion has ``bend_x = 0``) and ``pose_std`` weights positions against orientations.
 
     Attributes
     ----------
@@ -246,6 +272,19 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
     plane_base_axis_ : ndarray (3, 3) or None
         With ``shared_plane="base_axis"``: the common axis, its point (the base marker) and the side
         the planes' normals point to.
+    space_ : {"plane", "3d"}
+        The model fitted (see ``space``).  In 3-D: :attr:`base_pose_` is the base's (4, 4) homogeneous
+        matrix in the capture frame, :attr:`base_pose_std_` the standard errors of its position (3) and
+        of its rest direction (two angles [rad]), :attr:`marker_offsets_` and its std are (N, 2) (body x,
+        body z), :attr:`q_max_` holds the six spatial strain scales, :meth:`transform` returns spatial
+        strain trajectories (:class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory`; six strains per
+        segment, the bendings active, and torsion with orientations) and :meth:`inverse_transform` positions (and the
+        markers' orientations, ``.rotations``) in the capture frame.
+    marker_rotation_offsets_ : ndarray (N, 3, 3) or None
+        3-D fits on recordings with orientations: each rigid body's frame in its cross-section's
+        frame (fitted); None otherwise.
+    rotation_rms_ : float or None
+        3-D fits with orientations: RMS angle [rad] of the orientation residuals.
 
     Examples
     --------
@@ -272,6 +311,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         shared_plane: bool | str = True,
         marker_offsets: str | Sequence[float] | None = None,
         n_segments: int | None = None,
+        space: str = "auto",
     ) -> None:
         self.threshold = threshold
         self.q_max = q_max
@@ -289,6 +329,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.shared_plane = shared_plane
         self.marker_offsets = marker_offsets
         self.n_segments = n_segments
+        self.space = space
 
     # -- validation: the table read by validate_parameters in fit and transform, and by model files
     _parameter_constraints: dict = {
@@ -307,8 +348,13 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         "n_jobs": [None, Check(_nonzero_int, "a non-zero integer (joblib's convention)")],
         "progress": "no_validation",
         "shared_plane": ["boolean", Options(("base_axis",))],
-        "marker_offsets": [None, Options(("fit",)), Check(_finite_vector, "'fit', None or finite distances [m]")],
+        "marker_offsets": [
+            None,
+            Options(("fit",)),
+            Check(_finite_vector, "'fit', None or finite distances [m] (N,) or (N, 2)"),
+        ],
         "n_segments": [None, Interval(Integral, 1, None, closed="left")],
+        "space": [Options(_SPACES)],
     }
 
     def _chains(self, X: Any, name: str = "X") -> tuple[list[PoseTrajectory], list[NDArray], list[NDArray]]:
@@ -364,7 +410,14 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         validate_parameters(self)
         X = as_pose_trajectories(X)  # converted once: every step below gets these recordings
         if self._positions_only(X):
+            if self._spatial(X):
+                return self._fit_spatial(X)
             return self._fit_positions(X)
+        if self.space == "3d":
+            raise ValueError(
+                "space='3d' applies to positions-only recordings (PoseTrajectory.from_positions with 3-D "
+                "positions); pose recordings (T, N + 1, 3) are planar"
+            )
         if self.n_segments is not None:
             raise ValueError(
                 f"n_segments={self.n_segments!r} applies to positions-only recordings; for pose recordings "
@@ -430,6 +483,92 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.marker_offsets_ = self.marker_offsets_std_ = None
         self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
         self.positions_only_ = False
+        self.space_ = "plane"
+        self.marker_rotation_offsets_ = self.rotation_rms_ = None
+        return self
+
+    def _spatial(self, trajs: list[PoseTrajectory]) -> bool:
+        """Whether positions-only recordings get the spatial model (``space``)."""
+        if self.space == "plane":
+            return False
+        three_d = all(tr.positions.shape[-1] == 3 for tr in trajs)
+        if self.space == "3d":
+            if not three_d:
+                raise ValueError("space='3d' needs 3-D marker positions; got 2-D positions")
+            return True
+        return three_d and self.shared_plane != "base_axis" and needs_3d(trajs)
+
+    def _fit_spatial(self, trajs: list[PoseTrajectory]) -> KinematicFusion:
+        """Fit on positions-only recordings in 3-D (:mod:`pcs_sindy.fusion.spatial_fusion`)."""
+        if self.total_length is not None:
+            raise ValueError(
+                f"total_length={self.total_length!r} is not used with positions-only recordings: the model spans "
+                "the base to the last marker; give the markers' rest arc lengths to "
+                "PoseTrajectory.from_positions(arc_lengths=...) instead"
+            )
+        if len({tr.n_markers for tr in trajs}) != 1:
+            raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
+        with_rotations = {getattr(tr, "rotations", None) is not None for tr in trajs}
+        if len(with_rotations) > 1:
+            raise ValueError("X: give rotations to PoseTrajectory.from_positions for every recording, or none")
+        n = trajs[0].n_markers
+        q_max = check_q_max(self.q_max)
+        offsets = self.marker_offsets
+        if offsets is not None and not isinstance(offsets, str):
+            offsets = np.asarray(offsets, dtype=float)
+            if offsets.shape not in ((n,), (n, 2)):
+                raise ValueError(
+                    f"marker_offsets must be 'fit', None, {n} distances [m] or ({n}, 2) offsets, one per marker; "
+                    f"got {self.marker_offsets!r}"
+                )
+        normal = shared_marker_plane(trajs).normal  # the gauge: a planar motion has bend_x = 0
+        frames = min(int(self.max_refine_frames), POSITION_GEOMETRY_FRAMES)
+        std = tuple(float(v) for v in self.pose_std)
+        geometry = spatial_marker_geometry(trajs, frames, normal=normal, offsets=offsets, pose_std=std)
+        scales = None if self.scaling == "data" else np.array([q_max[0], q_max[0], SPATIAL_Q_MAX[2]])
+        if self.n_segments is not None:
+            h, choice = None, {"rule": "n_segments", "n_segments": int(self.n_segments), "h": None}
+        elif isinstance(self.threshold, str):
+            rule = SELECTION_RULES[0] if self.threshold == "auto" else self.threshold
+            h, choice = choose_spatial_threshold(geometry, scales, rule=rule)
+        else:
+            h, choice = float(self.threshold), {"rule": "given", "h": float(self.threshold)}
+        fit = fuse_spatial_segments(
+            trajs,
+            geometry,
+            float("inf") if h is None else h,
+            scales,
+            n_segments=None if self.n_segments is None else int(self.n_segments),
+        )
+        self.threshold_ = h
+        self.threshold_choice_ = choice
+        s = fit["arc_lengths"]
+        self.total_length_ = float(s[-1])
+        known = "marker_arc_lengths" in trajs[0].metadata
+        self.total_length_source_ = (
+            "arc length of the last marker (given)" if known else "arc length of the last marker, fitted to positions"
+        )
+        self.total_length_std_ = float(fit["arc_lengths_std"][-1])
+        self.marker_arc_lengths_ = s
+        self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
+        self.n_markers_ = s.size - 1
+        bend, _, twist = fit["scales"]
+        self.q_max_ = np.array([bend, bend, twist, q_max[1], q_max[1], q_max[2]])
+        self.history_ = fit["history"]
+        self.distance_profile_ = self.history_[0]["distances"] if self.history_ else np.zeros(0)
+        self.boundaries_ = fit["boundaries"]
+        self.segment_lengths_ = fit["segment_lengths"]
+        self.n_segments_ = int(self.boundaries_.size)
+        self.base_pose_ = se3_matrix(fit["base_position"], fit["base_rotation"])
+        self.base_pose_std_ = fit["base_std"]
+        self.position_rms_ = fit["rms"]
+        self.rotation_rms_ = fit["rotation_rms"]
+        self.marker_offsets_ = fit["offsets"]
+        self.marker_offsets_std_ = fit["offsets_std"]
+        self.marker_rotation_offsets_ = fit["rotation_offsets"]
+        self.plane_origin_ = self.plane_axes_ = self.plane_base_axis_ = None
+        self.positions_only_ = True
+        self.space_ = "3d"
         return self
 
     @property
@@ -518,6 +657,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         self.marker_offsets_ = fit["offsets"]
         self.marker_offsets_std_ = fit["offsets_std"]
         self.positions_only_ = True
+        self.space_ = "plane"
+        self.marker_rotation_offsets_ = self.rotation_rms_ = None
         return self
 
     def _subsample(self, chains: list[NDArray]) -> list[NDArray]:
@@ -609,6 +750,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             if trajs[0].n_markers != self.n_markers_:
                 raise ValueError(f"X has {trajs[0].n_markers} markers; the fusion was fitted with {self.n_markers_}")
+            if getattr(self, "space_", "plane") == "3d":
+                return self._transform_spatial(trajs)
             plane = self.plane_
             if plane is not None:
                 trajs = [on_plane(tr, plane) for tr in trajs]
@@ -647,6 +790,55 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             )
         return out
+
+    def _transform_spatial(self, trajs: list[PoseTrajectory]) -> list[SpatialStrainTrajectory]:
+        if any(tr.positions.shape[-1] != 3 for tr in trajs):
+            raise ValueError("X: this fusion was fitted in 3-D (space_='3d'); give 3-D marker positions")
+        C = self.marker_rotation_offsets_
+        for k, tr in enumerate(trajs):
+            if (getattr(tr, "rotations", None) is None) != (C is None):
+                raise ValueError(
+                    f"X[{k}]: the fusion was fitted {'with' if C is not None else 'without'} marker orientations; "
+                    f"give {'rotations' if C is not None else 'no rotations'} to PoseTrajectory.from_positions"
+                )
+        out = spatial_strain_trajectories(
+            trajs,
+            self.base_pose_,
+            self.segment_lengths_,
+            self.marker_arc_lengths_,
+            self.boundaries_,
+            offsets=self.marker_offsets_,
+            rotation_offsets=C,
+            pose_std=tuple(float(v) for v in self.pose_std),
+        )
+        for st in out:
+            st.metadata["base_pose"] = np.array(self.base_pose_, copy=True)
+        return out
+
+    def _inverse_spatial(self, k: int, st: Any) -> PoseTrajectory:
+        """Markers in the capture frame of a spatial strain trajectory (see :meth:`inverse_transform`)."""
+        if not isinstance(st, SpatialStrainTrajectory):
+            raise ValueError(
+                f"X[{k}] must be a SpatialStrainTrajectory (this fusion was fitted in 3-D, space_='3d'); "
+                f"got {type(st).__name__}"
+            )
+        meta = st.metadata
+        s = np.asarray(meta.get("marker_arc_lengths", self.marker_arc_lengths_), dtype=float)
+        H = np.asarray(meta.get("base_pose", self.base_pose_), dtype=float)
+        se3_from_matrix(H)  # checks the shape
+        d = meta.get("marker_offsets", self.marker_offsets_)
+        C = meta.get("rotation_offsets", self.marker_rotation_offsets_)
+        try:
+            positions, rotations = spatial_marker_positions(st, s, H, d, C)
+        except ValueError as err:
+            raise ValueError(f"X[{k}]: {err}") from None
+        rec = PoseTrajectory.__new__(PoseTrajectory)  # positions-only, like from_positions, without cleaning
+        rec.poses = None
+        rec.positions, rec.rotations = positions, rotations
+        rec.plane, rec.plane_positions = None, None
+        rec.t = st.t.copy()
+        rec.metadata = dict(meta)
+        return rec
 
     def transform_frame(self, poses: ArrayLike, q0: ArrayLike | None = None) -> NDArray[np.float64]:
         """Strains (3m,) of one frame of poses (N + 1, 3): state estimation at camera rate.
@@ -700,8 +892,19 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         Uses the marker arc lengths and per-frame base poses carried in each
         trajectory's metadata when present, else the fitted marker arc
         lengths and the trajectory's constant ``base_pose``.
+
+        A 3-D fusion (``space_ == "3d"``) takes :class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory`
+        objects (its :meth:`transform`'s, or a spatial model's prediction:
+        ``SpatialStrainTrajectory(q, t, segment_lengths=fusion.segment_lengths_)``) and returns positions-only trajectories whose ``.positions`` (T, N, 3) are the markers in the
+        capture frame and ``.rotations`` (T, N, 3, 3) their frames; the marker arc lengths, base pose
+        (``"base_pose"``, 4 x 4) and offsets come from the metadata when present, else from the fit.
         """
         check_is_fitted(self, "segment_lengths_")
+        if getattr(self, "space_", "plane") == "3d":
+            items = [X] if isinstance(X, SpatialStrainTrajectory) else X
+            if not isinstance(items, (list, tuple)) or len(items) == 0:
+                raise ValueError(f"X must be a non-empty list of SpatialStrainTrajectory; got {type(X).__name__}")
+            return [self._inverse_spatial(k, st) for k, st in enumerate(items)]
         strains = as_strain_trajectories(X)
         out = []
         for k, st in enumerate(strains):

@@ -24,6 +24,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "REGISTRY",
             "FORMAT_NAME",
             "FORMAT_VERSION",
+            "INLINE_ARRAY_SIZE",
             "PARAMETER_RANGES",
             "MAX_SEGMENTS",
             "MAX_MONOMIAL_SEGMENTS",

@@ -17,6 +17,10 @@ conversion by hand, given the marker names in base-to-tip order:
 * no header at all (``markers=5``): a frame index, a time column, then x, y, z of every marker,
   unlabelled; the markers are the last ``3 * markers`` columns unless ``columns`` says where.
 
+Orientations (``orientations=True``): rigid-body quaternions in columns named by component and marker,
+e.g. ``qx1, qy1, qz1, w1`` (the scalar ``w``/``qw`` wherever it stands: the names say which is which) or
+``M1_qx ... M1_qw``; they are converted here to rotation matrices (the package never carries quaternions).
+
 Missing samples (empty cells, ``NaN``) are NaN.  A frame/sample index column,
 when present, places each row: skipped indices become NaN rows.  Time stamps
 are never read: samples are ``1 / rate`` apart (the nominal rate).
@@ -61,6 +65,9 @@ class MarkerData:
     units : str
         Units the file was in.
     source : str
+    rotations : ndarray, shape (T, N, 3, 3) or None
+        The markers' (rigid bodies') orientations in the capture frame when read
+        (``orientations=True``); NaN where missing.
     """
 
     positions: NDArray[np.float64]
@@ -70,14 +77,17 @@ class MarkerData:
     units: str
     source: str = ""
     metadata: dict[str, Any] = field(default_factory=dict)
+    rotations: NDArray[np.float64] | None = None
 
     @property
     def t(self) -> NDArray[np.float64]:
         return np.arange(self.positions.shape[0]) * self.dt
 
     def trajectory(self, **kwargs: Any) -> PoseTrajectory:
-        """``PoseTrajectory.from_positions(positions, dt=dt, **kwargs)``."""
+        """``PoseTrajectory.from_positions(positions, dt=dt, rotations=rotations, **kwargs)``."""
         meta = {"source": self.source, "markers": list(self.markers)}
+        if self.rotations is not None:
+            kwargs.setdefault("rotations", self.rotations)
         return PoseTrajectory.from_positions(self.positions, dt=self.dt, metadata=meta, **kwargs)
 
 
@@ -169,6 +179,46 @@ def _find_columns(header: list[list[str]], markers: Sequence[str]) -> tuple[dict
     )
 
 
+_QUATERNION_PARTS = {"qx": 0, "qy": 1, "qz": 2, "qw": 3, "w": 3}
+
+
+def _quaternion_columns(header: list[list[str]], markers: Sequence[str]) -> dict[str, list[int]]:
+    """Columns of every marker's quaternion (x, y, z, w order): ``qx1 ... w1`` or ``M1_qx ... M1_qw``."""
+    for row in header:
+        found: dict[str, list[int]] = {}
+        for name in markers:
+            n = name.lower()
+            cols: dict[int, int] = {}
+            for j, cell in enumerate(row):
+                c = _norm(cell)
+                for part, k in _QUATERNION_PARTS.items():
+                    for pattern in (rf"{part}[\s_:.\-]*(.+)", rf"(.+?)[\s_:.\-]+{part}"):
+                        m = re.fullmatch(pattern, c)
+                        if m and (m.group(1) == n or m.group(1).endswith(":" + n)):
+                            cols.setdefault(k, j)
+            if len(cols) == 4:
+                found[name] = [cols[k] for k in range(4)]
+        if len(found) == len(markers):
+            return found
+    raise ValueError(
+        f"no quaternion columns (qx, qy, qz and w or qw) found for every marker of {list(markers)}; the header "
+        f"rows name {sorted({c.strip() for row in header for c in row if c.strip()})[:40]}"
+    )
+
+
+def _rotations(quaternions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotation matrices (..., 3, 3) of quaternions (..., 4) in (x, y, z, w) order; NaN where not finite."""
+    from scipy.spatial.transform import Rotation
+
+    Q = np.asarray(quaternions, dtype=float)
+    out = np.full(Q.shape[:-1] + (3, 3), np.nan)
+    norm = np.linalg.norm(Q, axis=-1)
+    ok = np.all(np.isfinite(Q), axis=-1) & (norm > 0.5) & (norm < 2.0)  # a zero or garbage quaternion is missing
+    if np.any(ok):
+        out[ok] = Rotation.from_quat(Q[ok]).as_matrix()  # scipy normalises; (x, y, z, w) is its order
+    return out
+
+
 def _detect_units(header: list[list[str]]) -> str | None:
     for row in header:
         cells = [_norm(c) for c in row]
@@ -216,6 +266,7 @@ def read_marker_csv(
     inputs: Sequence[str | int] | None = None,
     frame_column: str | int | None = "auto",
     columns: Sequence[int] | None = None,
+    orientations: bool = False,
 ) -> MarkerData:
     """Read marker positions (and input columns) from a motion-capture CSV/TSV export.
 
@@ -244,6 +295,10 @@ def read_marker_csv(
     columns : sequence of int, optional
         With ``markers`` an int: the 0-based column of each marker's x (its y and z
         follow).  Default: the last ``3 * markers`` columns.
+    orientations : bool, default False
+        Also read each marker's orientation quaternion (named columns, see the module docstring:
+        ``qx1, qy1, qz1, w1`` for marker ``"1"``), returned as rotation matrices in
+        :attr:`MarkerData.rotations`.
 
     Returns
     -------
@@ -265,6 +320,8 @@ def read_marker_csv(
         raise DataFileError(f"{path}: markers must be a list of marker names, base to tip; got {markers!r}")
     if columns is not None and not unnamed:
         raise DataFileError(f"{path}: columns={columns!r} applies to unnamed markers only (markers=<int>)")
+    if orientations and unnamed:
+        raise DataFileError(f"{path}: orientations=True needs named markers (their quaternion columns are found by name)")
     if units is not None and units.lower() not in UNITS:
         raise DataFileError(f"{path}: units must be one of {sorted(set(UNITS))}; got {units!r}")
     text = path.read_text(encoding="utf-8-sig")
@@ -287,6 +344,11 @@ def read_marker_csv(
             raise DataFileError(f"{path}: {err}") from None
         header_row = rows[axis_row]
         names = [_norm(c) for c in header_row]
+        if orientations:
+            try:
+                q_cols = _quaternion_columns(rows[:first_data], list(markers))
+            except ValueError as err:
+                raise DataFileError(f"{path}: {err}") from None
     unit = units.lower() if units is not None else _detect_units(rows[:first_data])
     if unit is None:
         raise DataFileError(f"{path}: the file does not say its length units; give units='mm' or units='m'")
@@ -317,6 +379,8 @@ def read_marker_csv(
         frame_col = names.index(frame_column.lower())
     data = [row for row in rows[first_data:] if any(c.strip() for c in row)]
     width = max(max(c) for c in cols.values()) + 1
+    if orientations:
+        width = max(width, max(max(c) for c in q_cols.values()) + 1)
     values = np.full((len(data), max(width, max(in_cols, default=0) + 1, (frame_col or 0) + 1)), np.nan)
     for k, row in enumerate(data):
         if not _numeric_row(row):
@@ -326,6 +390,7 @@ def read_marker_csv(
     scale = UNITS[unit]
     pos = np.stack([values[:, cols[name]] for name in markers], axis=1) * scale
     u = values[:, in_cols] if in_cols else None
+    quat = np.stack([values[:, q_cols[name]] for name in markers], axis=1) if orientations else None
     meta: dict[str, Any] = {}
     if frame_col is not None:
         frame = values[:, frame_col]
@@ -339,6 +404,10 @@ def read_marker_csv(
             full = np.full((idx[-1] + 1,) + pos.shape[1:], np.nan)
             full[idx] = pos
             pos = full
+            if quat is not None:
+                qf = np.full((idx[-1] + 1,) + quat.shape[1:], np.nan)
+                qf[idx] = quat
+                quat = qf
             if u is not None:
                 uf = np.full((idx[-1] + 1, u.shape[1]), np.nan)
                 uf[idx] = u
@@ -350,4 +419,5 @@ def read_marker_csv(
         meta["first_frame"] = int(frame[0])
     if u is not None and not np.all(np.isfinite(u)):
         raise DataFileError(f"{path}: input columns {list(inputs or [])} have empty or NaN cells")
-    return MarkerData(pos, u, 1.0 / float(rate), list(markers), unit, str(path), meta)
+    rot = None if quat is None else _rotations(quat)
+    return MarkerData(pos, u, 1.0 / float(rate), list(markers), unit, str(path), meta, rot)

@@ -1,9 +1,21 @@
 """Safe model files: fitted estimators as JSON plus ``.npz``, never pickle.
 
-``save(obj, "model")`` writes ``model.json`` (human-readable: format name and
-version, package version, class names, constructor parameters, learned
-scalars and lists, references to arrays) and ``model.npz`` (every array,
-uncompressed, bit-exact).  ``load("model")`` rebuilds the object.
+``save(obj, "model")`` writes ``model.json`` and ``model.npz``; ``load("model")``
+rebuilds the object.  The JSON is meant to be read by people:
+
+* ``summary``: what the model is, by name and with units: the segment lengths [m],
+  the modelled strains, every identified coefficient by name with its value and
+  unit (``kg/m``, ``N·m³``, ...), stiffness, damping and rest strain per strain, the
+  actuation's parameters, and the printed equations.  It is written for reading and
+  never read back (editing it changes nothing);
+* ``object``: what :func:`load` rebuilds: class names, constructor parameters and
+  learned attributes, with every array of at most :data:`INLINE_ARRAY_SIZE`
+  elements written in place as ``{"$ndarray": dtype, "shape": [...], "values": [...]}``
+  (bit-exact: floats are written with their shortest round-trip text);
+* ``arrays``: the larger arrays, which live in ``model.npz`` (uncompressed, bit-exact;
+  referenced from ``object`` as ``{"$array": key}``), with the npz's sha256.
+
+Files of format version 1 (every array in the npz, no summary) still load.
 
 Loading an untrusted file cannot execute code:
 
@@ -51,6 +63,7 @@ import numpy as np
 
 from .._version import __version__
 from ..core.atomic import FileSet, recover
+from ..core.units import generalised_force_unit, strain_rate_unit, strain_unit
 from ..core.validation import InvalidParameterError, validate_parameters
 from .npz_headers import check_npz_headers
 
@@ -58,6 +71,7 @@ __all__ = [
     "save",
     "load",
     "FORMAT_VERSION",
+    "INLINE_ARRAY_SIZE",
     "FORMAT_NAME",
     "REGISTRY",
     "PARAMETER_RANGES",
@@ -67,8 +81,11 @@ __all__ = [
 
 #: Name written in every model file.
 FORMAT_NAME = "pcs_sindy.model"
-#: Version of the file layout; bumped on incompatible changes.
-FORMAT_VERSION = 1
+#: Version of the file layout; bumped on incompatible changes.  2: small arrays inline in the JSON
+#: (``$ndarray``) and a readable ``summary``; 1: every array in the npz (still read).
+FORMAT_VERSION = 2
+#: Arrays of at most this many elements are written into the JSON (readable); larger ones go to the npz.
+INLINE_ARRAY_SIZE = 64
 
 # largest JSON part we parse: a model's JSON holds no bulk data (arrays go to the npz)
 _MAX_JSON_BYTES = 64 * 2**20
@@ -94,7 +111,12 @@ _SCALAR_DTYPES = (
     "complex128",
 )
 _STATE_NAME = re.compile(r"^[A-Za-z][A-Za-z0-9_]*_$")
-_TAGS = ("$float", "$tuple", "$dict", "$array", "$scalar", "$complex", "$object", "$ref")
+_TAGS = ("$float", "$tuple", "$dict", "$array", "$ndarray", "$scalar", "$complex", "$object", "$ref")
+# dtypes of the arrays written in place: numbers and booleans by name, unicode as U<characters>
+_INLINE_DTYPES = ("bool", "int8", "int16", "int32", "int64", "uint8", "uint16", "uint32", "uint64")
+_INLINE_DTYPES += ("float16", "float32", "float64")
+_INLINE_UNICODE = re.compile(r"^U([1-9][0-9]{0,5})$")
+_MAX_INLINE_NDIM = 32
 
 
 class _Unset:
@@ -293,8 +315,17 @@ def _by_value(key: str, value: Any, label: str) -> Any:
 
 
 class _Encoder:
-    def __init__(self) -> None:
+    """JSON of an object graph; ``arrays`` collects the arrays that go to the npz.
+
+    ``shared``: ids of the small arrays met more than once by an earlier pass: written in place once
+    with an ``id`` and then referred to (``$ref``), so that the loaded graph shares them too.
+    """
+
+    def __init__(self, shared: frozenset[int] = frozenset()) -> None:
         self.arrays: dict[str, np.ndarray] = {}
+        self.shared = shared
+        self.repeated: set[int] = set()  # small arrays met more than once in this pass
+        self._inline_seen: set[int] = set()
         self._array_keys: dict[int, str] = {}
         self._object_ids: dict[int, int] = {}
         self._alive: list[Any] = []  # keep ids unique while encoding
@@ -339,6 +370,18 @@ class _Encoder:
                     f"cannot store {where}: arrays of dtype {arr.dtype} are not supported (numeric, bool and "
                     "unicode only; object arrays would need pickle)"
                 )
+            inline = _inline_dtype(arr)
+            if inline is not None and arr.size <= INLINE_ARRAY_SIZE and arr.ndim <= _MAX_INLINE_NDIM:
+                node = {"$ndarray": inline, "shape": list(arr.shape), "values": _inline_values(arr)}
+                if id(value) in self.shared:
+                    if id(value) in self._object_ids:
+                        return {"$ref": self._object_ids[id(value)]}
+                    node["id"] = self._object_ids[id(value)] = len(self._object_ids)
+                elif id(value) in self._inline_seen:
+                    self.repeated.add(id(value))
+                self._inline_seen.add(id(value))
+                self._alive.append(value)
+                return node
             key = f"a{len(self.arrays)}"
             self.arrays[key] = arr
             self._array_keys[id(value)] = key
@@ -388,6 +431,145 @@ class _Encoder:
             "params": {k: self.encode(v, f"{label}.{k}") for k, v in params.items()},
             "state": {k: self.encode(v, f"{label}.{k}") for k, v in state.items()},
         }
+
+
+def _inline_dtype(arr: np.ndarray) -> str | None:
+    """The name an array's dtype is written under in the JSON, or None (the array goes to the npz)."""
+    dt = arr.dtype
+    if not dt.isnative and dt.itemsize > 1:
+        return None  # a foreign byte order is kept bit-exact by the npz
+    if dt.kind == "U":
+        return f"U{dt.itemsize // 4}"
+    return dt.name if dt.name in _INLINE_DTYPES else None
+
+
+def _inline_values(arr: np.ndarray) -> Any:
+    """The elements as nested JSON lists; a non-finite float as ``{"$float": "inf"}`` (JSON has no inf)."""
+    if arr.dtype.kind != "f" or np.all(np.isfinite(arr)):
+        return arr.tolist()
+
+    def tag(v: Any) -> Any:
+        if isinstance(v, list):
+            return [tag(x) for x in v]
+        return v if math.isfinite(v) else {"$float": repr(v)}
+
+    return tag(arr.tolist())
+
+
+# --------------------------------------------------------------------------
+# Summary: the model for people (written, never read back)
+# --------------------------------------------------------------------------
+_ABOUT = (
+    "what this model is, with units, for reading: never read back (editing it changes nothing); "
+    "'object' below is what pcs_sindy.io.load rebuilds"
+)
+
+
+def _number(value: Any) -> Any:
+    """A JSON number, or the text of a non-finite one ('inf', 'nan')."""
+    v = float(value)
+    return v if math.isfinite(v) else repr(v)
+
+
+def _quantity(value: Any, unit: Any) -> dict[str, Any]:
+    """``{"value": ..., "unit": ...}`` (a list of values shares one unit; unit None: not known)."""
+    arr = np.asarray(value, dtype=float)
+    out = [_number(v) for v in arr.reshape(-1)] if arr.ndim else _number(arr)
+    return {"value": out, "unit": None if unit is None else str(unit)}
+
+
+def _segmentation_summary(kin: Any) -> dict[str, Any]:
+    return {
+        "segment_lengths": _quantity(kin.segment_lengths, "m"),
+        "strains": kin.strain_names(active_only=True),
+    }
+
+
+def _library_summary(lib: Any) -> dict[str, Any] | None:
+    # an unfitted library may have no segmentation yet (NotFittedError) or parameters its fit would
+    # refuse (saved as given, refused at load): then there is nothing to describe
+    try:
+        out = _segmentation_summary(lib.kinematics)
+        if type(lib).__name__ == "PhysicalPCSLibrary":  # the monomial basis would need its symbolic derivation
+            units = (str(u) for u in lib.coefficient_units())
+            out["coefficient_units"] = dict(zip(lib.coefficient_names(), units, strict=True))
+    except (ValueError, TypeError):
+        return None
+    return out
+
+
+def _actuation_summary(act: Any) -> dict[str, Any]:
+    """The map's type and, when fitted, its description (with units) and identified parameters by name."""
+    out: dict[str, Any] = {"type": act.layout().get("type")}
+    state = vars(act)
+    if "gains_" in state and "offsets_" in state:
+        out["description"] = act.describe()
+        for key, names, values in (
+            ("gains", state.get("gain_names_", []), act.gains_),
+            ("offsets", state.get("offset_names_", []), act.offsets_),
+        ):
+            if len(names):
+                out[key] = {nm: _number(v) for nm, v in zip(names, np.asarray(values).reshape(-1))}
+    return out
+
+
+def _regressor_summary(model: Any) -> dict[str, Any]:
+    kin, lib = model.kinematics_, model.library_
+    out: dict[str, Any] = {"about": _ABOUT, **_segmentation_summary(kin)}
+    out["removed_strains"] = list(getattr(model, "removed_strains_", []))
+    units = lib.coefficient_units()
+    out["coefficients"] = {
+        nm: _quantity(v, u) for nm, v, u in zip(lib.coefficient_names(), model.model_coef_, units, strict=True)
+    }
+    names = kin.strain_names()
+    mask = np.asarray(model.active_strains_, dtype=bool).reshape(-1)
+    for attr, key, unit_of in (
+        ("stiffness_", "stiffness", lambda s: generalised_force_unit(s) / strain_unit(s)),
+        ("damping_", "damping", lambda s: generalised_force_unit(s) / strain_rate_unit(s)),
+        ("rest_strain_", "rest_strain", strain_unit),
+    ):
+        values = vars(model).get(attr)
+        if values is not None:
+            out[key] = {nm: _quantity(v, unit_of(nm)) for nm, v, a in zip(names, values, mask) if a}
+    act = vars(model).get("actuation_")
+    if act is not None and act.layout().get("type") != "identity":
+        out["actuation"] = _actuation_summary(act)
+    conv = vars(model).get("scale_convention_")
+    if conv:
+        out["scale_convention"] = conv
+    out["equations"] = model.equations()
+    return out
+
+
+def _summary(obj: Any, name: str) -> dict[str, Any] | None:
+    """The readable summary of a registered object (None when there is nothing to say)."""
+    state = vars(obj) if hasattr(obj, "__dict__") else {}
+    if name == "EulerLagrangeRegressor":
+        return _regressor_summary(obj) if "coef_" in state else None
+    if name in ("PhysicalPCSLibrary", "PCSLagrangianLibrary"):
+        return _library_summary(obj)
+    if name in _PIPELINES:
+        steps = {str(k): _summary(est, _name_of(est) or "") for k, est in obj.steps}
+        return {"steps": {k: v for k, v in steps.items() if v is not None}} if any(steps.values()) else None
+    if name == "KinematicFusion" and "segment_lengths_" in state:
+        # a file of an earlier release may lack some of them
+        out = {"segment_lengths": _quantity(state["segment_lengths_"], "m")}
+        for key in ("marker_arc_lengths_", "total_length_"):
+            if state.get(key) is not None:
+                out[key[:-1]] = _quantity(state[key], "m")
+        if state.get("threshold_") is not None:
+            out["threshold"] = _number(state["threshold_"])
+        return out
+    if name in ("PlanarPCS", "StrainTrajectory"):
+        kin = obj if name == "PlanarPCS" else obj.kinematics
+        out = _segmentation_summary(kin)
+        if name == "StrainTrajectory":
+            out["n_frames"] = int(obj.n_frames)
+            out["duration"] = _quantity(obj.t[-1] - obj.t[0] if obj.n_frames else 0.0, "s")
+        return out
+    if name in ("TendonActuation", "PressureActuation", "LinearActuation", "LearnedActuation"):
+        return _actuation_summary(obj)
+    return None
 
 
 # --------------------------------------------------------------------------
@@ -617,6 +799,8 @@ class _Decoder:
             if not isinstance(key, str) or key not in self.arrays:
                 raise self.error(where, f"refers to array {key!r}, which the npz file does not hold")
             return self.arrays[key]
+        if tag == "$ndarray":
+            return self._inline_array(data, where)
         if tag == "$scalar":
             self._keys(data, {"$scalar", "value"}, where)
             name = data["$scalar"]
@@ -636,6 +820,65 @@ class _Decoder:
                 raise self.error(where, f"refers to object {ref!r}, which is not defined before this point")
             return self.objects[ref]
         return self._object(data, where)
+
+    def _inline_array(self, data: dict, where: str) -> np.ndarray:
+        """An array written in place: a known dtype, a shape, and nested lists of exactly that shape."""
+        if set(data) != {"$ndarray", "shape", "values", "id"}:
+            self._keys(data, {"$ndarray", "shape", "values"}, where)
+        oid = data.get("id")
+        if oid is not None and (isinstance(oid, bool) or not isinstance(oid, int) or oid in self.objects):
+            raise self.error(where, f"$ndarray id must be a new integer; got {oid!r}")
+        name, shape = data["$ndarray"], data["shape"]
+        unicode = _INLINE_UNICODE.match(name) if isinstance(name, str) else None
+        if not (name in _INLINE_DTYPES or unicode):
+            raise self.error(where, f"$ndarray dtype must be one of {_INLINE_DTYPES} or U<n>; got {name!r}")
+        if not (
+            isinstance(shape, list)
+            and len(shape) <= _MAX_INLINE_NDIM
+            and all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in shape)
+        ):
+            raise self.error(
+                where, f"$ndarray shape must be a list of at most {_MAX_INLINE_NDIM} sizes >= 0; got {shape!r}"
+            )
+        dtype = np.dtype(name)
+        kind = dtype.kind
+
+        def leaf(v: Any) -> Any:
+            if kind == "b":
+                ok = isinstance(v, bool)
+            elif kind in "iu":
+                ok = isinstance(v, int) and not isinstance(v, bool)
+            elif kind == "f":
+                if isinstance(v, dict):
+                    if set(v) != {"$float"} or v["$float"] not in ("inf", "-inf", "nan"):
+                        raise self.error(where, f"$ndarray element {v!r} is not a number or a $float")
+                    return float(v["$float"])
+                ok = isinstance(v, (int, float)) and not isinstance(v, bool)
+            else:
+                ok = isinstance(v, str)
+            if not ok:
+                raise self.error(where, f"$ndarray of dtype {name} holds the element {v!r}")
+            return v
+
+        def walk(v: Any, depth: int) -> Any:
+            if depth == len(shape):
+                return leaf(v)
+            if not (isinstance(v, list) and len(v) == shape[depth]):
+                raise self.error(where, f"$ndarray values do not have the shape {shape}")
+            return [walk(x, depth + 1) for x in v]
+
+        values = walk(data["values"], 0)
+        try:
+            arr = np.array(values, dtype=dtype)
+            if arr.size == 0:
+                arr = arr.reshape(shape)
+        except (ValueError, OverflowError) as err:
+            raise self.error(where, f"$ndarray values do not fit dtype {name}: {err}") from None
+        if list(arr.shape) != shape:
+            raise self.error(where, f"$ndarray values have shape {list(arr.shape)}, not {shape}")
+        if oid is not None:
+            self.objects[oid] = arr  # referred to by a later {"$ref": id}: one array, shared
+        return arr
 
     def _keys(self, data: dict, expected: set[str], where: str) -> None:
         if set(data) != expected:
@@ -848,6 +1091,10 @@ def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> P
         )
     enc = _Encoder()
     root = enc.encode(obj, "")
+    if enc.repeated:  # again, with ids on the arrays met twice (written once, shared when loaded)
+        enc = _Encoder(shared=frozenset(enc.repeated))
+        root = enc.encode(obj, "")
+    summary = _summary(obj, root["$object"])
     buf = io.BytesIO()
     np.savez(buf, **enc.arrays)
     npz_bytes = buf.getvalue()
@@ -856,13 +1103,15 @@ def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> P
         "format_version": FORMAT_VERSION,
         "package_version": _package_version(),
         "class": root["$object"],
+        **({"summary": summary} if summary is not None else {}),
         "arrays": {
             "sha256": hashlib.sha256(npz_bytes).hexdigest(),
             "entries": {k: {"dtype": a.dtype.str, "shape": list(a.shape)} for k, a in enc.arrays.items()},
         },
         "object": root,
     }
-    text = _NUMBER_LIST.sub(_one_line, json.dumps(doc, indent=1, allow_nan=False)) + "\n"
+    text = json.dumps(doc, indent=1, allow_nan=False, ensure_ascii=False)
+    text = _QUANTITY.sub(_one_line_quantity, _FLAT_LIST.sub(_one_line, text)) + "\n"
     if not json_path.parent.is_dir():
         raise OSError(f"cannot save to path={str(path)!r}: directory {str(json_path.parent)!r} does not exist")
     # npz first: the JSON, written last, names the npz content it belongs to (sha256)
@@ -876,12 +1125,27 @@ def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> P
     return json_path
 
 
-# a JSON list of numbers spread over lines by indent=1 (strings never hold raw newlines)
-_NUMBER_LIST = re.compile(r"\[\n\s*((?:-?[0-9][0-9.eE+-]*,\n\s*)*-?[0-9][0-9.eE+-]*)\n\s*\]")
+# a JSON list of numbers, booleans, nulls or strings spread over lines by indent=1 (strings never hold
+# raw newlines): written on one line
+_FLAT_ITEM = r'(?:-?[0-9][0-9.eE+-]*|true|false|null|"(?:[^"\\\n]|\\.)*")'
+_FLAT_LIST = re.compile(r"\[\n\s*((?:" + _FLAT_ITEM + r",\n\s*)*" + _FLAT_ITEM + r")\n\s*\]")
+
+
+# a summary's {"value": ..., "unit": ...} once its value list is on one line
+_QUANTITY = re.compile(
+    r'\{\n\s*("value": (?:' + _FLAT_ITEM + r'|\[[^\n\[\]]*\]),\n\s*"unit": (?:null|"[^"\\\n]*"))\n\s*\}'
+)
 
 
 def _one_line(match: re.Match) -> str:
-    return "[" + re.sub(r",\n\s*", ", ", match.group(1)) + "]"
+    line = "[" + re.sub(r",\n\s*", ", ", match.group(1)) + "]"
+    if len(line) > 120 and '"' in line:
+        return match.group(0)  # long text (the equations) stays one string per line
+    return line
+
+
+def _one_line_quantity(match: re.Match) -> str:
+    return "{" + re.sub(r",\n\s*", ", ", match.group(1)) + "}"
 
 
 def _reject_constant(name: str) -> Any:

@@ -39,6 +39,7 @@ from scipy.ndimage import median_filter
 from tqdm.auto import tqdm
 
 from ..core.camera import Camera, camera_extras, camera_json_path, read_camera_json
+from ..core.metrics import noise_level
 from ..core.trajectory import PoseTrajectory
 from .chain import link_chains, track, wrap_half_pi
 from .frame_source import FrameSource
@@ -490,8 +491,7 @@ def _track_outliers(poses: NDArray[np.float64], valid: NDArray[np.bool_]) -> dic
         return {}
     med = median_filter(offset[good], size=(9, 1, 1), mode="nearest")
     dev = np.linalg.norm(offset[good] - med, axis=2)  # (frames, markers)
-    d2 = np.abs(np.diff(offset[good], n=2, axis=0))
-    sigma = 1.4826 * np.median(d2, axis=(0, 2)) / np.sqrt(6.0)  # per marker, robust to the outliers
+    sigma = noise_level(offset[good], axis=(0, 2))  # per marker, robust to the outliers
     limit = np.maximum(OUTLIER_FACTOR * sigma * np.sqrt(2.0), OUTLIER_MIN)
     padded = np.pad(dev, ((0, 0), (1, 1)))
     largest = (dev >= padded[:, :-2]) & (dev >= padded[:, 2:])  # a marker off moves its neighbours' offsets by half

@@ -14,7 +14,8 @@ damping column) and the rest ``R`` (``-dL/dq``).  From that one structure come
 * the model of given coefficients: ``M(q)``, the bias forces and a compiled
   :class:`~pcs_sindy.models.forward.ForwardModel` (:meth:`LagrangianLibrary.forward_model`)
   that rollouts and controllers call,
-* its own printout (:meth:`LagrangianLibrary.equations`),
+* its own printout (:meth:`LagrangianLibrary.equations`), every value with its unit
+  (:meth:`LagrangianLibrary.coefficient_units`, from :mod:`pcs_sindy.core.units`),
 * the library of fewer strains for sparsification (:meth:`LagrangianLibrary.restrict`).
 
 The segmentation (segment lengths and modelled strains) is set by ``fit`` from
@@ -37,6 +38,7 @@ from sklearn.utils import check_array
 
 from ...core.kinematics import PlanarPCS
 from ...core.trajectory import kinematics_of
+from ...core.units import STRAIN_UNITS, Unit, generalised_force_unit, strain_rate_unit, strain_unit
 from ...core.validation import Check, InvalidParameterError, validate_parameters
 
 __all__ = ["LagrangianLibrary"]
@@ -293,6 +295,29 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         """Alias of :meth:`coefficient_names`."""
         return self.coefficient_names()
 
+    def coefficient_units(self) -> list[Unit | None]:
+        """Unit of each of the ``n_coefficients_`` coefficients (None where this library does not know it).
+
+        ``tau = Psi @ coef`` makes the unit of a coefficient the unit of the generalised force of its
+        rows divided by the unit of its column of ``Psi``.  Here, for any library: a stiffness (the
+        coefficient times ``stiffness_factor_``, a pure number) is ``tau_e / q_e``, a damping
+        ``tau_e / qd_e``, a constant force ``tau_e`` (:func:`pcs_sindy.core.units.generalised_force_unit`);
+        the libraries add the units of their other columns.
+
+        Returns
+        -------
+        list of Unit or None
+        """
+        names = self.kinematics.strain_names(active_only=True)
+        out: list[Unit | None] = [None] * int(self.n_coefficients_)
+        for e, j in enumerate(np.asarray(self.stiffness_index_)):
+            out[int(j)] = generalised_force_unit(names[e]) / strain_unit(names[e])
+        for e, j in enumerate(np.asarray(self.damping_index_)):
+            out[int(j)] = generalised_force_unit(names[e]) / strain_rate_unit(names[e])
+        for row, j in zip(np.asarray(self.rest_force_rows_), np.asarray(self.rest_force_index_)):
+            out[int(j)] = generalised_force_unit(names[int(row)])
+        return out
+
     # ------------------------------------------------------------------ regression rows
     @abstractmethod
     def euler_lagrange_matrix(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
@@ -388,4 +413,31 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
     def _damping_line(self, coef: NDArray[np.float64], precision: int) -> str:
         strain = self.kinematics.strain_names(active_only=True)
         damp = self.damping_from_coef(coef)
-        return "D = diag(" + ", ".join(f"{s}: {d:.{precision}g}" for s, d in zip(strain, damp)) + ")"
+        return (
+            "D = diag("
+            + ", ".join(
+                f"{s}: {self._with_unit(d, generalised_force_unit(s) / strain_rate_unit(s), precision)}"
+                for s, d in zip(strain, damp)
+            )
+            + ")"
+        )
+
+    def _units_line(self) -> str:
+        """The units of the modelled strains and of their generalised forces, e.g.
+        ``units: be [1/m], sh, ax [-]; tau_be [N·m²], tau_sh, tau_ax [N·m]``."""
+        kinds = [k for k in STRAIN_UNITS if any(n.rpartition("_")[0] == k for n in self.kinematics.strain_names(True))]
+
+        def grouped(prefix: str, unit_of: Any) -> str:
+            groups: dict[str, list[str]] = {}
+            for k in kinds:
+                unit = unit_of(k)
+                groups.setdefault("-" if unit.dimensionless else str(unit), []).append(prefix + k)
+            return ", ".join(f"{', '.join(names)} [{unit}]" for unit, names in groups.items())
+
+        return f"units: {grouped('', strain_unit)}; {grouped('tau_', generalised_force_unit)}"
+
+    @staticmethod
+    def _with_unit(value: float, unit: Unit | None, precision: int = 3) -> str:
+        """``value`` to ``precision`` significant digits and its unit (nothing for a pure number or None)."""
+        text = f"{value:.{precision}g}"
+        return text if unit is None or unit.dimensionless else f"{text} {unit}"

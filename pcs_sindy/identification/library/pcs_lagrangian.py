@@ -13,6 +13,7 @@ from pysindy.utils import AxesArray, comprehend_axes
 from sklearn.utils.validation import check_is_fitted
 
 from ...core.kinematics import PlanarPCS
+from ...core.units import DIMENSIONLESS, JOULE, KILOGRAM, METRE, NEWTON, Unit, strain_rate_unit, strain_unit
 from ...core.validation import Options, validate_parameters
 from ._monomial_dynamics import DynamicsTables
 from ._monomial_terms import readable, reduce_product
@@ -25,6 +26,32 @@ __all__ = ["PCSLagrangianLibrary"]
 _MEMORY: dict[tuple, CompiledBasis] = {}
 _BASES = ("monomial", "physical")
 _SCALINGS = ("seed", "length", "physical")
+#: unit of each lumped unknown (PARAM_KINDS): line density, rotary line inertia, weight per length, stiffness
+_LUMPED_UNITS: dict[str, Unit] = {
+    "mA": KILOGRAM / METRE,
+    "mI": KILOGRAM * METRE,
+    "gx": NEWTON / METRE,
+    "gy": NEWTON / METRE,
+    "kbe": JOULE / strain_unit("be") ** 2,
+    "ksh": JOULE / strain_unit("sh") ** 2,
+    "kax": JOULE / strain_unit("ax") ** 2,
+}
+#: the strain kind of the derivation's atom names (kap_1, sh_1, ax_1)
+_ATOM_KIND = {"kap": "be", "sh": "sh", "ax": "ax"}
+
+
+def _atom_unit(name: str) -> Unit:
+    """Unit of one atom of the monomial basis: a strain (``kap_1``), a rate (``dkap_1``), or a pure number.
+
+    The special functions ``F..._i`` of ``u_i = kappa_i L_i`` and the cosines and sines of
+    bending-angle sums are pure numbers.
+    """
+    rate = name.startswith("d") and name[1:].rpartition("_")[0] in _ATOM_KIND
+    base = name[1:] if rate else name
+    kind = base.rpartition("_")[0]
+    if kind not in _ATOM_KIND:
+        return DIMENSIONLESS
+    return strain_rate_unit(_ATOM_KIND[kind]) if rate else strain_unit(_ATOM_KIND[kind])
 
 
 def _compiled(m: int, cache_dir, progress: bool = False) -> CompiledBasis:
@@ -363,6 +390,27 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         names = [f"EL[{n}]" for n in self.get_feature_names()]
         return names + [f"damping {n}" for n in self._default_inputs()[self._n :]]
 
+    def coefficient_units(self) -> list[Unit | None]:
+        """Unit of each of the ``n_psi`` coefficients (:mod:`pcs_sindy.core.units`).
+
+        The Lagrangian is an energy [J]: the coefficient of a basis function is J over the function's
+        unit (strains 1/m or pure numbers, rates per second; special functions and trigonometric factors
+        are pure numbers), e.g. N·m³ for ``be_1^2``, kg·m² for ``dax_1^2``; with ``basis="physical"``
+        the lumped unknowns' units (rhoA kg/m, rhoI kg·m, rhoA g N/m, stiffness); damping as for every library.
+        """
+        self._ensure_setup()
+        out = super().coefficient_units()
+        if self.basis == "monomial":
+            for j, atoms in enumerate(self._column_reduced):
+                unit = DIMENSIONLESS
+                for name, power in atoms:
+                    unit = unit * _atom_unit(name) ** power
+                out[j] = JOULE / unit
+        else:
+            for r, p_idx in enumerate(self._physical_cols):
+                out[r] = _LUMPED_UNITS[self._lumped_names[p_idx].split("_")[0]]
+        return out
+
     # ------------------------------------------------------------------ regression matrix
     def euler_lagrange_matrix(self, q, qd, qdd) -> NDArray[np.float64]:
         """``Psi(q, qd, qdd)`` of shape (n_samples, n, n_psi): ``tau = Psi @ pi+``.
@@ -611,17 +659,20 @@ class PCSLagrangianLibrary(LagrangianLibrary):
         )
 
     def equations(self, coef, precision: int = 3, threshold: float = 0.0) -> list[str]:
-        """``L = c_1 f_1 + c_2 f_2 + ...`` over the basis functions, then ``D = diag(...)``.
+        """``L = c_1 [unit_1] f_1 + c_2 [unit_2] f_2 + ...`` over the basis functions, the units, ``D = diag(...)``.
 
-        Terms with ``|c_j| <= threshold`` (and exact zeros) are hidden.
+        Terms with ``|c_j| <= threshold`` (and exact zeros) are hidden; each coefficient carries its
+        unit in brackets (:meth:`coefficient_units`; ``L`` in J).
         """
         self._ensure_setup()
         c = self._coef(coef)
         terms = []
-        for cj, name in zip(c[: self._n_f], self.get_feature_names()):
+        units = self.coefficient_units()
+        for cj, name, unit in zip(c[: self._n_f], self.get_feature_names(), units):
             if cj == 0 or abs(cj) <= threshold:
                 continue
-            terms.append(f"{'-' if cj < 0 else '+'} {abs(cj):.{precision}g} {name}")
+            tag = "" if unit is None or unit.dimensionless else f" [{unit}]"
+            terms.append(f"{'-' if cj < 0 else '+'} {abs(cj):.{precision}g}{tag} {name}")
         lag = " ".join(terms) if terms else "0"
         lag = lag[2:] if lag.startswith("+ ") else "-" + lag[2:] if lag.startswith("- ") else lag
-        return [f"L = {lag}", self._damping_line(c, precision)]
+        return [f"L = {lag}", self._units_line() + "; L [J]", self._damping_line(c, precision)]

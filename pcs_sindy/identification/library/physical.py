@@ -70,6 +70,7 @@ from sklearn.utils.validation import check_is_fitted
 from tqdm.auto import tqdm
 
 from ...core.kinematics import STRAIN_NAMES
+from ...core.units import KILOGRAM, METRE, NEWTON, Unit, generalised_force_unit, strain_rate_unit, strain_unit
 from ...core.validation import Check, Interval, Options
 from ...models import pcs_numeric as _num
 from ._physical_layout import Spec, rest_kinds
@@ -269,6 +270,29 @@ class PhysicalPCSLibrary(LagrangianLibrary):
     def coefficient_names(self) -> list[str]:
         """Names of the ``n_coefficients_`` parameters, e.g. ``rhoA_1``, ``k_be_1``, ``d_ax_2``."""
         return list(self._spec.names)
+
+    def coefficient_units(self) -> list[Unit]:
+        """Unit of each parameter (:mod:`pcs_sindy.core.units`).
+
+        ``rhoA`` kg/m and ``rhoI`` kg·m (the kinetic energy ``1/2 int rhoA |pdot|^2 + rhoI thetadot^2 ds``
+        is in J), ``rhoAg`` N/m; per strain ``e`` with generalised force ``tau_e`` (N·m² for bending,
+        N·m for shear and axial strain): stiffness ``tau_e / q_e`` (N·m³, N·m), constant force ``tau_e``,
+        damping ``tau_e / qd_e`` (N·m³·s, N·m·s).
+
+        Returns
+        -------
+        list of Unit
+        """
+        names = self._spec.kin.strain_names()
+        per_segment = {"rhoA": KILOGRAM / METRE, "rhoI": KILOGRAM * METRE, "gx": NEWTON / METRE, "gy": NEWTON / METRE}
+        out = []
+        for kind, _, e in self._spec.kinds:
+            if kind in per_segment:
+                out.append(per_segment[kind])
+                continue
+            tau = generalised_force_unit(names[e])
+            out.append({"k": tau / strain_unit(names[e]), "f0": tau, "d": tau / strain_rate_unit(names[e])}[kind])
+        return out
 
     # -- input checks ------------------------------------------------------------
     def _check_states(self, **arrays: ArrayLike) -> list[NDArray[np.float64]]:
@@ -583,29 +607,34 @@ class PhysicalPCSLibrary(LagrangianLibrary):
         return LumpedPCSModel.from_lumped(self.kinematics, self.lumped_from_coef(coef), actuation)
 
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
-        """The Lagrangian's structure, ``M(q)``, the parameter values and ``D``.
+        """The Lagrangian's structure, ``M(q)``, the units, the parameter values and ``D``.
 
         A physical library's coefficients are parameters of one fixed
         Lagrangian, not weights of basis functions: the structure is printed
-        once, then every parameter with ``|value| > threshold`` (damping on the
-        last line).
+        once, then the units of the strains and of their generalised forces, then
+        every parameter with ``|value| > threshold`` with its unit
+        (:meth:`coefficient_units`; damping on the last line).
         """
         coef = self._check_coef(coef)
         spec = self._spec
         damp_idx = set(int(j) for j in spec.damping_index)
         values = [
-            f"{nm} = {c:.{precision}g}"
-            for j, (c, nm) in enumerate(zip(coef, spec.names))
+            f"{nm} = {self._with_unit(c, unit, precision)}"
+            for j, (c, nm, unit) in enumerate(zip(coef, spec.names, self.coefficient_units()))
             if j not in damp_idx and abs(c) > threshold
         ]
+        if self.mass is not None:
+            values.append(f"mass = sum_i rhoA_i L_i = {float(self.mass):.{precision}g} kg")
         strain = spec.kin.strain_names(active_only=True)
         elastic = " + ".join(f"k_{s} {s}^2" for s in strain)
         if spec.rest_index.size:
             elastic += " - 2 f0^T q"
         gravity = "rhoAg_i . p" if spec.identify_gravity else "rhoA_i g . p"
+        # k = f_L (E I, c_sh G A, E A): E I is N·m², G A and E A are N, so f_L is a length (core.units)
         return [
             f"L = 1/2 qd^T M(q) qd + sum_i int_0^L_i {gravity} ds - 1/2 ({elastic})",
             "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jo^T Jo) ds",
+            self._units_line() + "; k = f_L (E I, c_sh G A, E A), f_L = 1 m (seed) or L_i",
             ", ".join(values) if values else "(all parameters 0)",
             self._damping_line(coef, precision),
         ]

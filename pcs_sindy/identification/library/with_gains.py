@@ -74,6 +74,10 @@ class WithGains:
 
     euler_lagrange_names = coefficient_names
 
+    def coefficient_units(self) -> list[Any]:
+        """The library's units, then None per gain (a gain's unit depends on the inputs' units)."""
+        return list(self.library.coefficient_units()) + [None] * len(self.gain_names)
+
     def restrict(self, active_strains: ArrayLike) -> WithGains:
         return WithGains(self.library.restrict(active_strains), self.gain_names, self.gain_lower, self._parent)
 
