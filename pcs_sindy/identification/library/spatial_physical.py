@@ -43,6 +43,14 @@ from sklearn.exceptions import NotFittedError
 from sklearn.utils.validation import check_is_fitted
 
 from ...core.spatial import SPATIAL_Q_MAX, SPATIAL_STRAIN_NAMES, SpatialPCS
+from ...core.units import (
+    KILOGRAM,
+    METRE,
+    NEWTON,
+    generalised_force_unit,
+    strain_rate_unit,
+    strain_unit,
+)
 from ...core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 from ...models.spatial_forward import BODY_INERTIA, node_terms, spatial_quadrature
 from .base import LagrangianLibrary
@@ -712,19 +720,32 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
 
         return SpatialPCSModel(self.kinematics, **self.lumped_from_coef(coef), actuation=actuation)
 
+    def coefficient_units(self) -> list[Any]:
+        """Unit of each parameter (:mod:`pcs_sindy.core.units`): ``rhoA`` kg/m, ``rhoI`` kg·m, ``rhoAg`` N/m,
+        stiffness ``tau_e / q_e``, constant force ``tau_e``, damping ``tau_e / qd_e``."""
+        names = self._layout.kin.strain_names()
+        per_segment = {"rhoA": KILOGRAM / METRE, "rhoI": KILOGRAM * METRE, "g": NEWTON / METRE}
+        out = []
+        for kind, _, e in self._layout.kinds:
+            if kind in per_segment:
+                out.append(per_segment[kind])
+                continue
+            tau = generalised_force_unit(names[e])
+            out.append({"k": tau / strain_unit(names[e]), "f0": tau, "d": tau / strain_rate_unit(names[e])}[kind])
+        return out
+
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
-        """The Lagrangian's structure, ``M(q)``, the parameter values with units, and ``D``."""
+        """The Lagrangian's structure, ``M(q)``, the units, the parameter values with units, and ``D``."""
         coef = self._check_coef(coef)
         lay = self._layout
-        units = {"rhoA": "kg/m", "rhoI": "kg m", "g": "N/m", "f0": "N or N m"}
-        stiff_units = ("N m^2", "N m^2", "N m^2", "N", "N", "N")
         damp = set(int(j) for j in lay.damping_index)
-        values = []
-        for j, (c, nm, (kind, _, e)) in enumerate(zip(coef, lay.names, lay.kinds)):
-            if j in damp or abs(c) <= threshold:
-                continue
-            unit = stiff_units[e % 6] if kind == "k" else units[kind]
-            values.append(f"{nm} = {c:.{precision}g} {unit}")
+        values = [
+            f"{nm} = {self._with_unit(c, unit, precision)}"
+            for j, (c, nm, unit) in enumerate(zip(coef, lay.names, self.coefficient_units(), strict=True))
+            if j not in damp and abs(c) > threshold
+        ]
+        if self.mass is not None:
+            values.append(f"mass = sum_i rhoA_i L_i = {float(self.mass):.{precision}g} kg")
         strain = lay.kin.strain_names(active_only=True)
         elastic = " + ".join(f"k_{s} {s}^2" for s in strain)
         if lay.rest_index.size:
@@ -733,6 +754,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         return [
             f"L = 1/2 qd^T M(q) qd + sum_i int_0^L_i {gravity} ds - 1/2 ({elastic})",
             "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jw^T diag(1, 2, 1) Jw) ds  (Jw: body angular Jacobian)",
+            self._units_line() + "; k = f_L (E I, E I, G 2I, c_sh G A, c_sh G A, E A), f_L = 1 m (seed) or L_i",
             ", ".join(values) if values else "(all parameters 0)",
             self._damping_line(coef, precision),
         ]
