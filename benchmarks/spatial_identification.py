@@ -152,8 +152,8 @@ def render(rows: list[dict]) -> str:
         f"loop, rtol {RTOL:g}, atol {ATOL:g}). `EulerLagrangeRegressor()` defaults (weak form, spatial physical "
         "library chosen from the data). `noisy`: 0.5 mm Gaussian noise on 3-D marker positions (2 markers per disc "
         "at ±r on body x and z, 4 discs per segment), strains fitted back per frame by batched Gauss–Newton on the "
-        "known segmentation (a stand-in for the spatial kinematic fusion, which landed too late to be used here). Targets (issue 26): "
-        "≤ 0.1 mm noise-free, ≤ 1 mm with 0.5 mm marker noise.",
+        "known segmentation (a stand-in for the spatial kinematic fusion, which landed too late to be used here). "
+        "Targets (issue 26): ≤ 0.1 mm noise-free, ≤ 1 mm with 0.5 mm marker noise.",
         "",
         "| case | tip RMSE [mm] | tip max [mm] | tip motion RMS [mm] | stiffness rel. err. (median / max) "
         "| rhoA_1, rhoA_2 (identified / true) [kg/m] | removed strains | fit [s] | 5-s rollout [s] |",
