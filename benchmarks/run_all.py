@@ -46,12 +46,14 @@ ORDER = [
     "position_fusion_speed",
     "real_robots",
     "spatial_rollout_speed",
+    "spatial_accuracy",
 ]
 # arguments of the benchmarks that write docs/results.md only when asked to
 ARGS = {
     "position_fusion_speed": ["--write"],
     "real_robots": ["--write", "--plots", "docs"],
     "spatial_rollout_speed": ["--write"],
+    "spatial_accuracy": ["--write"],
 }
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]

@@ -13,8 +13,8 @@ example
 3. identifies ``EulerLagrangeRegressor(actuation=TendonActuation(...))`` with
    the design offset and the tendon sides read from the data;
 4. predicts the second half open loop from the inputs, maps it back to the
-   capture frame and plots the tip against the measurement
-   (``mocap_prediction.png``).
+   capture frame and plots the tip against the measurement, with the error
+   over time (``mocap_prediction.png``).
 
 Run: ``.venv/bin/python examples/mocap_robot.py`` (about 20 s; the first run
 compiles the simulator's kernels).
@@ -27,7 +27,6 @@ from pathlib import Path
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from pcs_sindy.core import PoseTrajectory  # noqa: E402
@@ -35,6 +34,7 @@ from pcs_sindy.fusion import KinematicFusion, tendon_sides  # noqa: E402
 from pcs_sindy.identification import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.io import read_marker_csv  # noqa: E402
 from pcs_sindy.models import TendonActuation  # noqa: E402
+from pcs_sindy.plotting import plot_tip_positions  # noqa: E402
 from pcs_sindy.simulation import MocapScenario  # noqa: E402
 
 start = time.perf_counter()
@@ -75,13 +75,7 @@ ok = np.all(np.isfinite(measured), axis=1)
 rmse = np.sqrt(np.mean(np.sum((tip[ok] - measured[ok]) ** 2, axis=1)))
 print(f"open-loop tip RMSE over the second half: {1e3 * rmse:.2f} mm")
 
-fig, axes = plt.subplots(3, 1, sharex=True, figsize=(8, 6))
-for c, ax in enumerate(axes):
-    ax.plot(st_test.t, 1e3 * measured[:, c], ".", ms=2, color="0.5", label="measured")
-    ax.plot(st_test.t, 1e3 * tip[:, c], color="C0", label="PCS model, open loop")
-    ax.set_ylabel(f"tip {'XYZ'[c]} [mm]")
-axes[0].legend(loc="upper right")
-axes[-1].set_xlabel("time since the split [s]")
-fig.tight_layout()
+# the tip in the capture frame against the measurement, and the error over time (the lines overlap)
+fig = plot_tip_positions(st_test.t, measured, tip, labels=["PCS model, open loop"], title="second half, open loop")
 fig.savefig("mocap_prediction.png", dpi=120)
 print(f"plot -> mocap_prediction.png; total {time.perf_counter() - start:.1f} s")

@@ -668,9 +668,13 @@ def test_quick_demo_writes_a_complete_report(tmp_path, monkeypatch, capsys):
         "fig10_stills.png",
     ):
         assert (rep / name).stat().st_size > 0, name
-    video = cv2.VideoCapture(str(rep / "rollout.mp4"))
+    from pcs_sindy.core.video import browser_video_format
+
+    animation = rep / ("rollout" + browser_video_format())  # browser-playable (issue 28)
+    video = cv2.VideoCapture(str(animation))
     assert video.isOpened() and video.get(cv2.CAP_PROP_FRAME_COUNT) > 1
     video.release()
+    assert f"]({animation.name})" in (rep / "report.md").read_text()
     metrics = json.loads((rep / "metrics.json").read_text())
     # the scenario's true segmentation, recovered from the rendered videos
     np.testing.assert_allclose(metrics["this_run"]["segment_lengths_m"], [0.07, 0.1], atol=3e-3)

@@ -14,6 +14,7 @@ import os
 import re
 import subprocess
 import sys
+import warnings
 from pathlib import Path
 
 import cv2
@@ -530,3 +531,18 @@ def test_a_marker_off_its_track_is_flagged(tmp_path, capsys):
     clean = render_video(truth, tmp_path / "clean.avi", CAM, fps=FPS, marker_size=SIZE).video
     ex.transform([str(clean)])
     assert ex.diagnostics_[0]["outlier_frames"] == {}
+
+
+def test_fps_overriding_the_video_container_is_said(tmp_path):
+    """No camera JSON, --fps a tenth of the container's rate: used, with a warning naming both rates."""
+    t = np.arange(T) / FPS
+    q = np.zeros((T, 3))
+    q[:, 0] = 10.0 * np.sin(2 * np.pi * 2.0 * t)
+    video = render_video(forward_kinematics(q, LENGTHS, S), tmp_path / "v.avi", CAM, fps=FPS, marker_size=SIZE).video
+    camera_json_path(video).unlink()
+    with pytest.warns(UserWarning, match=rf"fps={FPS / 10:g} overrides the video container's {FPS:g} fps"):
+        (traj,) = MarkerPoseExtractor(robot_length=LENGTHS[0], fps=FPS / 10, progress=False).transform([str(video)])
+    np.testing.assert_allclose(np.diff(traj.t), 10.0 / FPS)
+    with warnings.catch_warnings():
+        warnings.filterwarnings("error", message=".*overrides the video container.*")
+        MarkerPoseExtractor(robot_length=LENGTHS[0], fps=FPS, progress=False).transform([str(video)])

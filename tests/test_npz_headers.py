@@ -55,9 +55,11 @@ def test_honest_archives_pass_and_round_trip(tmp_path):
         np.testing.assert_array_equal(got[k], v)
 
 
-def test_a_model_files_array_with_a_lying_header_is_refused(tmp_path):
+def test_a_model_files_array_with_a_lying_header_is_refused(tmp_path, monkeypatch):
     from pcs_sindy.fusion import KinematicFusion
     from pcs_sindy.simulation import get_scenario
+
+    monkeypatch.setattr("pcs_sindy.io.model_files.INLINE_ARRAY_SIZE", 0)  # every array in the npz
 
     rec = get_scenario("one_segment").generate(seed=0, n_train=1, train_duration=0.02, validation=False).train[0]
     fusion = KinematicFusion(threshold=0.2, total_length=0.1).fit([rec.poses])

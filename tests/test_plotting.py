@@ -26,6 +26,7 @@ from pcs_sindy.plotting import (
     plot_rollout,
     plot_stills,
     plot_strain_distance_profile,
+    plot_tip_positions,
 )
 
 
@@ -228,7 +229,7 @@ def _strains(n, phase=0.0):
 
 def test_rollout_type_layout_two_segments():
     q, qp = _strains(6), _strains(6, 0.1)
-    fig = plot_rollout(t_grid, q, qp)
+    fig = plot_rollout(t_grid, q, qp, residuals=False)
     assert len(fig.axes) == 3
     for panel, ax in enumerate(fig.axes):
         lines = ax.get_lines()
@@ -250,7 +251,7 @@ def test_rollout_type_layout_two_segments():
 def test_rollout_several_predictions_one_segment():
     q = _strains(3)
     preds = {"no noise": _strains(3, 0.05), "noise": _strains(3, 0.2)}
-    fig = plot_rollout(t_grid, q, preds)
+    fig = plot_rollout(t_grid, q, preds, residuals=False)
     assert len(fig.axes) == 3
     for k, ax in enumerate(fig.axes):
         lines = ax.get_lines()
@@ -263,7 +264,7 @@ def test_rollout_several_predictions_one_segment():
 
 def test_rollout_strain_layout_for_several_models_and_segments():
     q = _strains(6)
-    fig = plot_rollout(t_grid, q, [q * 0.9, q * 1.1], labels=["a", "b"])
+    fig = plot_rollout(t_grid, q, [q * 0.9, q * 1.1], labels=["a", "b"], residuals=False)
     assert len(fig.axes) == 6  # one subplot per strain
     for k, ax in enumerate(fig.axes):
         np.testing.assert_array_equal(ax.get_lines()[2].get_ydata(), 1.1 * q[:, k])
@@ -273,8 +274,10 @@ def test_rollout_strain_layout_for_several_models_and_segments():
 def test_rollout_custom_names_and_axes():
     q = _strains(2)
     fig, axes = plt.subplots(2)
-    out = plot_rollout(t_grid, q, q, names=["alpha", "beta"], axes=axes)
+    out = plot_rollout(t_grid, q, q, names=["alpha", "beta"], axes=axes, residuals=False)
     assert out is fig and axes[1].get_ylabel() == "beta"
+    with pytest.raises(ValueError, match="4 matplotlib Axes"):  # with residuals: a panel below each
+        plot_rollout(t_grid, q, q, names=["alpha", "beta"], axes=axes)
 
 
 @pytest.mark.parametrize(
@@ -299,7 +302,7 @@ def test_end_effector_content_and_errors():
     rng = np.random.default_rng(0)
     tip = rng.normal(size=(T, 3))
     pred = tip + rng.normal(scale=1e-3, size=(T, 3))
-    fig = plot_end_effector(t_grid, tip, [pred], labels=["model"])
+    fig = plot_end_effector(t_grid, tip, [pred], labels=["model"], residuals=False)
     assert len(fig.axes) == 3
     for c, ax in enumerate(fig.axes):
         truth, p = ax.get_lines()
@@ -312,6 +315,66 @@ def test_end_effector_content_and_errors():
     e_th = np.mean(np.abs(pred[:, 2] - tip[:, 2]))
     label = _legend_texts(fig.axes[0])[1]
     assert label.startswith("model") and f"{1e3 * e_p:.3g} mm" in label and f"{e_th:.3g} rad" in label
+
+
+def test_rollout_residual_panels_show_model_minus_truth():
+    """Issue 28: a model's line covers the truth's; the residual panel below shows the difference."""
+    q = _strains(6)
+    qp = q + 1e-3 * np.cos(7 * t_grid)[:, None] * np.arange(1, 7)
+    fig = plot_rollout(t_grid, q, qp)
+    assert len(fig.axes) == 6  # bending, its residuals, shear, its residuals, axial, its residuals
+    for panel in range(3):
+        res = fig.axes[2 * panel + 1]
+        zero, *lines = res.get_lines()
+        np.testing.assert_array_equal(zero.get_ydata(), [0.0, 0.0])
+        assert len(lines) == 2  # segments 1 and 2
+        for line, k in zip(lines, (panel, panel + 3), strict=True):
+            np.testing.assert_allclose(line.get_ydata(), qp[:, k] - q[:, k], rtol=0, atol=1e-15)
+    assert "model - truth" in fig.axes[1].get_ylabel() and "[1/m]" in fig.axes[1].get_ylabel()
+    assert "[-]" in fig.axes[3].get_ylabel()
+    # the data panels are unchanged by the residuals
+    np.testing.assert_array_equal(fig.axes[0].get_lines()[1].get_ydata(), qp[:, 0])
+
+
+def test_end_effector_residual_panels_are_the_seed_errors_over_time():
+    rng = np.random.default_rng(1)
+    tip = rng.normal(size=(T, 3))
+    pred = tip + rng.normal(scale=1e-3, size=(T, 3))
+    pred[3, 2] = tip[3, 2] + 2 * np.pi - 0.01  # an angle error across the wrap: 0.01 rad, not 6.27
+    fig = plot_end_effector(t_grid, tip, pred)
+    assert len(fig.axes) == 5
+    e_p = 1e3 * np.sqrt((pred[:, 0] - tip[:, 0]) ** 2 + (pred[:, 1] - tip[:, 1]) ** 2)
+    e_th = np.abs(pred[:, 2] - tip[:, 2])
+    e_th[3] = 0.01
+    (err_p, mean_p), (err_th, mean_th) = fig.axes[3].get_lines(), fig.axes[4].get_lines()
+    np.testing.assert_allclose(err_p.get_ydata(), e_p, rtol=1e-12)
+    np.testing.assert_allclose(err_th.get_ydata(), e_th, rtol=1e-9)
+    assert mean_p.get_ydata()[0] == pytest.approx(e_p.mean()) and mean_th.get_ydata()[0] == pytest.approx(e_th.mean())
+    assert "[mm]" in fig.axes[3].get_ylabel() and "[rad]" in fig.axes[4].get_ylabel()
+
+
+def test_tip_positions_keep_measurement_gaps_and_give_the_error():
+    rng = np.random.default_rng(2)
+    tip = rng.normal(size=(T, 3))
+    tip[5:8] = np.nan  # samples the tracker lost
+    pred = np.nan_to_num(tip) + 1e-3 * rng.normal(size=(T, 3))
+    fig = plot_tip_positions(t_grid, tip, pred, labels=["PCS"])
+    assert len(fig.axes) == 4
+    ok = np.all(np.isfinite(tip), axis=1)
+    e = 1e3 * np.sqrt(np.sum((pred - tip) ** 2, axis=1))
+    (line,) = fig.axes[3].get_lines()
+    np.testing.assert_allclose(line.get_ydata()[ok], e[ok], rtol=1e-12)
+    assert np.all(np.isnan(line.get_ydata()[~ok]))
+    label = _legend_texts(fig.axes[0])[1]
+    assert f"RMSE {np.sqrt(np.mean(e[ok] ** 2)):.3g} mm" in label and f"mean {np.mean(e[ok]):.3g} mm" in label
+    np.testing.assert_array_equal(fig.axes[2].get_lines()[0].get_ydata(), tip[:, 2])
+    assert fig.axes[2].get_ylabel() == "tip Z [m]"
+    with pytest.raises(ValueError, match="tip_pred"):
+        plot_tip_positions(t_grid, tip, pred[:, :2])
+    with pytest.raises(ValueError, match="no measured"):
+        plot_tip_positions(t_grid, np.full((T, 3), np.nan), pred)
+    with pytest.raises(ValueError, match="tip_true"):
+        plot_tip_positions(t_grid, tip[:, :1], pred[:, :1])
 
 
 def test_end_effector_bad_input():
@@ -439,7 +502,15 @@ def _read_video(path):
     return frames
 
 
-@pytest.mark.parametrize("suffix", [".avi", ".mp4"])
+def _read_gif(path):
+    from PIL import Image, ImageSequence
+
+    with Image.open(path) as img:
+        assert img.format == "GIF"
+        return [np.asarray(f.convert("RGB"))[..., ::-1] for f in ImageSequence.Iterator(img)]
+
+
+@pytest.mark.parametrize("suffix", [".avi", ".mp4", ".webm", ".gif"])
 def test_animation_file(tmp_path, suffix):
     t, xy = _rollout(49)
     before = plt.get_fignums()
@@ -455,7 +526,7 @@ def test_animation_file(tmp_path, suffix):
         progress=False,
     )
     assert out == tmp_path / f"roll{suffix}" and out.is_file()
-    frames = _read_video(out)
+    frames = _read_gif(out) if suffix == ".gif" else _read_video(out)
     assert len(frames) == math.ceil(49 / 4)  # samples 0, 4, ..., 48
     assert all(f.shape == (128, 160, 3) for f in frames)
     assert not np.array_equal(frames[0], frames[len(frames) // 2])  # the robot moves
@@ -471,7 +542,7 @@ def test_animation_default_stride_is_real_time(tmp_path):
 def test_animation_bad_input(tmp_path):
     t, xy = _rollout(10)
     with pytest.raises(ValueError, match="path"):
-        animate_rollout(tmp_path / "r.gif", t, xy, xy)
+        animate_rollout(tmp_path / "r.mkv", t, xy, xy)
     with pytest.raises(OSError, match="path"):
         animate_rollout(tmp_path / "missing" / "r.avi", t, xy, xy)
     with pytest.raises(ValueError, match="backbone_pred"):

@@ -100,7 +100,9 @@ def pipeline_step(name: str, **params: Any) -> Any:
     """
     from ..pipeline.pcs_pipeline import make_pcs_pipeline
 
-    return make_pcs_pipeline(start="videos").named_steps[name].set_params(**_given(**params))
+    # from poses unless the extractor is asked for: the other steps need no vision (no OpenCV)
+    pipe = make_pcs_pipeline(start="videos" if name == "poses" else "poses")
+    return pipe.named_steps[name].set_params(**_given(**params))
 
 
 def scenarios() -> list[str]:
@@ -276,8 +278,10 @@ def render(
         Output folder (created).
     fps : float, optional
         Frame rate; default from the time stamps.
-    video_format : {".avi", ".mp4"}
-        MJPG (sharp marker edges) or mp4v (lossy).
+    video_format : {".avi", ".mp4", ".webm", "browser"}
+        MJPG (sharp marker edges), MP4 (H.264 when this OpenCV build has it, else mp4v; lossy), WebM
+        (VP8; lossy) or ``"browser"``: the first of H.264 MP4 and VP8 WebM that this build writes
+        (:func:`pcs_sindy.core.video.browser_video_format`; the videos' suffix says which).
     size : (int, int), optional
         Image width and height; default :meth:`~pcs_sindy.core.camera.Camera.fit_poses`'s.
     marker_size : (float, float), optional
@@ -294,6 +298,13 @@ def render(
     """
     from ..io import data_files as files
 
+    if video_format == "browser":
+        from ..core.video import browser_video_format
+
+        try:
+            video_format = browser_video_format(gif=False)
+        except OSError as err:
+            raise CLIError(f"--format browser: {err}; use .avi") from None
     folder = files.output_dir(out)
     for name in inputs:  # fail before any work on a bad input
         files.read_arrays(name, ["poses"], "pose file")
@@ -547,13 +558,24 @@ def fuse(
     units: str | None = None,
     input_columns: Sequence[str] | None = None,
     arc_lengths: Sequence[float] | None = None,
+    inputs: Sequence[str | Path] | None = None,
+    space: str | None = None,
+    orientations: bool = False,
 ) -> tuple[Any, list[Any], list[Any]]:
     """Kinematic fusion of pose files: ``segmentation.json`` and one strain file per pose file in ``out``.
 
     With ``markers_csv`` (instead of pose files): motion-capture CSV files of marker positions
     (:func:`pcs_sindy.io.read_marker_csv` with ``markers``, ``rate``, ``units`` and the input
     columns ``input_columns``, whose values go to ``out/inputs/<stem>.npz`` for ``fit --inputs``),
-    fused from positions alone (``arc_lengths``: the markers' measured rest arc lengths).
+    fused from positions alone (``arc_lengths``: the markers' measured rest arc lengths).  The
+    inputs may come from separate logs instead, ``inputs`` (one per CSV file, in order; CSV, ``.npy``
+    or ``.npz``, :func:`pcs_sindy.io.read_input_log`), put on the capture's samples row for row or by
+    the log's frame/index or time column (:func:`pcs_sindy.io.align_inputs`); ``input_columns`` then
+    chooses columns of the logs.  ``out/capture.json`` records the markers, rate and units for
+    ``rollout --truth <capture.csv>``.  The fusion is planar (the markers' best-fit plane) or 3-D
+    (``space``: ``"auto"``, the default, ``"plane"`` or ``"3d"``, see
+    :class:`~pcs_sindy.fusion.KinematicFusion`); ``orientations`` also reads each marker's quaternion
+    columns (``qx1, qy1, qz1, w1``) for a 3-D fusion with torsion.
 
     Parameters
     ----------
@@ -579,10 +601,26 @@ def fuse(
 
     if bool(markers_csv) == bool(poses):
         raise CLIError("give either pose files or --markers-csv files (not both)")
+    if inputs and not markers_csv:
+        raise CLIError("--inputs (input logs) go with --markers-csv; pose files' forces go to 'fit --tau'")
     if markers_csv:
         return _fuse_marker_csv(
-            markers_csv, out, markers, rate, units, input_columns, arc_lengths, threshold, n_jobs, quiet
+            markers_csv,
+            out,
+            markers,
+            rate,
+            units,
+            input_columns,
+            arc_lengths,
+            threshold,
+            n_jobs,
+            quiet,
+            inputs,
+            space=space,
+            orientations=orientations,
         )
+    if space is not None or orientations:
+        raise CLIError("--space and --orientations apply to --markers-csv files (pose files are planar)")
     trajs = []
     for name in poses:
         t, arr = files.read_poses(name)
@@ -638,63 +676,116 @@ def _fuse_marker_csv(
     threshold: float | None,
     n_jobs: int | None,
     quiet: bool,
+    logs: Sequence[str | Path] | None = None,
+    *,
+    space: str | None = None,
+    orientations: bool = False,
 ) -> tuple[Any, list[Any], list[Any]]:
-    """:func:`fuse` of motion-capture CSV files (positions only)."""
+    """:func:`fuse` of motion-capture CSV files (positions, and orientations with ``orientations``);
+    ``logs``: their input logs."""
+    import warnings
+
+    import numpy as np
 
     from ..core.atomic import FileSet
     from ..core.trajectory import PoseTrajectory
     from ..io import data_files as files
-    from ..io.marker_csv import read_marker_csv
+    from ..io.marker_csv import align_inputs, read_input_log, read_marker_csv
 
     if not markers or rate is None:
         raise CLIError("--markers-csv needs --markers (names, base to tip) and --rate (the nominal rate in Hz)")
+    if logs and len(logs) != len(csv_files):
+        raise CLIError(
+            f"got {len(csv_files)} --markers-csv file(s) but {len(logs)} --inputs file(s): give one input log per "
+            "capture, in the same order"
+        )
     _unique_stems(csv_files, "marker CSV files")
-    trajs, inputs, plane = [], [], None
-    for name in csv_files:
+    trajs, inputs, plane, input_names, detected_units = [], [], None, list(input_columns or []), []
+    for k, name in enumerate(csv_files):
         try:
-            data = read_marker_csv(name, markers, rate=rate, units=units, inputs=input_columns)
+            data = read_marker_csv(
+                name,
+                markers,
+                rate=rate,
+                units=units,
+                inputs=None if logs else input_columns,
+                orientations=orientations,
+            )
+            if logs:
+                log = read_input_log(logs[k], input_columns)
+                data.inputs = align_inputs(
+                    log, data.positions.shape[0], data.dt, data.metadata.get("first_frame"), str(name)
+                )
+                input_names = log.names
             tr = PoseTrajectory.from_positions(
-                data.positions, dt=data.dt, arc_lengths=arc_lengths, plane=plane, metadata={"source": str(name)}
+                data.positions,
+                dt=data.dt,
+                arc_lengths=arc_lengths,
+                plane=plane,
+                metadata={"source": str(name)},
+                rotations=data.rotations,
             )
         except ValueError as err:
             raise CLIError(str(err)) from None
         plane = tr.plane  # every file of one set-up in the first file's plane
         trajs.append(tr)
         inputs.append(data.inputs)
+        detected_units.append(data.units)
         say(
             quiet,
             f"{name}: {tr.n_frames} samples, out-of-plane RMS {1e3 * tr.metadata['out_of_plane_rms']:.2f} mm, "
             f"{tr.metadata['frozen_samples']} frozen and {tr.metadata['jump_samples']} jump samples set missing",
         )
     folder = files.output_dir(out)
-    fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet)
-    strains = fusion.fit(trajs).transform(trajs)
+    fusion = pipeline_step("segments", threshold=threshold, n_jobs=n_jobs, progress=not quiet, space=space)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # the out-of-plane warning: the fused model says which it is
+        strains = fusion.fit(trajs).transform(trajs)
+    three_d = fusion.space_ == "3d"
     if any(u is not None for u in inputs):  # the logged inputs, for 'fit --inputs': all new or all old
         in_folder = files.output_dir(folder / "inputs")
         with FileSet(in_folder) as logged:
             for name, st, u in zip(csv_files, strains, inputs):
                 files.write_tau(in_folder / (Path(name).stem + ".npz"), st.t, u, into=logged, key="u")
-    with FileSet(folder) as outputs:  # segmentation and strain files: all new or all old
+    has_inputs = any(u is not None for u in inputs)
+    capture = {  # how the captures were read: 'rollout --truth <capture.csv>' reads them the same way
+        "markers": list(markers),
+        "rate": float(rate),
+        "units": detected_units[0],
+        "input_columns": input_names if has_inputs else None,
+        "files": [str(name) for name in csv_files],
+        "input_logs": [str(name) for name in logs] if logs else None,
+    }
+    with FileSet(folder) as outputs:  # segmentation, strain files and capture.json: all new or all old
         for name, st in zip(csv_files, strains):
             files.write_strains(folder / (Path(name).stem + ".npz"), st, into=outputs)
         seg = files.write_model_file(fusion, folder / "segmentation.json", into=outputs)
-    if input_columns:
+        outputs.write_text(folder / "capture.json", json.dumps(capture, indent=2) + "\n")
+    if has_inputs and not three_d:  # tendon sides are those of a plane
         from ..fusion.position_fusion import tendon_sides
 
         sides = tendon_sides(strains, inputs)
         say(
             quiet,
             "inputs bend the robot towards "
-            + ", ".join(f"{c}: {'negative' if v > 0 else 'positive'}" for c, v in zip(input_columns, sides))
+            + ", ".join(f"{c}: {'negative' if v > 0 else 'positive'}" for c, v in zip(input_names, sides))
             + f" curvature (tendons: \"side\": {sides} in the --actuation JSON of 'fit')",
         )
     arcs = ", ".join(f"{1e3 * v:.1f}" for v in fusion.marker_arc_lengths_[1:])
+    if three_d:
+        say(
+            quiet,
+            f"3-D fusion (space={fusion.space!r}): marker RMS {1e3 * fusion.position_rms_:.2f} mm, base at "
+            f"{np.round(fusion.base_pose_[:3, 3], 4).tolist()} m pointing "
+            f"{np.round(fusion.base_pose_[:3, 1], 3).tolist()}"
+            + ("" if fusion.rotation_rms_ is None else f", orientation RMS {np.rad2deg(fusion.rotation_rms_):.2f} deg"),
+        )
     say(
         quiet,
-        f"{fusion.n_segments_} bending segment(s), lengths "
+        f"{fusion.n_segments_} {'3-D ' if three_d else ''}bending segment(s), lengths "
         f"[{', '.join(f'{v:.4f}' for v in fusion.segment_lengths_)}] m; marker arc lengths [{arcs}] mm "
         f"({fusion.total_length_source_}); segmentation -> {seg}; strain files -> {folder}"
-        + ("; inputs -> " + str(folder / "inputs") if input_columns else ""),
+        + ("; inputs -> " + str(folder / "inputs") if has_inputs else ""),
     )
     return fusion, strains, trajs
 
@@ -735,6 +826,10 @@ def build_regressor(
     CLIError
         If a library option is given for a library that does not have it.
     """
+    if library == "monomial":  # the seed's monomial library derives its equations with sympy
+        from ..core.optional import require_installed
+
+        require_installed("sympy", "the monomial library (--library monomial)")
     reg = pipeline_step(
         "dynamics",
         library=library,
@@ -863,12 +958,60 @@ def fit(
 
 @dataclass
 class RolloutResult:
-    """What :func:`rollout` computed: the strains, the predicted poses and the metrics written to ``metrics.json``."""
+    """What :func:`rollout` computed: the strains, the predicted poses and the metrics written to ``metrics.json``.
+
+    ``positions`` are the predicted marker positions in the capture frame when the truth was a
+    motion-capture CSV (else None).
+    """
 
     sim: Any
     poses: np.ndarray
     marker_arc_lengths: np.ndarray
     metrics: dict[str, Any] = field(default_factory=dict)
+    positions: np.ndarray | None = None
+
+
+#: suffixes of a motion-capture truth (read by :func:`pcs_sindy.io.read_marker_csv`)
+_CAPTURE_SUFFIXES = (".csv", ".tsv", ".txt")
+
+#: units of the numbers rollout writes to metrics.json
+_METRIC_UNITS = {
+    "duration_s": "s",
+    "rollout_seconds": "s",
+    "e_p_ee_mm": "mm",
+    "e_theta_ee_rad": "rad",
+    "e_p_dist_mm": "mm",
+    "e_theta_dist_rad": "rad",
+    "tip_position_rmse_mm": "mm",
+    "tip_position_mean_mm": "mm",
+    "tip_position_max_mm": "mm",
+    "marker_position_mean_mm": "mm",
+}
+
+
+def _capture_settings(segmentation_path: str | Path | None) -> dict[str, Any]:
+    """``capture.json`` beside a segmentation file (written by ``fuse --markers-csv``), or {}."""
+    if segmentation_path is None:
+        return {}
+    path = Path(segmentation_path).with_name("capture.json")
+    if not path.is_file():
+        return {}
+    try:
+        doc = json.loads(path.read_text())
+    except (OSError, ValueError) as err:
+        raise CLIError(f"cannot read {str(path)!r}: {err}") from None
+    return doc if isinstance(doc, dict) else {}
+
+
+def _strain_rmse(names: Sequence[str], q_pred: Any, q_true: Any, keep: Any) -> dict[str, float]:
+    """RMS difference of each modelled strain (``keep``) over the frames where the truth is finite."""
+    import numpy as np
+
+    out = {}
+    for k in np.flatnonzero(keep):
+        ok = np.isfinite(q_true[:, k])
+        out[names[k]] = float(np.sqrt(np.mean((q_pred[ok, k] - q_true[ok, k]) ** 2)))
+    return out
 
 
 @reads_inputs
@@ -886,6 +1029,9 @@ def rollout(
     atol: float | None = None,
     plot: bool = True,
     quiet: bool = False,
+    markers: Sequence[str] | None = None,
+    rate: float | None = None,
+    units: str | None = None,
 ) -> RolloutResult:
     """Simulate a model under the forces of a tau file; ``rollout.npz`` (and metrics against a truth) in ``out``.
 
@@ -894,15 +1040,25 @@ def rollout(
     model : path or EulerLagrangeRegressor
         Model file (written by :func:`fit`) or a fitted model.
     tau : path
-        Tau file (recordings qualify).
+        Tau file (recordings qualify); for a model with an actuation, its input file (``t``, ``u``).
     out : path
         Output folder (created).
     segmentation : path or KinematicFusion, optional
         Gives the marker arc lengths; else those of ``truth``, else ``n_markers`` equally spaced markers.
     truth : path, optional
-        Pose file or recording ('poses_true' when present, else 'poses'): writes ``metrics.json``.
-    initial : path, optional
-        Strain file whose first frame is ``q0`` (default: rest); ``qd0 = 0``.
+        What the prediction is compared with (writes ``metrics.json``, and ``rollout.png`` shows the
+        tip against it with the error over time):
+
+        * a pose file or recording (``'poses_true'`` when present, else ``'poses'``);
+        * a strain file (``q`` and ``segment_lengths``, written by :func:`fuse`): the strains, and the
+          poses both give at the marker arc lengths (``rollout_strains.png`` adds the strains);
+        * a motion-capture CSV (``.csv``, ``.tsv``, ``.txt``; :func:`pcs_sindy.io.read_marker_csv`), with
+          the positions-only ``segmentation`` written by ``fuse --markers-csv``: the prediction is mapped
+          to the capture frame (:meth:`KinematicFusion.inverse_transform`) and compared with the
+          measured markers (samples the tracker lost or froze left out).
+    initial : path or "truth", optional
+        Strain file whose first frame is ``q0`` (default: rest); ``"truth"``: the first frame of a
+        strain-file or capture ``truth`` (a capture's fused in ``segmentation``); ``qd0 = 0``.
     method : str, optional
         One of the model's ``forward_model().methods``; default its ``default_method``.
     rtol, atol : float, optional
@@ -911,6 +1067,10 @@ def rollout(
         Draw ``rollout.png``.
     quiet : bool
         No progress bar or messages.
+    markers, rate, units : optional
+        How a CSV ``truth`` is read (marker names base to tip, rate [Hz], length units); default:
+        ``capture.json`` beside the segmentation file (written by ``fuse --markers-csv``), the rate
+        else from the tau file's time stamps, the units else from the file.
 
     Returns
     -------
@@ -923,12 +1083,21 @@ def rollout(
     from ..fusion.kinematic_fusion import KinematicFusion
     from ..identification.regressor import EulerLagrangeRegressor
     from ..io import data_files as files
-    from .report import rollout_figure
+    from .report import rollout_figure, strains_figure
 
+    if plot:  # before the rollout: a missing matplotlib is said at once
+        from ..core.optional import MissingDependencyError, require_installed
+
+        try:
+            require_installed("matplotlib", "rollout.png")
+        except MissingDependencyError as err:
+            raise CLIError(f"{err}; or --no-plot") from None
     model_name = str(model) if not isinstance(model, EulerLagrangeRegressor) else "(in memory)"
     if not isinstance(model, EulerLagrangeRegressor):
         model = files.read_model_file(model, EulerLagrangeRegressor, "model file")
+    segmentation_path = None
     if segmentation is not None and not isinstance(segmentation, KinematicFusion):
+        segmentation_path = segmentation
         segmentation = files.read_model_file(segmentation, KinematicFusion, "segmentation file")
     actuated = getattr(model, "actuation_", None) is not None and model.actuation_.layout()["type"] != "identity"
     t, u = files.read_tau(tau, "u" if actuated else "tau")
@@ -942,16 +1111,64 @@ def rollout(
     forward = model.forward_model()
     if method is not None and method not in forward.methods:
         raise CLIError(f"--method {method!r}: this model ({type(forward).__name__}) supports {list(forward.methods)}")
-    true_poses = None
+    kind, true_poses, true_q, capture = None, None, None, None
     if truth is not None:
-        keys = files.read_arrays(truth, [], "truth file", optional=["poses_true", "poses"])
-        true_poses = files.read_poses(truth, "poses_true" if "poses_true" in keys else "poses")[1]
-        if true_poses.shape[0] != t.shape[0]:
-            raise CLIError(
-                f"truth file {str(truth)!r} has {true_poses.shape[0]} frames but tau file {str(tau)!r} has {t.shape[0]}"
-            )
+        if Path(truth).suffix.lower() in _CAPTURE_SUFFIXES:
+            kind = "capture"
+            if segmentation is None or not getattr(segmentation, "positions_only_", False):
+                raise CLIError(
+                    f"--truth {str(truth)!r} is a motion-capture CSV: give --segmentation, the segmentation.json "
+                    "that 'fuse --markers-csv' wrote (it maps the model's plane to the capture frame)"
+                )
+            settings = _capture_settings(segmentation_path)
+            markers = markers or settings.get("markers")
+            if not markers:
+                raise CLIError(
+                    f"--truth {str(truth)!r}: give --markers (the marker names, base to tip), or keep the "
+                    "capture.json that 'fuse --markers-csv' wrote beside the segmentation file"
+                )
+            if rate is None:
+                rate = settings.get("rate") or (1.0 / float(np.median(np.diff(t))) if t.size > 1 else None)
+            if rate is None:
+                raise CLIError(f"--truth {str(truth)!r}: give --rate (the capture rate in Hz)")
+            capture = _read_capture_truth(truth, segmentation, markers, rate, units or settings.get("units"), t.size)
+        else:
+            keys = files.read_arrays(truth, [], "truth file", optional=["poses_true", "poses", "q", "segment_lengths"])
+            if "poses_true" in keys or "poses" in keys:
+                kind = "poses"
+                true_poses = files.read_poses(truth, "poses_true" if "poses_true" in keys else "poses")[1]
+                frames = true_poses.shape[0]
+            elif "q" in keys and "segment_lengths" in keys:
+                kind = "strains"
+                measured = files.read_strains(truth)
+                if measured.kinematics.n_q != n:
+                    raise CLIError(
+                        f"truth file {str(truth)!r} has {measured.kinematics.n_q} strains; the model has {n}"
+                    )
+                lengths = np.asarray(measured.segment_lengths, dtype=float)
+                if not np.allclose(lengths, kin.segment_lengths, rtol=1e-6, atol=0.0):
+                    raise CLIError(
+                        f"truth file {str(truth)!r} has segment lengths {lengths.tolist()} m; the model's are "
+                        f"{list(map(float, kin.segment_lengths))} m: strains of other segments cannot be compared"
+                    )
+                true_q, frames = measured.q, measured.n_frames
+            else:
+                with np.load(truth, allow_pickle=False) as found:  # read_arrays checked it is an .npz
+                    names = sorted(found.files)
+                raise CLIError(
+                    f"truth file {str(truth)!r} holds neither poses ('poses_true' or 'poses') nor strains ('q' and "
+                    f"'segment_lengths'); found {names}"
+                )
+            if frames != t.shape[0]:
+                raise CLIError(
+                    f"truth file {str(truth)!r} has {frames} frames but tau file {str(tau)!r} has {t.shape[0]}"
+                )
     q0, qd0 = np.zeros(n), np.zeros(n)
-    if initial is not None:
+    if initial == "truth":  # the measured first frame: a strain file's, or a capture's fused in the segmentation
+        if kind not in ("strains", "capture"):
+            raise CLIError("--initial truth needs a --truth strain file or motion-capture CSV (their first frame)")
+        q0 = (true_q if kind == "strains" else capture["strains"].q)[0].copy()
+    elif initial is not None:
         st = files.read_strains(initial)
         if st.kinematics.n_q != n:
             raise CLIError(f"initial strain file {str(initial)!r} has {st.kinematics.n_q} strains; the model has {n}")
@@ -970,6 +1187,9 @@ def rollout(
     sim = model.simulate(q0, qd0, t, u, method=method, rtol=rtol, atol=atol, progress=not quiet)
     seconds = time.perf_counter() - start
     poses = sim.poses(s)
+    names = sim.kinematics.strain_names(active_only=False)
+    removed = set(getattr(model, "removed_strains_", None) or ())
+    modelled = np.asarray(sim.kinematics.active_mask) & np.array([nm not in removed for nm in names])
     metrics: dict[str, Any] = {
         "model": model_name,
         "tau": str(tau),
@@ -978,16 +1198,55 @@ def rollout(
         "n_markers": int(s.size - 1),
         "method": method or forward.default_method,
     }
+    positions = None
+    if kind == "strains":  # the measured strains' own poses, in the prediction's frame
+        true_poses = sim.kinematics.forward_kinematics(true_q, s)
     if true_poses is not None:
         e_p, e_th = end_effector_errors(poses[:, 1:], true_poses[:, 1:])
         d_p, d_th = distributed_errors(poses[:, 1:], true_poses[:, 1:])
-        # the units in the keys, the numbers as printed below
+        tip_err = np.linalg.norm(poses[:, -1, :2] - true_poses[:, -1, :2], axis=1)
+        # the units in the keys, the numbers as printed (mm, rad)
         metrics.update(
-            truth=str(truth), e_p_ee_mm=1e3 * e_p, e_theta_ee_rad=e_th, e_p_dist_mm=1e3 * d_p, e_theta_dist_rad=d_th
+            truth=str(truth),
+            truth_kind=kind,
+            e_p_ee_mm=1e3 * e_p,
+            e_theta_ee_rad=e_th,
+            e_p_dist_mm=1e3 * d_p,
+            e_theta_dist_rad=d_th,
         )
-    with FileSet(folder) as outputs:  # rollout.npz, metrics.json and rollout.png: all new or all old
-        outputs.savez(
-            folder / "rollout.npz",
+        metrics.update(
+            tip_position_rmse_mm=1e3 * float(np.sqrt(np.mean(tip_err**2))),
+            tip_position_max_mm=1e3 * float(tip_err.max()),
+        )
+    if kind == "strains":
+        rmse = _strain_rmse(names, sim.q, true_q, modelled)
+        metrics["strain_rmse"] = rmse
+        metrics.setdefault("units_of", {})["strain_rmse"] = {nm: "1/m" if nm.startswith("be") else "-" for nm in rmse}
+    if kind == "capture":
+        positions, rmse = _capture_prediction(sim, segmentation, capture)
+        measured_pos = capture["positions"]
+        ok = np.all(np.isfinite(measured_pos[:, -1]), axis=1)
+        tip_err = np.linalg.norm(positions[ok, -1] - measured_pos[ok, -1], axis=1)
+        every = np.linalg.norm(positions - measured_pos, axis=2)
+        metrics.update(
+            truth=str(truth),
+            truth_kind="capture",
+            frame="capture",
+            n_samples=int(t.size),
+            n_samples_measured=int(ok.sum()),
+            tip_position_rmse_mm=1e3 * float(np.sqrt(np.mean(tip_err**2))),
+            tip_position_mean_mm=1e3 * float(np.mean(tip_err)),
+            tip_position_max_mm=1e3 * float(np.max(tip_err)),
+            marker_position_mean_mm=1e3 * float(np.nanmean(every)),
+            strain_rmse=rmse,
+        )
+        metrics.setdefault("units_of", {})["strain_rmse"] = {nm: "1/m" if nm.startswith("be") else "-" for nm in rmse}
+    if kind is not None:
+        metrics["units"] = {k: v for k, v in _METRIC_UNITS.items() if k in metrics}
+        metrics["units"].update(metrics.pop("units_of", {}))
+    title = f"rollout of {Path(model_name).name} under {Path(str(tau)).name}"
+    with FileSet(folder) as outputs:  # rollout.npz, metrics.json and the plots: all new or all old
+        arrays = dict(
             t=t,
             q=sim.q,
             qd=sim.qd,
@@ -995,18 +1254,36 @@ def rollout(
             marker_arc_lengths=s,
             segment_lengths=np.asarray(kin.segment_lengths, dtype=float),
         )
-        if true_poses is not None:
+        if positions is not None:  # the prediction and the measurement in the capture frame
+            arrays.update(positions=positions, positions_measured=capture["positions"])
+        outputs.savez(folder / "rollout.npz", **arrays)
+        if kind is not None:
             outputs.write_text(folder / "metrics.json", json.dumps(metrics, indent=2) + "\n")
         if plot:
+            tip = None if positions is None else (capture["positions"][:, -1], positions[:, -1])
             figure = rollout_figure(
                 folder / "rollout.png",
                 t,
                 sim.q,
                 poses,
                 true_poses,
-                sim.kinematics.strain_names(active_only=False),
+                names,
                 into=outputs,
+                title=title + (f" vs {Path(str(truth)).name}" if truth is not None else " (no truth given)"),
+                modelled=modelled,
+                tip=tip,
             )
+            if kind == "strains":
+                strains_figure(
+                    folder / "rollout_strains.png",
+                    t,
+                    sim.q,
+                    true_q,
+                    names,
+                    modelled,
+                    title=f"strains: model vs {Path(str(truth)).name}",
+                    into=outputs,
+                )
     say(quiet, f"rolled out {t[-1] - t[0]:.3g} s in {seconds:.1f} s -> {folder / 'rollout.npz'}")
     if true_poses is not None:
         say(
@@ -1014,6 +1291,72 @@ def rollout(
             f"e_p^EE = {e_p * 1e3:.3f} mm, e_theta^EE = {e_th:.4f} rad, e_p^dist = {d_p * 1e3:.3f} mm, "
             f"e_theta^dist = {d_th:.4f} rad -> {folder / 'metrics.json'}",
         )
+    if kind in ("strains", "capture") and metrics["strain_rmse"]:
+        what = "measured" if kind == "capture" else "truth"
+        say(
+            quiet,
+            f"strain RMSE against the {what} strains: "
+            + ", ".join(
+                f"{nm} {v:.4g} {'1/m' if nm.startswith('be') else '(-)'}" for nm, v in metrics["strain_rmse"].items()
+            ),
+        )
+    if kind == "capture":
+        say(
+            quiet,
+            f"tip position error in the capture frame ({metrics['n_samples_measured']} of {t.size} samples measured): "
+            f"RMSE {metrics['tip_position_rmse_mm']:.2f} mm, mean {metrics['tip_position_mean_mm']:.2f} mm, "
+            f"max {metrics['tip_position_max_mm']:.2f} mm; all markers mean "
+            f"{metrics['marker_position_mean_mm']:.2f} mm -> {folder / 'metrics.json'}",
+        )
     if plot:
         metrics["plot"] = str(figure)
-    return RolloutResult(sim, poses, s, metrics)
+    return RolloutResult(sim, poses, s, metrics, positions)
+
+
+def _read_capture_truth(
+    path: str | Path, segmentation: Any, markers: Sequence[str], rate: float, units: str | None, n_samples: int
+) -> dict[str, Any]:
+    """A motion-capture truth: its cleaned positions (T, N, 3) and its strains in the segmentation's plane."""
+    from ..core.trajectory import PoseTrajectory
+    from ..io.marker_csv import read_marker_csv
+
+    try:
+        data = read_marker_csv(path, list(markers), rate=float(rate), units=units)
+    except ValueError as err:
+        raise CLIError(str(err)) from None
+    if data.positions.shape[0] != n_samples:
+        raise CLIError(
+            f"truth file {str(path)!r} has {data.positions.shape[0]} samples (at {rate:g} Hz) but the tau file has "
+            f"{n_samples}"
+        )
+    if data.positions.shape[1] != segmentation.n_markers_:
+        raise CLIError(
+            f"truth file {str(path)!r}: {data.positions.shape[1]} markers ({list(markers)}); the segmentation has "
+            f"{segmentation.n_markers_}"
+        )
+    try:
+        # the fuse's own cleaning (frozen samples, jumps -> missing) and plane, so measured means the same
+        tr = PoseTrajectory.from_positions(data.positions, dt=data.dt, plane=segmentation.plane_)
+        (measured,) = segmentation.transform([tr])
+    except ValueError as err:
+        raise CLIError(f"truth file {str(path)!r}: {err}") from None
+    return {"positions": tr.positions, "strains": measured}
+
+
+def _capture_prediction(sim: Any, segmentation: Any, capture: dict[str, Any]) -> tuple[Any, dict[str, float]]:
+    """Predicted marker positions in the capture frame (T, N, 3) and the strain RMSE against the measured strains."""
+    import numpy as np
+
+    measured = capture["strains"]
+    keys = ("plane", "marker_arc_lengths", "base_poses", "marker_offsets")
+    sim.metadata.update({k: measured.metadata[k] for k in keys if k in measured.metadata})
+    try:
+        (back,) = segmentation.inverse_transform([sim])
+    except ValueError as err:
+        raise CLIError(f"the segmentation does not fit the model: {err}") from None
+    names = sim.kinematics.strain_names(active_only=False)
+    keep = np.asarray(sim.kinematics.active_mask) & np.asarray(measured.kinematics.active_mask)
+    # 'estimated' is False where a frame's strains were interpolated in time (markers missing): not measured
+    determined = np.asarray(measured.metadata.get("estimated", np.ones(measured.n_frames, bool)), dtype=bool)
+    q_true = np.where(determined[:, None], measured.q, np.nan)
+    return back.positions, _strain_rmse(names, sim.q, q_true, keep)

@@ -86,6 +86,93 @@ example ('pcs-sindy demo' step by step):
 """
 
 
+#: each command's epilog: the file formats it reads or writes (blocks of io.data_files.FILE_FORMATS) and examples
+EPILOGS: dict[str, tuple[tuple[str, ...], str]] = {
+    "scenarios": ((), "example:\n  pcs-sindy scenarios"),
+    "simulate": (
+        ("recording",),
+        "examples:\n"
+        "  pcs-sindy simulate two_segment -o data\n"
+        "  pcs-sindy simulate one_segment -o data --n-train 2 --train-duration 1 --noise seed --seed 3",
+    ),
+    "render": (
+        ("pose file",),
+        "examples:\n"
+        "  pcs-sindy render data/train_*.npz -o videos --size 400x300 --n-jobs 2\n"
+        "  pcs-sindy render data/validation.npz -o web --format browser   # H.264 .mp4 or VP8 .webm: what this\n"
+        "                                                                 # OpenCV build writes that browsers play",
+    ),
+    "calibrate": (
+        (),
+        "example:\n  pcs-sindy calibrate board/ --pattern 9x6 --square 0.025 --plane board_flat.png "
+        "-o videos/clip.mp4.camera.json",
+    ),
+    "extract": (
+        ("pose file",),
+        "examples:\n"
+        "  pcs-sindy extract videos/*.avi -o poses --n-jobs 2\n"
+        "  pcs-sindy extract clip.mp4 -o poses --robot-length 0.17 --n-markers 8 --plot",
+    ),
+    "inspect": ((), "example:\n  pcs-sindy inspect clip.mp4 --frames 6 --threshold otsu -o clip.inspect.png"),
+    "fuse": (
+        ("pose file", "strain file", "input file", "model files"),
+        "examples:\n"
+        "  pcs-sindy fuse poses/*.npz -o strains --total-length 0.17\n"
+        "  pcs-sindy fuse --markers-csv take1.csv --markers disk1 disk2 disk3 --rate 100 --input-columns u1 u2 "
+        "-o strains\n"
+        "  pcs-sindy fuse --markers-csv take1.csv --markers disk1 disk2 disk3 --rate 100 --inputs take1_servos.csv "
+        "-o strains\n"
+        "      # a Motive export without input columns, the inputs from the controller's log (paired by Frame)",
+    ),
+    "fit": (
+        ("strain file", "tau file", "input file", "model files"),
+        "examples:\n"
+        "  pcs-sindy fit strains/train_*.npz --tau data/train_*.npz -o model/\n"
+        "  pcs-sindy fit strains/take1.npz --inputs strains/inputs/take1.npz --actuation tendons.json -o model/",
+    ),
+    "rollout": (
+        ("tau file", "input file", "pose file", "strain file", "model files"),
+        "examples:\n"
+        "  pcs-sindy rollout model/model.json --tau data/validation.npz --truth data/validation.npz \\\n"
+        "      --segmentation strains/segmentation.json -o rollout                       # poses of a recording\n"
+        "  pcs-sindy rollout model/model.json --tau data/train_00.npz --truth strains/train_00.npz \\\n"
+        "      --initial strains/train_00.npz -o rollout                                  # measured strains\n"
+        "  pcs-sindy rollout model/model.json --tau strains/inputs/take2.npz --truth take2.csv \\\n"
+        "      --segmentation strains/segmentation.json --initial strains/take2.npz -o rollout\n"
+        "      # a motion-capture CSV: compared in the capture frame (markers, rate, units from strains/capture.json)",
+    ),
+    "demo": (
+        (),
+        "examples:\n"
+        "  pcs-sindy demo                    # the report in out/demo/report\n"
+        "  pcs-sindy demo --quick -o smoke   # 2 short recordings and a 1 s validation",
+    ),
+}
+
+
+def _format_blocks(text: str) -> tuple[str, dict[str, str]]:
+    """The heading of :data:`~pcs_sindy.io.data_files.FILE_FORMATS` and its entries by name (``"pose file"``: lines)."""
+    heading, *lines = text.rstrip("\n").splitlines()
+    blocks: dict[str, str] = {}
+    name = ""
+    for line in lines:
+        if line.startswith("  ") and not line.startswith("   "):  # an entry: its name, then two spaces or more
+            name = line.strip().split("  ")[0]
+            blocks[name] = line
+        elif name:
+            blocks[name] += "\n" + line
+    return heading, blocks
+
+
+def _epilog(command: str) -> str:
+    """The epilog of ``command``: the file formats it reads or writes, then its examples (:data:`EPILOGS`)."""
+    formats, examples = EPILOGS[command]
+    if not formats:
+        return examples
+    heading, blocks = _format_blocks(read_default("io.data_files:FILE_FORMATS"))
+    return "\n".join([heading, *(blocks[name] for name in formats)]) + "\n\n" + examples
+
+
 #: where the estimators behind the commands are written (their defaults are read from there)
 POSES = "vision.extractor:MarkerPoseExtractor"
 SEGMENTS = "fusion.kinematic_fusion:KinematicFusion"
@@ -361,7 +448,8 @@ def build_parser() -> argparse.ArgumentParser:
 
     def add(name: str, help_: str, func: Callable) -> argparse.ArgumentParser:
         """A sub-command calling ``func`` with the parsed options named like its parameters."""
-        p = sub.add_parser(name, help=help_, description=help_, epilog=file_formats, formatter_class=fmt)
+        epilog = _later(lambda: _epilog(name))
+        p = sub.add_parser(name, help=help_, description=help_, epilog=epilog, formatter_class=fmt)
         p.set_defaults(func=lambda args: func(**command_kwargs(func, args)))
         params = inspect.signature(func).parameters
         if "n_jobs" in params:
@@ -412,8 +500,10 @@ def build_parser() -> argparse.ArgumentParser:
         "--format",
         dest="video_format",
         default=_default(render, "video_format"),
-        choices=[".avi", ".mp4"],
-        help=".avi (MJPG, default: sharp marker edges) or .mp4 (mp4v, lossy: larger pose errors)",
+        choices=[".avi", ".mp4", ".webm", "browser"],
+        help=".avi (MJPG, default: sharp marker edges for 'extract'), .mp4 (H.264 if this OpenCV build has it, "
+        "else mp4v), .webm (VP8), or browser: the first of H.264 .mp4 and VP8 .webm this build writes (lossy "
+        "formats give larger pose errors)",
     )
     p.add_argument(
         "--size",
@@ -508,13 +598,36 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--rate", type=_positive_float, help="nominal capture rate [Hz] of --markers-csv")
     p.add_argument("--units", choices=["m", "mm", "cm"], help="length units of --markers-csv (default: from the file)")
     p.add_argument(
-        "--input-columns", nargs="+", help="input columns of --markers-csv, written to OUT/inputs/ for 'fit --inputs'"
+        "--input-columns",
+        nargs="+",
+        help="input columns of --markers-csv (or, with --inputs, of the input logs), written to OUT/inputs/ for "
+        "'fit --inputs'",
+    )
+    p.add_argument(
+        "--inputs",
+        nargs="+",
+        help="input logs apart from the captures, one per --markers-csv file in order: CSV (a header optional), .npy "
+        "or .npz (u; optional index or t); rows pair with capture samples one to one, or by the log's "
+        "Frame/Index/ID/Sample column (the capture's frame numbers) or time column t/time [s] (from the "
+        "capture's first sample), the last logged input held",
     )
     p.add_argument(
         "--arc-lengths",
         nargs="+",
         type=_positive_float,
         help="measured rest arc lengths [m] of the --markers (default: fitted to the positions)",
+    )
+    p.add_argument(
+        "--space",
+        choices=["auto", "plane", "3d"],
+        help="--markers-csv: fuse in the markers' best-fit plane or in 3-D (default auto: 3-D when the motion "
+        "leaves its plane or with --orientations)",
+    )
+    p.add_argument(
+        "--orientations",
+        action="store_true",
+        help="--markers-csv: also read each marker's quaternion columns (qx1, qy1, qz1, w1; scalar anywhere, by "
+        "name) for a 3-D fusion with torsion",
     )
     p.add_argument(
         "--threshold",
@@ -664,8 +777,32 @@ def build_parser() -> argparse.ArgumentParser:
         help="tau file (.npz with t, tau); for a model fitted with --actuation, its actuator inputs (t, u)",
     )
     p.add_argument("--segmentation", help="segmentation file (written by 'fuse'): marker arc lengths")
-    p.add_argument("--truth", help="pose file of the truth ('poses_true' when present, as in recordings, else 'poses')")
-    p.add_argument("--initial", help="strain file whose first frame is q0 (default: rest, q0 = 0); qd0 = 0")
+    p.add_argument(
+        "--truth",
+        help="what the prediction is compared with: a pose file or recording ('poses_true' when present, else "
+        "'poses'), a strain file (written by 'fuse'), or a motion-capture CSV (with the --segmentation that "
+        "'fuse --markers-csv' wrote: compared in the capture frame); writes metrics.json and the plot",
+    )
+    p.add_argument(
+        "--markers",
+        nargs="+",
+        help="marker names of a --truth CSV, base to tip (default: those of capture.json beside --segmentation)",
+    )
+    p.add_argument(
+        "--rate",
+        type=_positive_float,
+        help="capture rate [Hz] of a --truth CSV (default: capture.json's, else the --tau file's)",
+    )
+    p.add_argument(
+        "--units",
+        choices=["m", "mm", "cm"],
+        help="length units of a --truth CSV (default: capture.json's or the file's)",
+    )
+    p.add_argument(
+        "--initial",
+        help="strain file whose first frame is q0 (default: rest, q0 = 0), or 'truth': the first frame of a --truth "
+        "strain file or capture (a capture fused with --segmentation); qd0 = 0",
+    )
     p.add_argument(
         "--n-markers",
         type=_positive_int,
@@ -846,6 +983,7 @@ def _run(args: argparse.Namespace) -> int:
     # Only now that a command runs: the errors it may raise come from numpy and the stages.
     import numpy as np
 
+    from ..core.optional import MissingDependencyError
     from ..core.simulate_contract import SimulationError
 
     def one_line_warning(message, category, filename, lineno, file=None, line=None) -> None:
@@ -863,7 +1001,7 @@ def _run(args: argparse.Namespace) -> int:
             log.debug("pcs-sindy %s: done in %.2f s", args.command, time.perf_counter() - start)
     except BrokenPipeError:
         raise  # handled by main()
-    except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError) as err:
+    except (CLIError, ValueError, OSError, SimulationError, np.linalg.LinAlgError, MissingDependencyError) as err:
         if args.debug:
             raise
         print(f"pcs-sindy {args.command}: error: {_one_line(err)}", file=sys.stderr)

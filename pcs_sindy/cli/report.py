@@ -4,7 +4,8 @@
 profile, error against the number of segments, rollout against the truth,
 stills with detections, an animation) and writes ``metrics.json`` with the
 seed's two_segment numbers beside this run's; :func:`write_report_md` writes
-``report.md`` from them.  :func:`rollout_figure` draws ``rollout.png``.
+``report.md`` from them.  :func:`rollout_figure` draws ``rollout.png`` (and :func:`strains_figure`
+``rollout_strains.png`` against a strain file).
 """
 
 from __future__ import annotations
@@ -27,6 +28,7 @@ __all__ = [
     "DEMO_SIZE",
     "DEMO_MARKER_SIZE",
     "rollout_figure",
+    "strains_figure",
     "demo_report",
     "stored_metrics",
     "write_report_md",
@@ -57,6 +59,18 @@ def _pyplot() -> Any:
     return plt
 
 
+def _save(fig: Any, path: str | Path, into: Any) -> Path:
+    plt = _pyplot()
+    try:
+        if into is None:
+            atomic.savefig(fig, path, dpi=100)
+        else:
+            into.savefig(fig, path, dpi=100)
+    finally:
+        plt.close(fig)
+    return Path(path)
+
+
 def rollout_figure(
     path: str | Path,
     t: NDArray,
@@ -65,8 +79,12 @@ def rollout_figure(
     truth: NDArray | None,
     strain_names: Sequence[str],
     into: Any = None,
+    *,
+    title: str | None = None,
+    modelled: Sequence[bool] | None = None,
+    tip: tuple[NDArray, NDArray] | None = None,
 ) -> Path:
-    """Draw a rollout: the tip against the truth when there is one, else the strains over time.
+    """Draw a rollout: the tip against a truth with the error over time, else the modelled strains over time.
 
     Parameters
     ----------
@@ -78,36 +96,69 @@ def rollout_figure(
     poses : ndarray, shape (T, N + 1, 3)
         Predicted poses of the base and the markers.
     truth : ndarray, shape (T, N + 1, 3), or None
+        True poses: the end effector against them, with its error panels.
     strain_names : sequence of str
         Names of the columns of ``q``.
     into : FileSet, optional
         The :class:`~pcs_sindy.core.atomic.FileSet` the image joins; default: written atomically on its own.
+    title : str, optional
+    modelled : sequence of bool, optional
+        Which strains the model has (without a truth only these get a panel; default all).
+    tip : (measured, predicted) arrays (T, 3), optional
+        Tip positions in the capture frame (motion capture; NaN where not measured): drawn instead of
+        the poses, with the position error over time.
 
     Returns
     -------
     Path
     """
     plt = _pyplot()
-    from ..plotting.rollout import plot_end_effector
+    from ..plotting.rollout import plot_end_effector, plot_tip_positions
 
-    if truth is not None:
-        fig = plot_end_effector(t, truth[:, -1], poses[:, -1], labels=["model"], title="end effector: model vs truth")
+    if tip is not None:
+        fig = plot_tip_positions(t, tip[0], tip[1], labels=["model"], title=title)
+    elif truth is not None:
+        fig = plot_end_effector(t, truth[:, -1], poses[:, -1], labels=["model"], title=title)
     else:
-        fig, axes = plt.subplots(3, 1, figsize=(8, 6), sharex=True)
-        for j, name in enumerate(strain_names):
-            axes[j % 3].plot(t, q[:, j], label=name)
-        for ax, label in zip(axes, ("bending [1/m]", "shear [-]", "axial [-]")):
+        keep = np.ones(len(strain_names), bool) if modelled is None else np.asarray(modelled, dtype=bool)
+        kinds = [(0, "bending [1/m]"), (1, "shear [-]"), (2, "axial [-]")]
+        rows = [(c, label) for c, label in kinds if np.any(keep[c::3])]
+        if not rows:  # a model that keeps no strain still shows its (zero) bending
+            rows, keep = kinds[:1], np.arange(len(strain_names)) % 3 == 0
+        fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.2 + 2.0 * len(rows)), sharex=True, squeeze=False)
+        for ax, (c, label) in zip(axes[:, 0], rows):
+            for j in range(c, len(strain_names), 3):
+                if keep[j]:
+                    ax.plot(t, q[:, j], label=strain_names[j])
             ax.set_ylabel(label)
+            ax.grid(alpha=0.3)
             ax.legend(loc="upper right", fontsize="small")
-        axes[-1].set_xlabel("t [s]")
-    try:
-        if into is None:
-            atomic.savefig(fig, path, dpi=100)
-        else:
-            into.savefig(fig, path, dpi=100)
-    finally:
-        plt.close(fig)
-    return Path(path)
+        axes[-1, 0].set_xlabel("time t [s]")
+        axes[0, 0].set_title(title or "rollout: predicted strains")
+        fig.tight_layout()
+    return _save(fig, path, into)
+
+
+def strains_figure(
+    path: str | Path,
+    t: NDArray,
+    q: NDArray,
+    q_true: NDArray,
+    strain_names: Sequence[str],
+    modelled: Sequence[bool],
+    *,
+    title: str | None = None,
+    into: Any = None,
+) -> Path:
+    """The modelled strains against measured ones, with residual panels (``rollout --truth <strain file>``)."""
+    from ..plotting.rollout import plot_rollout
+
+    keep = np.asarray(modelled, dtype=bool)
+    if not np.any(keep):
+        keep = np.arange(len(strain_names)) % 3 == 0
+    names = [nm for nm, k in zip(strain_names, keep) if k]
+    fig = plot_rollout(t, q_true[:, keep], q[:, keep], names=names, labels=["model"], title=title)
+    return _save(fig, path, into)
 
 
 def _stills_camera(xy: NDArray) -> Any:
@@ -276,8 +327,11 @@ def demo_report(
     )
     tick("report: figures")
 
+    from ..core.video import browser_video_format
+
+    animation = "rollout" + browser_video_format()  # H.264 .mp4 if this OpenCV build has it, else VP8 .webm or .gif
     animate_rollout(
-        rep / "rollout.mp4",
+        rep / animation,
         t,
         truth,
         backbone,
@@ -287,7 +341,7 @@ def demo_report(
         size=(400, 400),
         progress=progress,
     )
-    files["animation"] = "rollout.mp4"
+    files["animation"] = animation
     tick("report: animation")
     equations = model.equations(precision=4)
     atomic.write_text(rep / "equations.txt", "\n".join(equations) + "\n")

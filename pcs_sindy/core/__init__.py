@@ -14,6 +14,9 @@ Takes in nothing of the package and gives every other stage:
 * the units of what is printed and stored (:mod:`.units`: :class:`Unit`, the strains' and generalised
   forces' units);
 * the camera model between the base frame and image pixels (:mod:`.camera`: :class:`Camera`);
+* the video formats this OpenCV build writes and the browser-playable one (:mod:`.video`);
+* the optional dependencies (OpenCV, matplotlib, sympy) and the error naming the pip extra that
+  installs a missing one (:mod:`.optional`);
 * the simulate contract shared by the ground truth and identified models
   (:mod:`.simulate_contract`: :class:`SimulationError`, the method names);
 * infrastructure with no domain knowledge: a compiled dense LU (:mod:`.linalg`), parameter
@@ -77,6 +80,8 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "marker_order": ["order_markers", "find_base_marker"],
         "camera": ["Camera", "camera_extras", "read_camera_json"],
         "progress": ["ticking"],
+        "video": ["VIDEO_CODECS", "browser_video_format", "codec_works", "open_video_writer", "video_codec"],
+        "optional": ["EXTRAS", "MissingDependencyError", "require", "require_installed"],
         "atomic": ["FileSet", "recover"],
         "simulate_contract": ["SimulationError", "METHODS", "canonical_method"],
         "recording_list": ["RecordingList"],

@@ -39,11 +39,13 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from . import atomic
+from .optional import require
+
+cv2 = require("cv2", "pcs_sindy.core.camera (the camera model)")
 
 __all__ = ["Camera", "FPS_RANGE", "camera_extras", "camera_json_path", "read_camera_json"]
 

@@ -413,7 +413,8 @@ class PoseTrajectory:
             err = np.abs(np.einsum("tnji,tnjk->tnik", rot[ok_r][None], rot[ok_r][None])[0] - np.eye(3))
             if err.size and float(err.max()) > 1e-3:
                 raise ValueError(
-                    f"rotations must be rotation matrices (orthonormal within 1e-3); the worst deviates by {err.max():.3g}"
+                    "rotations must be rotation matrices (orthonormal within 1e-3); the worst deviates by "
+                    f"{err.max():.3g}"
                 )
         cleaned, counts = clean_marker_tracks(
             P, frozen_tol=frozen_tol, jump_threshold=jump_threshold, jump_factor=jump_factor

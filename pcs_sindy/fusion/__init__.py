@@ -45,7 +45,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "jackknife_std",
             "rest_length_factor",
         ],
-        "input_checks": ["check_marker_chain"],
+        "input_checks": ["check_marker_chain", "check_marker_positions", "check_arc_lengths"],
         "shape_fit": ["fit_strains_least_squares", "fit_frame_strains", "refine_boundaries"],
         "position_fit": ["fit_marker_geometry", "fit_position_strains", "bending_strains"],
         "position_fusion": [

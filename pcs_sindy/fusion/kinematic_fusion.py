@@ -60,7 +60,7 @@ from .chain_geometry import (
     rest_length_factor,
     segment_strains,
 )
-from .input_checks import check_marker_chain
+from .input_checks import check_arc_lengths, check_marker_chain, check_marker_positions
 from .merging import MERGE_RULES, check_q_max, data_q_max, fuse_segments
 from .position_fusion import (
     base_axis_planes,
@@ -508,6 +508,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             )
         if len({tr.n_markers for tr in trajs}) != 1:
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
+        known_arcs = trajs[0].metadata.get("marker_arc_lengths")
+        check_marker_positions([tr.positions for tr in trajs], known_arcs, name="X")
         with_rotations = {getattr(tr, "rotations", None) is not None for tr in trajs}
         if len(with_rotations) > 1:
             raise ValueError("X: give rotations to PoseTrajectory.from_positions for every recording, or none")
@@ -540,9 +542,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             scales,
             n_segments=None if self.n_segments is None else int(self.n_segments),
         )
+        s = fit["arc_lengths"]
+        if known_arcs is None:  # a fit the markers contradict (what the checks above did not see)
+            check_arc_lengths([tr.positions for tr in trajs], s[1:], "the fitted marker arc lengths")
         self.threshold_ = h
         self.threshold_choice_ = choice
-        s = fit["arc_lengths"]
         self.total_length_ = float(s[-1])
         known = "marker_arc_lengths" in trajs[0].metadata
         self.total_length_source_ = (
@@ -596,6 +600,8 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             )
         if len({tr.n_markers for tr in trajs}) != 1:
             raise ValueError(f"all recordings in X must have the same markers; got {[tr.n_markers for tr in trajs]}")
+        known_arcs = trajs[0].metadata.get("marker_arc_lengths")
+        check_marker_positions([tr.positions for tr in trajs], known_arcs, name="X")
         q_max = check_q_max(self.q_max)
         bend = None if self.scaling == "data" else float(q_max[0])
         offsets = self.marker_offsets
@@ -633,9 +639,11 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             geometry=geometry,
             n_segments=None if self.n_segments is None else int(self.n_segments),
         )
+        s = fit["arc_lengths"]
+        if known_arcs is None:  # a fit the markers contradict (what the checks above did not see)
+            check_arc_lengths([tr.positions for tr in trajs], s[1:], "the fitted marker arc lengths")
         self.threshold_ = h
         self.threshold_choice_ = choice
-        s = fit["arc_lengths"]
         self.total_length_ = float(s[-1])
         known = "marker_arc_lengths" in trajs[0].metadata
         self.total_length_source_ = (
@@ -750,6 +758,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
                 )
             if trajs[0].n_markers != self.n_markers_:
                 raise ValueError(f"X has {trajs[0].n_markers} markers; the fusion was fitted with {self.n_markers_}")
+            check_marker_positions([tr.positions for tr in trajs], name="X")
             if getattr(self, "space_", "plane") == "3d":
                 return self._transform_spatial(trajs)
             plane = self.plane_
@@ -895,9 +904,10 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
 
         A 3-D fusion (``space_ == "3d"``) takes :class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory`
         objects (its :meth:`transform`'s, or a spatial model's prediction:
-        ``SpatialStrainTrajectory(q, t, segment_lengths=fusion.segment_lengths_)``) and returns positions-only trajectories whose ``.positions`` (T, N, 3) are the markers in the
-        capture frame and ``.rotations`` (T, N, 3, 3) their frames; the marker arc lengths, base pose
-        (``"base_pose"``, 4 x 4) and offsets come from the metadata when present, else from the fit.
+        ``SpatialStrainTrajectory(q, t, segment_lengths=fusion.segment_lengths_)``) and returns
+        positions-only trajectories whose ``.positions`` (T, N, 3) are the markers in the capture frame
+        and ``.rotations`` (T, N, 3, 3) their frames; the marker arc lengths, base pose (``"base_pose"``,
+        4 x 4) and offsets come from the metadata when present, else from the fit.
         """
         check_is_fitted(self, "segment_lengths_")
         if getattr(self, "space_", "plane") == "3d":

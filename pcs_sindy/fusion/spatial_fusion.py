@@ -66,7 +66,7 @@ SPATIAL_BENDING_TWIST = (True, True, True, False, False, False)
 _DEFAULT_STD = (5e-4, float(np.deg2rad(1.0)))
 #: angle [rad] of the prior on the first segment's mean bending that fixes a weakly seen rest direction
 #: (:func:`fit_spatial_geometry`)
-DIRECTION_PRIOR = 0.1
+DIRECTION_PRIOR = 0.3
 
 
 # ----------------------------------------------------------------------------------------- helpers
@@ -452,16 +452,27 @@ def fit_spatial_strains(
             better = cb < cost[bad]
             q[bad[better][:, None], cols[None, :]] = qb[better]
             cost[bad[better]] = cb[better]
+        changed = np.ones(T, dtype=bool)
+        quiet = 0
         for k in range(12):
             step_back = 1 if k % 2 == 0 else -1
-            bad = np.flatnonzero(cost > 4.0 * typical + 1.0)
-            bad = bad[(bad - step_back >= 0) & (bad - step_back < T)]
-            if bad.size == 0:
+            t_all = np.arange(T)
+            nb = t_all - step_back
+            ok = (nb >= 0) & (nb < T)
+            # a frame far worse than its neighbour (not a stretch the model fits badly throughout), whose
+            # neighbour has a solution it has not tried yet
+            cand = t_all[ok][(cost[ok] > 4.0 * cost[nb[ok]] + 1.0) & changed[nb[ok]]]
+            improved = np.zeros(T, dtype=bool)
+            if cand.size:
+                qb, cb = solve(cand, q[cand - step_back][:, cols])
+                better = cb < cost[cand]
+                q[cand[better][:, None], cols[None, :]] = qb[better]
+                cost[cand[better]] = cb[better]
+                improved[cand[better]] = True
+            quiet = 0 if improved.any() else quiet + 1
+            if quiet >= 2:
                 break
-            qb, cb = solve(bad, q[bad - step_back][:, cols])
-            better = cb < cost[bad]
-            q[bad[better][:, None], cols[None, :]] = qb[better]
-            cost[bad[better]] = cb[better]
+            changed = improved | (k == 0)
     # a segment's strains are seen by the valid markers beyond its start; frames that do not see them
     # (or have fewer valid coordinates than strains) get them interpolated in time
     starts = np.concatenate([[0.0], np.cumsum(lengths)[:-1]])
@@ -572,7 +583,7 @@ def fit_spatial_geometry(
     initial_rotation_offsets : array_like, shape (N, 3, 3), optional
     pose_std : (float, float)
         Position [m] and angle [rad] weights.
-    direction_prior : float or None, default :data:`DIRECTION_PRIOR` (0.1 rad)
+    direction_prior : float or None, default :data:`DIRECTION_PRIOR` (0.3 rad)
         Positions hardly see the rest direction: tilting the base trades against a mean bending of
         the first segment, and real recordings move the fit by tens of degrees for a fraction of a
         millimetre (the Trunk's 3-D recording: 1.60 against 1.63 mm RMS between a base tilted 25
@@ -595,6 +606,23 @@ def fit_spatial_geometry(
         ``segment_lengths``.
     """
     recs = [_check_positions(p, "positions[k]") for p in positions]
+    if isinstance(offsets, str) and offsets == "fit" and initial_offsets is None and initial_base is None:
+        # offsets and the base's pose trade against each other far from the solution: start the offsets
+        # from the base of markers on the backbone
+        first = fit_spatial_geometry(
+            recs,
+            arc_lengths,
+            normal=normal,
+            rotations=rotations,
+            max_frames=max_frames,
+            curvatures=curvatures,
+            base_position=base_position,
+            base_direction=base_direction,
+            pose_std=pose_std,
+            direction_prior=direction_prior,
+        )
+        initial_base = (first["base_rotation"], first["base_position"])
+        initial_rotation_offsets = first["rotation_offsets"]
     rots = None
     if rotations is not None:
         rots = [None if r is None else np.asarray(r, dtype=float) for r in rotations]
@@ -684,8 +712,9 @@ def fit_spatial_geometry(
     cols = np.flatnonzero(active.reshape(-1))
     na = cols.size
     use_prior = fit_a and direction_prior is not None
-    ridge = 1.0 / float(direction_prior) if use_prior else 0.0
-    twist_ridge = 0.0 if direction_prior is None else 1.0 / float(direction_prior)
+    ridge_0 = ridge = 1.0 / float(direction_prior) if use_prior else 0.0
+    twist_ridge_0 = twist_ridge = 0.0 if direction_prior is None else 1.0 / float(direction_prior)
+    state = {"scale": sp}  # the residual level the priors are weighed against
     n_prior = (2 if use_prior else 0) + (nk if twist and direction_prior is not None else 0)
 
     def model_residual(qa: NDArray[np.float64], x: NDArray[np.float64], jacobian: bool = False):
@@ -758,7 +787,7 @@ def fit_spatial_geometry(
             pb,
             _lengths(sv, ends),
             sv,
-            active=active,
+            active=active if C is not None else active & np.array(SPATIAL_BENDING),  # torsion needs orientations
             rotations=Rt if C is not None else None,
             offsets=d,
             rotation_offsets=C,
@@ -775,43 +804,59 @@ def fit_spatial_geometry(
         rel = np.swapaxes(R_model, -1, -2) @ Rt
         C0 = np.stack([_chordal_mean(rel[rmask[:, k], k]) if rmask[:, k].any() else np.eye(3) for k in range(N)])
     qa = frame_strains(x, unpack(x)[4])
-    # Levenberg-Marquardt on the globals and every frame's strains together (bundle adjustment): the normal
-    # equations are block-diagonal in the frames, so the globals' step solves their Schur complement
-    r, Jq = model_residual(qa, x, jacobian=True)
-    cost = float(np.sum(r**2))
-    lam = 1e-3
     eye_q, eye_g = np.eye(na), np.eye(n_glob)
-    for _ in range(100):
-        Jg = global_jacobian(qa, x, r)
-        A = np.einsum("fia,fib->fab", Jq, Jq)
-        B = np.einsum("fia,fig->fag", Jq, Jg)
-        G = np.einsum("fia,fib->ab", Jg, Jg)
-        gq = np.einsum("fia,fi->fa", Jq, r)
-        gg = np.einsum("fia,fi->a", Jg, r)
-        improved = False
-        while lam < 1e10:
-            Al = A + lam * np.einsum("faa->fa", A)[:, :, None] * eye_q + 1e-12 * eye_q
-            Ainv_B = np.linalg.solve(Al, B)
-            Ainv_g = np.linalg.solve(Al, gq[..., None])[..., 0]
-            if n_glob:
-                S = G + lam * np.diag(np.diag(G)) + 1e-12 * eye_g - np.einsum("fag,fah->gh", B, Ainv_B)
-                dx = np.linalg.solve(S, -gg + np.einsum("fag,fa->g", B, Ainv_g))
-            else:
-                dx = np.zeros(0)
-            dq = -Ainv_g - np.einsum("fag,g->fa", Ainv_B, dx)
-            x_new = x + dx
-            q_new = bounded(qa + dq, x_new)
-            r_new, Jq_new = model_residual(q_new, x_new, jacobian=True)
-            c_new = float(np.sum(r_new**2))
-            if np.isfinite(c_new) and c_new <= cost:
-                small = cost - c_new <= 1e-9 * cost
-                x, qa, r, Jq, cost = x_new, q_new, r_new, Jq_new, c_new
-                lam = max(lam / 3.0, 1e-12)
-                improved = not small
+
+    def bundle(x: NDArray[np.float64], qa: NDArray[np.float64]):
+        """Levenberg-Marquardt on the globals and every frame's strains together (bundle adjustment): the
+        normal equations are block-diagonal in the frames, so the globals' step solves their Schur complement."""
+        r, Jq = model_residual(qa, x, jacobian=True)
+        cost = float(np.sum(r**2))
+        lam = 1e-3
+        for _ in range(100):
+            Jg = global_jacobian(qa, x, r)
+            A = np.einsum("fia,fib->fab", Jq, Jq)
+            B = np.einsum("fia,fig->fag", Jq, Jg)
+            G = np.einsum("fia,fib->ab", Jg, Jg)
+            gq = np.einsum("fia,fi->fa", Jq, r)
+            gg = np.einsum("fia,fi->a", Jg, r)
+            improved = False
+            while lam < 1e10:
+                Al = A + lam * np.einsum("faa->fa", A)[:, :, None] * eye_q + 1e-12 * eye_q
+                Ainv_B = np.linalg.solve(Al, B)
+                Ainv_g = np.linalg.solve(Al, gq[..., None])[..., 0]
+                if n_glob:
+                    S = G + lam * np.diag(np.diag(G)) + 1e-12 * eye_g - np.einsum("fag,fah->gh", B, Ainv_B)
+                    dx = np.linalg.solve(S, -gg + np.einsum("fag,fa->g", B, Ainv_g))
+                else:
+                    dx = np.zeros(0)
+                dq = -Ainv_g - np.einsum("fag,g->fa", Ainv_B, dx)
+                x_new = x + dx
+                q_new = bounded(qa + dq, x_new)
+                r_new, Jq_new = model_residual(q_new, x_new, jacobian=True)
+                c_new = float(np.sum(r_new**2))
+                if np.isfinite(c_new) and c_new <= cost:
+                    small = cost - c_new <= 1e-5 * cost
+                    x, qa, r, Jq, cost = x_new, q_new, r_new, Jq_new, c_new
+                    lam = max(lam / 3.0, 1e-12)
+                    improved = not small
+                    break
+                lam *= 10.0
+            if not improved:
                 break
-            lam *= 10.0
-        if not improved:
-            break
+        return x, qa, r, Jq
+
+    x, qa, r, Jq = bundle(x, qa)
+    if n_prior:
+        # the priors weigh against the data at the noise level pose_std; residuals well above it are model
+        # error, whose weight the data must not claim: refit with the priors scaled by the residual level
+        for _ in range(3):
+            level = np.sqrt(np.sum(r[:, : 3 * N] ** 2) / max(3 * int(mask.sum()), 1))  # in units of pose_std
+            factor = max(1.0, float(level))
+            if abs(np.log(factor * sp / state["scale"])) < np.log(1.5):
+                break
+            state["scale"] = factor * sp
+            ridge, twist_ridge = ridge_0 * factor, twist_ridge_0 * factor
+            x, qa, r, Jq = bundle(x, qa)
     pb, Rb, sv, d, C = unpack(x)
     q = np.zeros((F, 6 * nk))
     q[:, cols] = qa
@@ -1176,8 +1221,9 @@ def spatial_strain_trajectories(
     Returns
     -------
     list of SpatialStrainTrajectory
-        Their ``kinematics`` is a :class:`~pcs_sindy.core.spatial.SpatialPCS` with the base pose; ``metadata``: ``marker_arc_lengths``, ``marker_offsets`` (N, 2), ``rotation_offsets``,
-        ``boundaries``, ``shape_fit="positions"``, ``estimated`` (frames whose strains were all seen).
+        Their ``kinematics`` is a :class:`~pcs_sindy.core.spatial.SpatialPCS` with the base pose;
+        ``metadata``: ``marker_arc_lengths``, ``marker_offsets`` (N, 2), ``rotation_offsets``, ``boundaries``,
+        ``shape_fit="positions"``, ``estimated`` (frames whose strains were all seen).
     """
     H = np.asarray(base_pose, dtype=float)
     lengths = np.asarray(segment_lengths, dtype=float)

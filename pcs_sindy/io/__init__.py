@@ -29,7 +29,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "MAX_SEGMENTS",
             "MAX_MONOMIAL_SEGMENTS",
         ],
-        "marker_csv": ["MarkerData", "read_marker_csv"],
+        "marker_csv": ["MarkerData", "read_marker_csv", "InputLog", "read_input_log", "align_inputs"],
         "data_files": [
             "DataFileError",
             "FILE_FORMATS",

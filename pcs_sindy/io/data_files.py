@@ -31,6 +31,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..core import atomic
 from ..core.atomic import FileSet
+from ..core.spatial import SpatialStrainTrajectory, se3_matrix
 from ..core.trajectory import StrainTrajectory
 from .npz_headers import check_npz_headers
 
@@ -59,6 +60,8 @@ file formats (all .npz, read without pickle; extra keys are ignored):
   pose file    t (T,), poses (T, N+1, 3): base + N markers, [x, y, theta] in m/rad in the base frame
                optional rest_length (): the robot's measured length in m (written by 'extract --robot-length')
   tau file     t (T,), tau (T, 3m): generalized forces held on [t_k, t_k+1)  (a recording qualifies)
+  input file   t (T,), u (T, p): actuator inputs held on [t_k, t_k+1)  (written by 'fuse --markers-csv' to
+               OUT/inputs/; actuated recordings qualify)
   strain file  t (T,), q (T, 3m), segment_lengths (m,), active_strains (m, 3),
                base_pose (3,), base_poses (T, 3), marker_arc_lengths (N+1,)  (written by 'fuse')
   model files  JSON + .npz sibling written by pcs_sindy.io.model_files (no pickle)
@@ -66,6 +69,8 @@ file formats (all .npz, read without pickle; extra keys are ignored):
 
 _RECORDING_KEYS = ("t", "q", "qd", "tau", "poses", "poses_true")
 _STRAIN_METADATA = ("base_poses", "marker_arc_lengths", "boundaries")
+#: what a spatial strain file (a 3-D fusion's) carries besides: the fusion's marker model
+_SPATIAL_METADATA = ("marker_offsets", "rotation_offsets")
 
 
 class DataFileError(ValueError):
@@ -277,25 +282,49 @@ def write_tau(path: str | Path, t: ArrayLike, tau: ArrayLike, *, into: FileSet |
     return Path(path)
 
 
-def read_strains(path: str | Path) -> StrainTrajectory:
-    """A strain file as a :class:`~pcs_sindy.core.trajectory.StrainTrajectory`.
+def read_strains(path: str | Path) -> StrainTrajectory | SpatialStrainTrajectory:
+    """A strain file as a :class:`~pcs_sindy.core.trajectory.StrainTrajectory`, or a
+    :class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory` when it holds spatial strains (a
+    ``base_rotation``).
 
-    ``base_poses``, ``marker_arc_lengths`` and ``boundaries``, when present,
-    go to ``metadata`` (with ``source``, the path).
+    ``base_poses``, ``marker_arc_lengths`` and ``boundaries`` (and, for spatial strains, the base pose as
+    ``base_pose`` (4, 4), ``marker_offsets``, ``rotation_offsets``), when present, go to ``metadata``
+    (with ``source``, the path).
     """
     data = read_arrays(
         path,
         ["t", "q", "segment_lengths"],
         "strain file",
-        optional=["active_strains", "base_pose", *_STRAIN_METADATA],
+        optional=[
+            "active_strains",
+            "base_pose",
+            "base_position",
+            "base_rotation",
+            *_STRAIN_METADATA,
+            *_SPATIAL_METADATA,
+        ],
     )
     meta: dict[str, Any] = {"source": str(path)}
     meta.update({key: data[key] for key in _STRAIN_METADATA if key in data})
+    lengths = tuple(np.atleast_1d(data["segment_lengths"]).astype(float))
     try:
+        if "base_rotation" in data:
+            position = np.asarray(data.get("base_position", np.zeros(3)), dtype=float)
+            meta.update({key: data[key] for key in _SPATIAL_METADATA if key in data})
+            meta["base_pose"] = se3_matrix(position, data["base_rotation"])
+            return SpatialStrainTrajectory(
+                data["q"],
+                data["t"],
+                segment_lengths=lengths,
+                active_strains=data.get("active_strains"),
+                base_position=tuple(position),
+                base_rotation=data["base_rotation"],
+                metadata=meta,
+            )
         return StrainTrajectory(
             data["q"],
             data["t"],
-            segment_lengths=tuple(np.atleast_1d(data["segment_lengths"]).astype(float)),
+            segment_lengths=lengths,
             active_strains=data.get("active_strains"),
             base_pose=tuple(data["base_pose"]) if "base_pose" in data else (0.0, 0.0, 0.0),
             metadata=meta,
@@ -304,9 +333,13 @@ def read_strains(path: str | Path) -> StrainTrajectory:
         raise DataFileError(f"strain file {str(path)!r}: {err}") from None
 
 
-def write_strains(path: str | Path, st: StrainTrajectory, *, into: FileSet | None = None) -> Path:
+def write_strains(
+    path: str | Path, st: StrainTrajectory | SpatialStrainTrajectory, *, into: FileSet | None = None
+) -> Path:
     """Write a strain trajectory (and its ``base_poses``, ``marker_arc_lengths``, ``boundaries`` metadata).
 
+    A :class:`~pcs_sindy.core.spatial.SpatialStrainTrajectory` writes its base as ``base_position`` and
+    ``base_rotation`` and the fusion's ``marker_offsets`` and ``rotation_offsets`` when present.
     ``into`` as in :func:`write_poses`.
     """
     arrays = {
@@ -314,9 +347,15 @@ def write_strains(path: str | Path, st: StrainTrajectory, *, into: FileSet | Non
         "q": st.q,
         "segment_lengths": np.asarray(st.segment_lengths, dtype=float),
         "active_strains": st.active_strains,
-        "base_pose": np.asarray(st.kinematics.base_pose, dtype=float),
     }
-    arrays.update({key: np.asarray(st.metadata[key]) for key in _STRAIN_METADATA if key in st.metadata})
+    if isinstance(st, SpatialStrainTrajectory):
+        position, rotation = st.kinematics.base_pose
+        arrays.update(base_position=np.asarray(position, dtype=float), base_rotation=np.asarray(rotation, dtype=float))
+        keys = ("marker_arc_lengths", "boundaries", *_SPATIAL_METADATA)
+    else:
+        arrays["base_pose"] = np.asarray(st.kinematics.base_pose, dtype=float)
+        keys = _STRAIN_METADATA
+    arrays.update({key: np.asarray(st.metadata[key]) for key in keys if st.metadata.get(key) is not None})
     _savez(path, arrays, into)
     return Path(path)
 
@@ -503,9 +542,11 @@ def read_training_files(
             )
         dt = float(np.median(np.diff(st.t))) if st.n_frames > 1 else 1.0
         if np.max(np.abs((t - t[0]) - (st.t - st.t[0]))) > 0.5 * dt:
+            dt_tau = float(np.median(np.diff(t))) if t.size > 1 else dt
             raise DataFileError(
                 f"time stamps of tau file {str(tfile)!r} and strain file {str(sfile)!r} differ by more than half a "
-                "sample"
+                f"sample: the strains are sampled at {1.0 / dt:.6g} Hz, the {key} at {1.0 / dt_tau:.6g} Hz "
+                "(check the frame rate given to extract, --fps, against the rate of the inputs)"
             )
         taus.append(tau)
     return strains, taus

@@ -377,7 +377,6 @@ def make_pcs_pipeline(
     from ..fusion.kinematic_fusion import KinematicFusion
     from ..identification.optimizers import StiffnessThresholdOptimizer
     from ..identification.regressor import EulerLagrangeRegressor
-    from ..vision.extractor import MarkerPoseExtractor
 
     if start not in _STARTS:
         raise ValueError(f"start must be one of {_STARTS}; got {start!r}")
@@ -403,7 +402,11 @@ def make_pcs_pipeline(
         )
     steps: list[tuple[str, Any]] = []
     if start == "videos":
-        steps.append(("poses", MarkerPoseExtractor() if extractor is None else extractor))
+        if extractor is None:  # vision (OpenCV) only for a pipeline that reads videos
+            from ..vision.extractor import MarkerPoseExtractor
+
+            extractor = MarkerPoseExtractor()
+        steps.append(("poses", extractor))
     steps += [("segments", fusion), ("dynamics", regressor)]
     if n_jobs is not None:
         for _, est in steps:

@@ -1,10 +1,11 @@
-"""Input checks shared by the figures: numeric arrays, time stamps, scalars and the axes to draw into.
+"""Input checks shared by the figures: numeric arrays, time stamps, scalars, predictions and the axes to draw into.
 
 Each check raises ``ValueError`` naming the argument and the offending value.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 import matplotlib.pyplot as plt
@@ -61,3 +62,37 @@ def new_axes(axes: Any, n: int, name: str, figsize: tuple[float, float], **kwarg
     if len(axes) != n or not all(isinstance(a, Axes) for a in axes):
         raise ValueError(f"{name} must be {n} matplotlib Axes; got {len(axes)} object(s)")
     return axes[0].figure, axes
+
+
+def predictions(
+    pred: Any, labels: Sequence[str] | None, shape: tuple[int, ...], name: str
+) -> tuple[list[NDArray[np.float64]], list[str]]:
+    """Normalise one prediction, a sequence of them or a ``{label: array}`` mapping."""
+    if isinstance(pred, Mapping):
+        if labels is not None:
+            raise ValueError(f"labels must be None when {name} is a mapping (its keys are the labels); got {labels!r}")
+        labels = [str(k) for k in pred]
+        arrays = list(pred.values())
+    elif isinstance(pred, (list, tuple)) and len(pred) > 0 and np.ndim(pred[0]) == len(shape):
+        arrays = list(pred)
+    else:
+        arrays = [pred]
+    if len(arrays) == 0:
+        raise ValueError(f"{name} must hold at least one prediction")
+    if labels is None:
+        labels = ["model"] if len(arrays) == 1 else [f"model {k + 1}" for k in range(len(arrays))]
+    elif isinstance(labels, str):
+        labels = [labels]
+    labels = [str(v) for v in labels]
+    if len(labels) != len(arrays):
+        raise ValueError(
+            f"labels must have one entry per prediction in {name} ({len(arrays)}); got {len(labels)}: {labels!r}"
+        )
+    out = []
+    for k, arr in enumerate(arrays):
+        key = name if len(arrays) == 1 else f"{name}[{labels[k]!r}]"
+        arr = finite_array(arr, key)
+        if arr.shape != shape:
+            raise ValueError(f"{key} must have shape {shape} (like the truth); got {arr.shape}")
+        out.append(arr)
+    return out, labels

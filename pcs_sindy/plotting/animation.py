@@ -1,6 +1,8 @@
 """A video of a rollout: true and predicted backbones over time, drawn with matplotlib and written with OpenCV.
 
-The drawing uses its own Agg canvas, so it works without a display.
+The drawing uses its own Agg canvas, so it works without a display.  A ``.gif`` is written with
+Pillow (matplotlib's image library; no OpenCV); which format a browser plays on this OpenCV build is
+:func:`pcs_sindy.core.video.browser_video_format`'s answer.
 """
 
 from __future__ import annotations
@@ -8,7 +10,6 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import cv2
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
@@ -16,11 +17,12 @@ from matplotlib.ticker import MaxNLocator
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
+from ..core.video import VIDEO_CODECS, open_video_writer, video_codec
 from ._checks import check_scalar, check_time, finite_array
 
 __all__ = ["animate_rollout"]
 
-_VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
+_SUFFIXES = (*VIDEO_CODECS, ".gif")
 
 
 def _check_track(value: ArrayLike, n_frames: int | None, name: str, min_points: int = 1) -> NDArray[np.float64]:
@@ -50,12 +52,15 @@ def animate_rollout(
 
     Each video frame is a matplotlib drawing (base at the top, image-down =
     +y, fixed limits enclosing all the data) copied from the Agg canvas and
-    written with OpenCV's ``VideoWriter``.
+    written with OpenCV's ``VideoWriter`` (a GIF with Pillow).
 
     Parameters
     ----------
     path : str or path-like
-        Output file; ``.mp4`` (codec ``mp4v``) or ``.avi`` (``MJPG``).  Its
+        Output file; its suffix chooses the format: ``.mp4`` (H.264 ``avc1`` when this OpenCV build
+        has the encoder, else ``mp4v``, which browsers often refuse), ``.webm`` (VP8, browser-playable),
+        ``.avi`` (``MJPG``) or ``.gif`` (Pillow; every frame is held in memory until written).
+        ``"rollout" + pcs_sindy.core.video.browser_video_format()`` is one a browser plays.  Its
         folder must exist.
     t : array_like, shape (T,)
         Time stamps [s].
@@ -84,9 +89,9 @@ def animate_rollout(
         ``path``; the video holds ``ceil(T / stride)`` frames of ``size``.
     """
     path = Path(path)
-    codec = _VIDEO_CODECS.get(path.suffix.lower())
-    if codec is None:
-        raise ValueError(f"path must end in one of {sorted(_VIDEO_CODECS)}; got {str(path)!r}")
+    suffix = path.suffix.lower()
+    if suffix not in _SUFFIXES:
+        raise ValueError(f"path must end in one of {sorted(_SUFFIXES)}; got {str(path)!r}")
     if not path.parent.is_dir():
         raise OSError(f"the folder of path={str(path)!r} does not exist")
     t = check_time(t)
@@ -141,9 +146,21 @@ def animate_rollout(
 
     # written under a temporary name in the same folder and renamed when complete: a failure leaves the old video
     with FileSet() as outputs, outputs.path_for(path) as tmp:
-        writer = cv2.VideoWriter(str(tmp), cv2.VideoWriter_fourcc(*codec), fps, (width, height))
-        if not writer.isOpened():
-            raise OSError(f"OpenCV cannot open a {codec} video writer for path={str(path)!r}")
+        if suffix == ".gif":
+            from PIL import Image  # matplotlib's own image library (a dependency of matplotlib)
+
+            frames: list = []
+
+            def write(rgba: NDArray) -> None:  # a palette image per frame: a third of the memory of RGB
+                frames.append(Image.fromarray(np.ascontiguousarray(rgba[..., :3])).convert("P", palette=1))
+
+            def close() -> None:
+                pass
+        else:
+            import cv2
+
+            writer = open_video_writer(tmp, video_codec(suffix), fps, (width, height))
+            write, close = (lambda rgba: writer.write(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR))), writer.release
         try:
             for k in tqdm(indices, desc="animate", unit="frame", disable=not progress):
                 l_true.set_data(true_xy[k, :, 0], true_xy[k, :, 1])
@@ -157,7 +174,10 @@ def animate_rollout(
                     raise RuntimeError(
                         f"canvas size {rgba.shape[1]}x{rgba.shape[0]} differs from size {width}x{height}"
                     )
-                writer.write(cv2.cvtColor(rgba, cv2.COLOR_RGBA2BGR))
+                write(rgba)
         finally:
-            writer.release()
+            close()
+        if suffix == ".gif":  # frame durations in whole hundredths of a second, as GIF stores them
+            ms = 10 * max(2, int(round(100.0 / fps)))
+            frames[0].save(tmp, format="GIF", save_all=True, append_images=frames[1:], duration=ms, loop=0)
     return path

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
+
+from ..core.optional import require
+
+cv2 = require("cv2", "drawing marker images (pcs_sindy.simulation)")
 
 SHIFT = 8  # fractional bits of the vertex coordinates passed to OpenCV
 

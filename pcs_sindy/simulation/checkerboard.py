@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core.optional import require
 from ._drawing import SHIFT, fixed_point, subdivide
+
+cv2 = require("cv2", "drawing checkerboards (pcs_sindy.simulation.checkerboard)")
 
 __all__ = ["render_checkerboard"]
 

@@ -35,15 +35,17 @@ import os
 from pathlib import Path
 from typing import NamedTuple
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 from tqdm.auto import tqdm
 
 from ..core.camera import Camera
 from ..core.kinematics import forward_kinematics
+from ..core.optional import require
 from .nuisances import Nuisances
 from .rendering import render_frames
+
+cv2 = require("cv2", "rendering foreign footage (pcs_sindy.simulation.foreign)")
 
 __all__ = ["FOREIGN_KINDS", "ForeignFootage", "foreign_poses", "render_foreign_footage"]
 

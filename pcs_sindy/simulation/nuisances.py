@@ -11,12 +11,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-import cv2
 import numpy as np
 from numpy.typing import NDArray
 
 from ..core.camera import Camera
+from ..core.optional import require
 from ._drawing import SHIFT, fixed_point
+
+cv2 = require("cv2", "degrading footage (pcs_sindy.simulation.nuisances)")
 
 __all__ = ["Nuisances"]
 

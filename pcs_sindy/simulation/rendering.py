@@ -27,20 +27,22 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import NamedTuple
 
-import cv2
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 from tqdm.auto import tqdm
 
 from ..core.atomic import FileSet
 from ..core.camera import Camera, camera_json_path
+from ..core.optional import require
+from ..core.video import VIDEO_CODECS, open_video_writer, video_codec
 from ._drawing import SHIFT, draw_polygon, fixed_point, subdivide
 from .checkerboard import render_checkerboard
 from .nuisances import Nuisances, degrade, draw_scene, illumination, occlude, sub_frame_poses
 
+cv2 = require("cv2", "rendering marker videos (pcs_sindy.simulation.rendering)")
+
 __all__ = ["render_frames", "render_video", "render_checkerboard", "marker_corners", "Nuisances", "RenderedVideo"]
 
-_VIDEO_CODECS = {".mp4": "mp4v", ".avi": "MJPG"}
 _EDGE_POINTS = 6  # vertices per polygon edge when a lens bends straight edges
 
 
@@ -247,8 +249,10 @@ def render_video(
     ----------
     poses : array_like, shape (T, N + 1, 3)
     path : path
-        ``*.mp4`` (codec ``mp4v``) or ``*.avi`` (``MJPG``) for a video; a path
-        without suffix is a folder that receives ``frame_000000.png``, ...
+        ``*.avi`` (``MJPG``, sharp marker edges), ``*.mp4`` (H.264 ``avc1`` when this OpenCV build
+        has the encoder, else ``mp4v``) or ``*.webm`` (VP8; with H.264 MP4 what browsers play) for a
+        video (:data:`pcs_sindy.core.video.VIDEO_CODECS`); a path without suffix is a folder that
+        receives ``frame_000000.png``, ...
     camera : Camera, optional
         Default ``Camera.fit_poses(poses)`` (640×480, the robot fills it).
     fps : float
@@ -274,8 +278,10 @@ def render_video(
         raise ValueError("first_frame is set by render_video itself")
     path = Path(path)
     suffix = path.suffix.lower()
-    if suffix and suffix not in _VIDEO_CODECS:
-        raise ValueError(f"path must end in .mp4 or .avi, or have no suffix (PNG folder); got {str(path)!r}")
+    if suffix and suffix not in VIDEO_CODECS:
+        raise ValueError(
+            f"path must end in one of {', '.join(VIDEO_CODECS)}, or have no suffix (PNG folder); got {str(path)!r}"
+        )
     if codec is not None and (not isinstance(codec, str) or len(codec) != 4):
         raise ValueError(f"codec must be a four-character code such as 'mp4v'; got {codec!r}")
     parent = path.parent if suffix else path
@@ -295,15 +301,14 @@ def render_video(
     )
     if suffix:
         width, height = camera.image_size
-        fourcc = cv2.VideoWriter_fourcc(*(codec or _VIDEO_CODECS[suffix]))
+        codec = codec or video_codec(suffix)
         # written under a hidden temporary name and renamed when complete: an interrupted render
         # (Ctrl-C, a full disk) never leaves a truncated video under the name extraction reads
         with FileSet() as video, video.path_for(path) as tmp:
-            writer = cv2.VideoWriter(str(tmp), fourcc, float(fps), (width, height), True)
-            if not writer.isOpened():
-                raise OSError(
-                    f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec or _VIDEO_CODECS[suffix]})"
-                )
+            try:
+                writer = open_video_writer(tmp, codec, fps, (width, height))
+            except OSError:
+                raise OSError(f"OpenCV cannot open a video writer for path={str(path)!r} (codec {codec})") from None
             try:
                 for _, frames in tqdm(chunks, desc="video", unit="chunk", disable=not progress):
                     for frame in frames:

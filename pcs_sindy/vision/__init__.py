@@ -18,6 +18,10 @@ Vision knows no dynamics and no segmentation of the robot.
 
 import lazy_loader as _lazy
 
+from ..core.optional import require_installed
+
+require_installed("cv2", "pcs_sindy.vision (reading videos and images)")  # every module here uses OpenCV
+
 __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submod_attrs={

@@ -257,6 +257,15 @@ def _frame_period(
                 UserWarning,
                 stacklevel=3,
             )
+        elif "fps" not in facts and src.fps is not None and abs(period * src.fps - 1.0) > 0.01:
+            # legitimate for high-speed footage saved at a playback rate, but never silent
+            warnings.warn(
+                f"recording {name!r}: {given[0]}={given[1]:g} overrides the video container's {src.fps:g} fps "
+                f"(a frame period of {period:g} s instead of {1.0 / src.fps:g} s); leave {given[0]} out to use the "
+                "container's",
+                UserWarning,
+                stacklevel=3,
+            )
         return period, given[0]
     if "fps" in facts:
         if src.fps is not None and abs(src.fps - facts["fps"]) > 0.01 * facts["fps"]:
