@@ -32,6 +32,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "LagrangianLibrary",
             "PCSLagrangianLibrary",
             "PhysicalPCSLibrary",
+            "SpatialPhysicalPCSLibrary",
             "StackedEulerLagrangeLibrary",
             "stack_forces",
             "unstack_forces",

@@ -106,7 +106,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         dropped by strain removal are 0.
     ind_ : ndarray of bool, same shape
         Non-zero coefficients.
-    active_strains_ : ndarray of bool, shape (m, 3)
+    active_strains_ : ndarray of bool, shape (m, 3) (planar) or (m, 6) (spatial)
         Strains kept (only with ``library``).
     stiffness_ : ndarray, shape (3m,)
         Identified stiffness; ``inf`` for strains removed as rigid (and for
@@ -236,14 +236,19 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         return float(thr)
 
     def _bounds(self, library: Any) -> NDArray[np.float64]:
-        lengths = library.kinematics.segment_lengths
+        kin = library.kinematics
+        lengths = kin.segment_lengths
+        per = kin.n_q // len(lengths)  # strains per segment: 3 planar, 6 spatial
         if self.max_stiffness is not None:
             bounds = np.asarray(self.max_stiffness, dtype=float).reshape(-1)  # values checked by the table
-            if bounds.shape != (3 * len(lengths),):
-                want = f"{3 * len(lengths)} values (3 per segment of the library)"
+            if bounds.shape != (per * len(lengths),):
+                want = f"{per * len(lengths)} values ({per} per segment of the library)"
                 raise InvalidParameterError.of(self, "max_stiffness", want, self.max_stiffness)
             return bounds
-        return stiffness_bounds(
+        bound_fn = stiffness_bounds
+        if per == 6:
+            from .library.spatial_physical import spatial_stiffness_bounds as bound_fn
+        return bound_fn(
             lengths,
             youngs_modulus_max=self.youngs_modulus_max,
             shear_modulus_max=self.shear_modulus_max,
@@ -375,6 +380,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             )
         kin = library.kinematics
         m = kin.n_segments
+        per = kin.n_q // m  # strains per segment: 3 planar, 6 spatial
         start_mask = np.asarray(kin.active_strains, dtype=bool).reshape(-1)
         n_act = int(start_mask.sum())
         n_samples = x.shape[0] // n_act if n_act else 0
@@ -420,7 +426,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             coef_r, info = scaled_lstsq(
                 x_r, y_r, rcond=self.rcond, feature_names=sub_names, lower_bounds=lb, equality=eq
             )
-            stiff = np.full(3 * m, np.inf)
+            stiff = np.full(per * m, np.inf)
             # a Lagrangian's q_e^2 term carries -k_e/2; a physical library's parameter is k_e itself
             stiff[mask] = float(lib_r.stiffness_factor_) * coef_r[np.asarray(lib_r.stiffness_index_)]
             coef_full = np.zeros(n_feat)
@@ -429,7 +435,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
             new_removed = [names[e] for e in np.flatnonzero(exceed)]
             history.append(
                 {
-                    "active_strains": mask.reshape(m, 3).copy(),
+                    "active_strains": mask.reshape(m, per).copy(),
                     "coef": coef_full,
                     "stiffness": stiff.copy(),
                     "removed": new_removed,
@@ -447,7 +453,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
                 raise ValueError(
                     f"every strain exceeded its maximum stiffness (removed {removed}); check max_stiffness / units"
                 )
-            lib_r = library.restrict(mask.reshape(m, 3))
+            lib_r = library.restrict(mask.reshape(m, per))
             col_map = np.asarray(lib_r.column_map_, dtype=int)
             keep = mask[start_mask]  # kept columns among the library's active strains
             x_r = np.asarray(design(lib_r, keep), dtype=float).reshape(-1, len(col_map))
@@ -467,7 +473,7 @@ class StiffnessThresholdOptimizer(BaseOptimizer):
         self.ind_ = self.coef_ != 0
         self.history_ = history
         self.n_rounds_ = len(history)
-        self.active_strains_ = mask.reshape(m, 3).copy()
+        self.active_strains_ = mask.reshape(m, per).copy()
         self.stiffness_ = final["stiffness"]
         self.max_stiffness_ = bounds
         # removals of a non-converged last round were never applied

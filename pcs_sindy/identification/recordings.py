@@ -16,10 +16,42 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.kinematics import PlanarPCS
+from ..core.spatial import SpatialPCS
 from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
 from . import formulations as _form
+from .library.spatial_physical import spatial_kinematics_of
 
-__all__ = ["check_list", "derivatives", "prepare", "weak_windows", "WEAK_WINDOW"]
+__all__ = [
+    "check_list",
+    "derivatives",
+    "prepare",
+    "weak_windows",
+    "WEAK_WINDOW",
+    "as_trajectories",
+    "data_kinematics",
+    "with_active",
+]
+
+
+def as_trajectories(X: Any, *, name: str = "X") -> list:
+    """Recordings as a list: planar :class:`StrainTrajectory` objects, or spatial strain trajectories."""
+    if spatial_kinematics_of(X) is not None:
+        return list(X) if isinstance(X, (list, tuple)) else [X]
+    return as_strain_trajectories(X, name=name)
+
+
+def data_kinematics(X: Any) -> PlanarPCS | SpatialPCS | None:
+    """The segmentation shared by the recordings: a SpatialPCS for spatial strains, else a PlanarPCS."""
+    spatial = spatial_kinematics_of(X)
+    return spatial if spatial is not None else kinematics_of(X)
+
+
+def with_active(kin: PlanarPCS | SpatialPCS, active: ArrayLike) -> PlanarPCS | SpatialPCS:
+    """The segmentation ``kin`` (same type, lengths and base) with the modelled strains ``active``."""
+    if isinstance(kin, SpatialPCS):
+        return SpatialPCS(kin.segment_lengths, active, kin.base_position, kin.base_rotation)
+    return PlanarPCS(kin.segment_lengths, active, kin.base_pose)
+
 
 #: default weak-form window in sampling intervals (shorter for recordings shorter than twice it)
 WEAK_WINDOW = 160
@@ -147,8 +179,8 @@ def prepare(
     X : list of StrainTrajectory
     recordings : list of PreparedRecording
     """
-    X = as_strain_trajectories(X)
-    data_kin = kinematics_of(X)
+    X = as_trajectories(X)
+    data_kin = data_kinematics(X)
     if kin is not None and not np.allclose(data_kin.segment_lengths, kin.segment_lengths, rtol=1e-9, atol=0):
         raise ValueError(
             f"X has segment_lengths {list(data_kin.segment_lengths)}, the model {list(kin.segment_lengths)}; "

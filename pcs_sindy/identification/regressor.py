@@ -36,7 +36,8 @@ from ..core.kinematics import PlanarPCS
 from ..core.recording_list import RecordingList
 from ..core.saving import PersistenceMixin
 from ..core.simulate_contract import DivergenceError, simulate_inputs
-from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
+from ..core.spatial import SpatialPCS
+from ..core.trajectory import StrainTrajectory
 from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
 from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
 from ..models.forward import reduce_strains
@@ -317,8 +318,21 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         if isinstance(self.library, LagrangianLibrary):
             validate_parameters(self.library)
 
-    def make_library(self) -> LagrangianLibrary:
-        """The library this regressor fits: a fresh, unfitted instance of ``library`` (default physical)."""
+    def make_library(self, kinematics: Any = None) -> LagrangianLibrary:
+        """The library this regressor fits: a fresh, unfitted instance of ``library`` (default physical).
+
+        For spatial (3-D) data (``kinematics`` a :class:`~pcs_sindy.core.SpatialPCS`) the default is
+        :class:`~pcs_sindy.identification.library.spatial_physical.SpatialPhysicalPCSLibrary`.
+        """
+        if isinstance(kinematics, SpatialPCS) and (self.library is None or isinstance(self.library, str)):
+            if self.library not in (None, "physical"):
+                raise ValueError(
+                    f"library={self.library!r} is planar only; spatial strains take the physical library "
+                    "(library=None, 'physical' or a SpatialPhysicalPCSLibrary)"
+                )
+            from .library.spatial_physical import SpatialPhysicalPCSLibrary
+
+            return SpatialPhysicalPCSLibrary()
         if self.library is None or self.library == "physical":
             from .library.physical import PhysicalPCSLibrary
 
@@ -402,16 +416,17 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         start = time.perf_counter()
         validate_parameters(self)
         self._check_joint_parameters()
-        X = as_strain_trajectories(X)
+        X = _rec.as_trajectories(X)
         self.gravity_choice_ = None
         if (
             self.library is None
+            and not isinstance(_rec.data_kinematics(X), SpatialPCS)
             and self.formulation != "static"
             and all(x.metadata.get("shape_fit") == "positions" for x in X)
-            and self._refines(self._new_actuation(kinematics_of(X)))
+            and self._refines(self._new_actuation(_rec.data_kinematics(X)))
         ):
             return self._fit_choosing_gravity(X, y, qd, qdd, start)
-        act = self._new_actuation(kinematics_of(X))
+        act = self._new_actuation(_rec.data_kinematics(X))
         full_act, directions, y_inputs = None, None, None
         if act.kind == "learned":
             # an input that never varies acts like the constant force f0 (or not at all): its gains are not
@@ -431,7 +446,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 "y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
                 "identified; record with actuation"
             )
-        lib = self.make_library().fit(X)
+        lib = self.make_library(kin).fit(X)
         self.scale_convention_ = None
         if (
             act.n_gains
@@ -490,9 +505,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.column_map_ = column_map
         self.coef_ = coef
         self.model_coef_ = coef[column_map]
-        self.active_strains_ = np.asarray(active, dtype=bool).reshape(kin.n_segments, 3)
+        self.active_strains_ = np.asarray(active, dtype=bool).reshape(kin.n_segments, -1)
         self.removed_strains_ = removed
-        self.kinematics_ = PlanarPCS(kin.segment_lengths, self.active_strains_, kin.base_pose)
+        self.kinematics_ = _rec.with_active(kin, self.active_strains_)
         self._set_physical_attributes(kin)
         self.n_features_in_ = kin.n_q
         kept = self.active_strains_.reshape(-1)[kin.active_mask]
@@ -794,7 +809,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         validate_parameters(self)
         self._check_joint_parameters()
-        X = as_strain_trajectories(X)
+        X = _rec.as_trajectories(X)
         dummy = [np.zeros((r.n_frames, self.kinematics_.n_q)) for r in X]
         kin, _, recs = self._recordings(X, dummy, qd, qdd, kin=self.kinematics_, formulation="strong")
         out = []
@@ -832,7 +847,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             Weights of the flattened samples.
         """
         check_is_fitted(self, "coef_")
-        X = as_strain_trajectories(X)
+        X = _rec.as_trajectories(X)
         ys = _rec.check_list(y, len(X), "y")
         act = getattr(self, "actuation_", None)
         if act is not None and not isinstance(act, IdentityActuation):
@@ -890,7 +905,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     ) -> list[tuple[NDArray[np.float64] | None, NDArray[np.float64]]]:
         """Per recording: the rolled-out and the recorded tip positions (T', 2); None for a diverged rollout."""
         check_is_fitted(self, "coef_")
-        X = as_strain_trajectories(X)
+        X = _rec.as_trajectories(X)
         ys = _rec.check_list(y, len(X), "y")
         out = []
         for k, rec in enumerate(X):
@@ -906,14 +921,21 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             k0 = 0 if rec.qd is not None else min(SCORE_DERIVATIVES[0] // 2, rec.n_frames - 2)
             qd = rec.qd if rec.qd is not None else self._derivatives(rec, k, None, None, fixed=True)[0]
             s = np.asarray([rec.kinematics.total_length])
-            true = rec.kinematics.forward_kinematics(rec.q[k0:], s)[:, 0, :2]
+            true = self._tip_path(rec.kinematics, rec.q[k0:], s)
             try:
                 sim = self.simulate(rec.q[k0], qd[k0], rec.t[k0:], tau[k0:], **simulate_kwargs)
             except DivergenceError:
                 out.append((None, true))
                 continue
-            out.append((self.kinematics_.forward_kinematics(sim.q, s)[:, 0, :2], true))
+            out.append((self._tip_path(self.kinematics_, sim.q, s), true))
         return out
+
+    @staticmethod
+    def _tip_path(kin: Any, q: NDArray[np.float64], s: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Tip positions (T, 2) in the plane, or (T, 3) for a spatial segmentation."""
+        if isinstance(kin, SpatialPCS):
+            return kin.forward_kinematics(q, s)[0][:, 0, :]
+        return kin.forward_kinematics(q, s)[:, 0, :2]
 
     # ------------------------------------------------------------------ forward dynamics
     def simulate(

@@ -10,7 +10,8 @@ and ``simulate`` with the contract of :mod:`pcs_sindy.core.simulate_contract`.
 * :mod:`.integrators` - the one place for integration schemes of identified models
   (tableaus, ``solve_ivp`` over held inputs) with their compiled loops (``_jit_rollout``)
   and compiled dynamics (``_jit_dynamics``);
-* :mod:`.pcs_numeric` - closed-form Jacobians and quadrature of planar PCS backbones.
+* :mod:`.pcs_numeric` - closed-form Jacobians and quadrature of planar PCS backbones;
+* :mod:`.spatial_forward` - :class:`SpatialPCSModel`, spatial (3-D) PCS dynamics from lumped parameters.
 
 Models never import the identification stage (it builds them) nor the simulator.
 """
@@ -31,6 +32,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "actuation_from_layout",
             "actuation_kinds",
         ],
+        "spatial_forward": ["SpatialPCSModel"],
         "integrators": ["solve_held", "DOPRI5", "ROS34PW2", "COMPILED_METHODS"],
     },
 )

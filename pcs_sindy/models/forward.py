@@ -307,14 +307,24 @@ class ForwardModel(ABC):
             )
         kin = self.kinematics
         n = self.n
-        return StrainTrajectory(
+        return self._trajectory(
             kin.to_full(y[:, :n]),
+            kin.to_full(y[:, n:]),
+            t,
+            {"source": f"{type(self).__name__}.simulate", "method": method},
+        )
+
+    def _trajectory(self, q_full: NDArray, qd_full: NDArray, t: NDArray, metadata: dict) -> Any:
+        """The rollout as the trajectory type of the segmentation (a spatial model returns its own)."""
+        kin = self.kinematics
+        return StrainTrajectory(
+            q_full,
             t,
             segment_lengths=kin.segment_lengths,
             active_strains=kin.active_strains,
-            qd=kin.to_full(y[:, n:]),
+            qd=qd_full,
             base_pose=kin.base_pose,
-            metadata={"source": f"{type(self).__name__}.simulate", "method": method},
+            metadata=metadata,
         )
 
     def _rollout_compiled(self, y0, t, u, method, **kwargs) -> NDArray[np.float64]:

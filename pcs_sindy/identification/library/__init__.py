@@ -5,6 +5,7 @@
 ``PhysicalPCSLibrary``: the same dynamics parameterised by the physical
 per-segment unknowns (densities, stiffnesses, damping), computed numerically
 for any number of segments; bounded fits keep the model passive.
+``SpatialPhysicalPCSLibrary``: the physical library of spatial (3-D) PCS robots (six strains per segment).
 ``StackedEulerLagrangeLibrary``: either of them inside ``pysindy.SINDy`` in
 the stacked Euler–Lagrange form (states ``[q, qd, qdd]``, forces as ``x_dot``).
 """
@@ -17,6 +18,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "base": ["LagrangianLibrary"],
         "pcs_lagrangian": ["PCSLagrangianLibrary"],
         "physical": ["PhysicalPCSLibrary"],
+        "spatial_physical": ["SpatialPhysicalPCSLibrary", "spatial_kinematics_of", "spatial_stiffness_bounds"],
         "stacked": ["StackedEulerLagrangeLibrary", "stack_forces", "unstack_forces"],
     },
 )

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from sklearn.base import BaseEstimator
 
 from ...core.kinematics import PlanarPCS
+from ...core.spatial import SpatialPCS
 from ...core.validation import validate_parameters
 
 __all__ = ["Actuation", "registered_kinds", "COMPILED_FORMS", "gain_unit"]
@@ -125,6 +126,8 @@ class Actuation(BaseEstimator, ABC):
     is_identity: ClassVar[bool] = False
     #: True when ``A`` depends on the strains (then a held input's forces are averaged over the interval's ends)
     depends_on_q: ClassVar[bool] = False
+    #: True when the kind is defined for spatial (3-D) segmentations too (six strains per segment)
+    spatial: ClassVar[bool] = False
 
     def __init_subclass__(cls, **kwargs: Any) -> None:
         super().__init_subclass__(**kwargs)
@@ -148,8 +151,13 @@ class Actuation(BaseEstimator, ABC):
         self
         """
         validate_parameters(self)
-        if not isinstance(kinematics, PlanarPCS):
-            raise ValueError(f"kinematics must be a PlanarPCS; got {type(kinematics).__name__}")
+        if not isinstance(kinematics, (PlanarPCS, SpatialPCS)):
+            raise ValueError(f"kinematics must be a PlanarPCS or a SpatialPCS; got {type(kinematics).__name__}")
+        if isinstance(kinematics, SpatialPCS) and not self.spatial:
+            raise ValueError(
+                f"{type(self).__name__} (kind {self.kind!r}) is defined for planar segmentations only; for spatial "
+                "strains use IdentityActuation (generalised forces) or LearnedActuation"
+            )
         self.kinematics_ = kinematics
         self.__dict__.pop("_arrays_cache", None)
         arrays = self._arrays

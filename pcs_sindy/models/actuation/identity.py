@@ -18,6 +18,7 @@ class IdentityActuation(Actuation):
     kind = "identity"
     compiled_forms = ("forces",)
     is_identity = True
+    spatial = True
     _parameter_constraints: dict = {}  # no parameters
 
     def _structure(self, kinematics: PlanarPCS) -> dict[str, Any]:

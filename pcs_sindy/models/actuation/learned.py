@@ -95,6 +95,7 @@ class LearnedActuation(Actuation):
         "n_inputs": [Interval(Integral, 1, None, closed="left")],
     }
     depends_on_q = True
+    spatial = True
 
     def __init__(self, n_inputs: int = 1, terms: Any = ("u", "u*q"), strains: str = "bending") -> None:
         self.n_inputs = n_inputs
@@ -106,14 +107,17 @@ class LearnedActuation(Actuation):
         names = kinematics.strain_names(active_only=True)
         n = len(names)
         mask = kinematics.active_mask
-        kinds = np.tile([0, 1, 2], kinematics.n_segments)[mask]
-        rows = np.flatnonzero(kinds == 0) if self.strains == "bending" else np.arange(n)
-        if not np.any(kinds == 0):
+        per = kinematics.n_q // kinematics.n_segments  # 3 planar strains per segment, 6 spatial
+        kinds = np.tile(np.arange(per), kinematics.n_segments)[mask]
+        # bending: the planar kappa, or the spatial bend_z and bend_x
+        bending = kinds == 0 if per == 3 else np.isin(kinds, (0, 1))
+        rows = np.flatnonzero(bending) if self.strains == "bending" else np.arange(n)
+        if not np.any(bending):
             raise ValueError(
                 "LearnedActuation needs a modelled bending strain (its rows with strains='bending', its "
                 f"'u*q' terms); the segmentation models {names}"
             )
-        bends = np.flatnonzero(kinds == 0)
+        bends = np.flatnonzero(bending)
         terms = list(self.terms)
         index, gain_names = [], []
         for a in rows:
