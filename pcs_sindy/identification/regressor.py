@@ -757,14 +757,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         pooled, baseline = self._training_rollouts(X, y)
         if np.isnan(baseline) or pooled <= baseline:
             return
-        what = f"miss the recorded tip by {1e3 * pooled:.3g} mm on average" if np.isfinite(pooled) else "diverge"
+        still = f"the {1e3 * baseline:.3g} mm of the zero-input prediction (the tip held where each rollout starts)"
+        what = f"miss the recorded tip by {1e3 * pooled:.3g} mm on average, more than {still}"
         r2 = ", ".join(
             f"{nm} {v:.3g}" for nm, v in zip(self.kinematics_.strain_names(active_only=True), self.training_r2_)
         )
         warnings.warn(
-            "the model does not represent its training data: it is worse than a model with no inputs, its "
-            f"open-loop rollouts of the training recordings {what}, more than the {1e3 * baseline:.3g} mm of the "
-            f"zero-input prediction (the tip held where each rollout starts); training R^2 per strain equation: {r2}. "
+            "the model does not represent its training data: it is worse than a model with no inputs, its open-loop "
+            f"rollouts of the training recordings {what if np.isfinite(pooled) else 'diverge, against ' + still}; "
+            f"training R^2 per strain equation: {r2}. "
             "Check the actuation layout (tendon sides, ends, drive), the units of the inputs and the segmentation",
             PoorFitWarning,
             stacklevel=3,
