@@ -170,3 +170,18 @@ def test_identified_gains_with_a_strain_removed_in_the_weak_form():
         model = EulerLagrangeRegressor(actuation=act).fit([strains], [play_operator(rec.u, sc.play)])
     assert model.removed_strains_  # the threshold removed stiff strains with the gains identified
     assert model.actuation_.gains_.shape == (2,) and np.all(np.isfinite(model.actuation_.gains_))
+
+
+def test_a_singular_mass_matrix_of_the_default_fit_does_not_advise_the_default():
+    """Issue 27: the CLI advised "the default regressor", which was in use."""
+    sc = MocapScenario.servo(duration=8.0)
+    rec = sc.generate(seed=0)
+    strains = StrainTrajectory(rec.q, rec.t, segment_lengths=list(sc.segment_lengths))
+    act = TendonActuation([0.3, 0.3], [-1, 1], offset=[0.012] * 2, drive="displacement")  # sides swapped
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = EulerLagrangeRegressor(actuation=act).fit([strains], [play_operator(rec.u, sc.play)])
+    assert model.mass_matrix_not_pd_fraction_ > 0
+    (note,) = [str(w.message) for w in caught if "mass matrix is not positive definite" in str(w.message)]
+    assert "tendon sides" in note and "default EulerLagrangeRegressor()" not in note
+    assert any(issubclass(w.category, PoorFitWarning) for w in caught)  # its rollouts diverge

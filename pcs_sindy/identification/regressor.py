@@ -919,11 +919,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         frac = float(np.mean(~(eig[:, 0] > 0)))
         self.mass_matrix_not_pd_fraction_ = frac
         if frac > 0:
+            bounded = getattr(self.library_, "lower_bounds_", None) is not None and getattr(
+                self.optimizer_, "bounded", False
+            )
+            if bounded and self.formulation == "weak":  # the default's bounds hold: an inertia was fitted to 0
+                advice = (
+                    "the fit set a line density or rotary inertia to its bound 0, so the data do not support any "
+                    "inertia: check the actuation layout (tendon sides, ends, drive) and the units of the inputs, "
+                    "or give the robot's mass (PhysicalPCSLibrary(mass=...))"
+                )
+            else:
+                advice = (
+                    "use more or cleaner data, or the default EulerLagrangeRegressor() (physical library, bounded "
+                    "fit: positive definite unless an inertia is fitted to 0; weak form: no second derivatives)"
+                )
             warnings.warn(
                 f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
-                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or cleaner "
-                "data, or the default EulerLagrangeRegressor() (physical library, bounded fit: positive definite "
-                "by construction; weak form: no second derivatives)",
+                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: {advice}",
                 UserWarning,
                 stacklevel=3,
             )

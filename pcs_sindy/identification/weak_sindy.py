@@ -303,7 +303,7 @@ class WeakEulerLagrangeSINDy(SINDy):
             Like every ``simulate`` of the package: strains ``q`` and rates ``qd`` (T, 3m) of all
             strains of the segmentation.  ``np.asarray`` of it is the state ``[q, qd]`` (T, 6m),
             pysindy's ``simulate`` result when the library models every strain (the default; the
-            modelled ones are ``sim.q[:, sim.kinematics.active_mask]`` otherwise).
+            states ``x`` are ``sim.q[:, feature_library.kinematics.active_mask]`` otherwise).
         """
         check_is_fitted(self, "regressor_")
         kin = self.feature_library.kinematics
