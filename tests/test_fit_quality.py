@@ -120,6 +120,9 @@ def test_swapped_servo_sides_warn(servo_capture):
     assert "worse than a model with no inputs" in message and "tendon sides" in message
     assert np.all(bad.training_rollout_error_ > bad.no_input_error_)  # measured 119 mm against 11.3 mm
     assert bad.score(strains, U) < 0 < good.score(strains, U)  # the forces' R^2 (measured -34.5 and 0.95)
+    unchecked, poor = _fit(strains, U, actuation=_servos(sc, length, [1, -1]), check_fit=False)
+    assert not poor and unchecked.training_rollout_error_ is None and unchecked.no_input_error_ is None
+    np.testing.assert_array_equal(unchecked.coef_, bad.coef_)  # the check changes nothing of the fit
 
 
 def test_cli_fit_refuses_a_model_worse_than_no_inputs(servo_capture, tmp_path, capsys):
