@@ -76,7 +76,7 @@ from pcs_sindy.core import (
     Camera,  # noqa: E402
     PoseTrajectory,
     end_effector_errors,  # noqa: E402
-    )
+)
 from pcs_sindy.fusion import KinematicFusion
 from pcs_sindy.identification import EulerLagrangeRegressor, PhysicalPCSLibrary  # noqa: E402
 from pcs_sindy.models import LinearActuation, PressureActuation, TendonActuation  # noqa: E402
@@ -135,7 +135,7 @@ def _models(scenario, kin) -> list[tuple[str, object]]:
 
 def _fit_and_validate(act, strains, u, mass, fusion, first, val) -> tuple[EulerLagrangeRegressor, float, float, float]:
     """Fit one actuation model; its fit time and validation tip errors (position [m], angle [rad])."""
-    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=act)
+    model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(mass=mass), actuation=act)
     start = time.perf_counter()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")

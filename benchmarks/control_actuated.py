@@ -190,7 +190,7 @@ def identify(scenario, source: str, threshold: float, actuations: dict, noise) -
         start = time.perf_counter()
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
-            model = EulerLagrangeRegressor(library=lib, actuation=act).fit(strains, [r.u for r in data.train])
+            model = EulerLagrangeRegressor(feature_library=lib, actuation=act).fit(strains, [r.u for r in data.train])
         fit = time.perf_counter() - start
         try:
             sim = model.simulate(first.q[0], np.zeros(first.q.shape[1]), val.t, val.u)

@@ -91,21 +91,21 @@ CONFIGS = {
     "sg25": lambda: EulerLagrangeRegressor.seed_method(),
     # short window, samples whose window straddles a force jump left out
     "sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library="monomial", formulation="strong", window_length=7, polyorder=3, exclude_force_jumps=True
+        feature_library="monomial", formulation="strong", window_length=7, polyorder=3, exclude_force_jumps=True
     ),
     # the same with the physical library (8 lumped unknowns per segment)
     "sg7-jumpfree-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL),
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL),
         formulation="strong",
         window_length=7,
         polyorder=3,
         exclude_force_jumps=True,
     ),
     "sg25-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25, polyorder=3
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25, polyorder=3
     ),
     "sg7o4-jumpfree-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL),
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL),
         formulation="strong",
         window_length=7,
         polyorder=4,
@@ -113,7 +113,11 @@ CONFIGS = {
     ),
     # weak (bump-weighted window integral) form: no qdd; SG 7 only for qd, held forces integrated exactly
     "weak40-physical": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", window_length=7, weak_window=40, weak_stride=20
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL),
+        formulation="weak",
+        window_length=7,
+        weak_window=40,
+        weak_stride=20,
     ),
     # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
@@ -182,8 +186,9 @@ def render(rows):
         "`sg25` = the seed's method (`EulerLagrangeRegressor.seed_method()`: monomial library, strong form, "
         "Savitzky–Golay 25/3); `sg7-jumpfree` = strong form with Savitzky–Golay 7/3 and the samples whose window "
         "straddles a jump of the held actuation left out (`exclude_force_jumps=True`); `sg7o4` = polynomial order 4; "
-        "`-physical` = `library=PhysicalPCSLibrary(rest_strain=False)` (8 unknowns per segment — line density, rotary "
-        "inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of the monomial one; "
+        "`-physical` = `feature_library=PhysicalPCSLibrary(rest_strain=False)` (8 unknowns per segment — line "
+        "density, rotary inertia, 3 stiffnesses, 3 dampings — known gravity, bounded least squares) instead of the "
+        "monomial one; "
         '`weak40-physical` = the same library with `formulation="weak"`: regression on bump-weighted integrals over '
         "windows of 40 samples (stride 20), no q̈, q̇ from Savitzky–Golay 7/3, held forces integrated exactly; "
         "`default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows of 160 samples, stride 40, "

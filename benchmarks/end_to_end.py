@@ -10,7 +10,7 @@ For each scenario (``three_segment``, ``five_segment``; ``generate(seed=0)``:
 3. ``KinematicFusion(threshold=0.2)`` with the robot's rest length given finds
    the segmentation and the strains (found lengths reported against the truth);
 4. ``EulerLagrangeRegressor`` fits the model on the fused segmentation: with
-   ``library=PhysicalPCSLibrary(rest_strain=False)`` in the weak form
+   ``feature_library=PhysicalPCSLibrary(rest_strain=False)`` in the weak form
    (``formulation="weak"``, SG 15 for q̇) and in the strong form (SG 7/3,
    ``exclude_force_jumps=True``), and with the defaults ``EulerLagrangeRegressor()``
    (windows of 160 samples);
@@ -80,14 +80,17 @@ SOURCES = {
 # "default": EulerLagrangeRegressor() with no arguments
 CONFIGS = {
     "weak": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(rest_strain=False),
+        feature_library=PhysicalPCSLibrary(rest_strain=False),
         formulation="weak",
         window_length=15,
         weak_window=40,
         weak_stride=20,
     ),
     "strong": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(rest_strain=False), formulation="strong", window_length=7, exclude_force_jumps=True
+        feature_library=PhysicalPCSLibrary(rest_strain=False),
+        formulation="strong",
+        window_length=7,
+        exclude_force_jumps=True,
     ),
     "default": lambda: EulerLagrangeRegressor(),
 }
@@ -239,7 +242,7 @@ def render(rows: list[dict]) -> str:
         "Videos: 640×480 MJPG `.avi` + camera JSON (`render_video`, `Camera.fit_robot(L)`), read back by "
         "`MarkerPoseExtractor(camera='auto')`. Fusion: `KinematicFusion(threshold=0.2, total_length=L)` (rest length "
         "given; least-squares shapes with refined boundaries). Regression: "
-        "`EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), ...)` (8 unknowns per segment, "
+        "`EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=False), ...)` (8 unknowns per segment, "
         "bounded least squares, seed stiffness bounds) with `weak` = `formulation='weak'` (bump windows of 40 "
         "samples, stride 20, SG 15 for q̇) or `strong` = `formulation='strong'`, SG 7/3 with "
         "`exclude_force_jumps=True`; `default` = `EulerLagrangeRegressor()` with no arguments (weak form over windows "

@@ -217,7 +217,7 @@ def run_servo(seed: int, duration: float):
             label = f"PCS {fusion.n_segments_} seg (threshold={threshold}), {name}"
             lib = PhysicalPCSLibrary() if m is None else PhysicalPCSLibrary(mass=m)
             t0 = time.perf_counter()
-            model = EulerLagrangeRegressor(actuation=act, library=lib).fit(strains, [u[train]])
+            model = EulerLagrangeRegressor(actuation=act, feature_library=lib).fit(strains, [u[train]])
             fit_s = time.perf_counter() - t0
             sim = model.simulate(st_test.q[0], np.zeros(st_test.q.shape[1]), st_test.t, u[test])
             sim.metadata.update({key: st_test.metadata[key] for key in ("plane", "marker_arc_lengths", "base_poses")})

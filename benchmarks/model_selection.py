@@ -8,7 +8,7 @@ scenario's seed noise on the tracked poses:
 1. strains from the poses, on the known segmentation (``estimate_strains`` of
    ``benchmarks/dynamic_identification.py``) and, for the two-segment robot,
    from the fused poses (``KinematicFusion(threshold=0.2)``, rest length given);
-2. ``GridSearchCV(EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer()),
+2. ``GridSearchCV(EulerLagrangeRegressor(),
    {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(4))`` over the 8 training
    recordings (groups = recordings, so every fold holds out 2 whole recordings),
    scored both by ``pcs_sindy.core.metrics.rollout_r2_scorer`` (the regressor's
@@ -53,10 +53,7 @@ from pcs_sindy.core import (  # noqa: E402
     rollout_scorer,  # noqa: E402
 )
 from pcs_sindy.fusion import KinematicFusion  # noqa: E402
-from pcs_sindy.identification import (
-    EulerLagrangeRegressor,  # noqa: E402
-    StiffnessThresholdOptimizer,  # noqa: E402
-)
+from pcs_sindy.identification import EulerLagrangeRegressor  # noqa: E402
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 
 from _results import write_section  # noqa: E402
@@ -103,7 +100,7 @@ def run_search(name: str, source: str, noise_kind: str) -> dict:
         row["skipped"] = f"fusion found {len(lengths)} segments (true {scenario.robot.kinematics.n_segments})"
         return row
     y = [r.tau for r in data.train]
-    base = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer())
+    base = EulerLagrangeRegressor()  # optimizer__threshold: the default StiffnessThresholdOptimizer's
     search = GridSearchCV(
         base,
         {"optimizer__threshold": THRESHOLDS},

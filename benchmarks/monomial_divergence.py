@@ -131,7 +131,7 @@ def _regressor(opts, window, jump_free):
     # "physical" = the physical library as before the refactor: 8 unknowns per segment, no rest strains
     library = PhysicalPCSLibrary(rest_strain=False) if opts.get("basis") == "physical" else "monomial"
     return EulerLagrangeRegressor(
-        library=library, formulation="strong", window_length=window, polyorder=3, exclude_force_jumps=jump_free
+        feature_library=library, formulation="strong", window_length=window, polyorder=3, exclude_force_jumps=jump_free
     )
 
 
@@ -311,9 +311,9 @@ def render(rows):
     )
     lines = [
         "two_segment, 8 noise-free training recordings (true strains from the simulator, no pose step), "
-        '`EulerLagrangeRegressor(library="monomial", formulation="strong", window_length=..., polyorder=3)` '
+        '`EulerLagrangeRegressor(feature_library="monomial", formulation="strong", window_length=..., polyorder=3)` '
         "(the monomial `PCSLagrangianLibrary`, 258 columns) unless the row says physical basis "
-        "(`library=PhysicalPCSLibrary(rest_strain=False)`, 16 unknowns) or `EulerLagrangeRegressor()`, default "
+        "(`feature_library=PhysicalPCSLibrary(rest_strain=False)`, 16 unknowns) or `EulerLagrangeRegressor()`, default "
         f"StiffnessThresholdOptimizer ({removed_text}); rows are computed by separate `--rows NAME` runs and cached, "
         "`--rows` alone re-renders them; rollout of the default scenario's 7 s validation from rest "
         '(`simulate(..., method="dopri5", rtol=1e-6, atol=1e-9)`: scipy\'s RK45 restarted at every held sample for '

@@ -65,18 +65,22 @@ CONFIGS = {
     "monomial sg25": lambda: EulerLagrangeRegressor.seed_method(),
     # monomial library with the actuation-aware option (samples whose window straddles a force jump left out)
     "monomial sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library="monomial", formulation="strong", window_length=7, exclude_force_jumps=True
+        feature_library="monomial", formulation="strong", window_length=7, exclude_force_jumps=True
     ),
     # physical library, strong form
     "physical sg25": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=25
     ),
     "physical sg7-jumpfree": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, exclude_force_jumps=True
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL), formulation="strong", window_length=7, exclude_force_jumps=True
     ),
     # physical library, weak form: no qdd, held forces integrated exactly
     "physical weak40": lambda: EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary(**_PHYSICAL), formulation="weak", weak_window=40, weak_stride=20, window_length=7
+        feature_library=PhysicalPCSLibrary(**_PHYSICAL),
+        formulation="weak",
+        weak_window=40,
+        weak_stride=20,
+        window_length=7,
     ),
     # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
     "default": lambda: EulerLagrangeRegressor(),
@@ -187,8 +191,9 @@ def render(rows, configs):
     lines = [
         __doc__.split("Usage::")[0].strip(),
         "",
-        'Configurations: `monomial` = the seed\'s symbolic monomial library (`library="monomial"`; `monomial sg25` = '
-        "`EulerLagrangeRegressor.seed_method()`), `physical` = `library=PhysicalPCSLibrary(rest_strain=False)` "
+        "Configurations: `monomial` = the seed's symbolic monomial library "
+        '(`feature_library="monomial"`; `monomial sg25` = '
+        "`EulerLagrangeRegressor.seed_method()`), `physical` = `feature_library=PhysicalPCSLibrary(rest_strain=False)` "
         "(8 unknowns per segment, known gravity, bounded least squares); `sg25` = strong form with "
         "Savitzky–Golay 25/3 (the seed's differentiation); `sg7-jumpfree` = Savitzky–Golay 7/3 with the samples whose "
         "window straddles a force jump left out (`exclude_force_jumps=True`, the actuation-aware option, the only "

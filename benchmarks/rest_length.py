@@ -4,7 +4,7 @@ two_segment, 8 noise-free training recordings (seed 0).  KinematicFusion with th
 measured rest length (0.17 m) or with the estimated one (median deformed length,
 ~1 % long for a robot hanging under its weight); weak-form physical fit with and
 without identified rest strains (windows of 40 intervals, stride 20,
-Savitzky–Golay 7 for q̇: ``EulerLagrangeRegressor(library=PhysicalPCSLibrary(
+Savitzky–Golay 7 for q̇: ``EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(
 rest_strain=...), weak_window=40, weak_stride=20)``), and the defaults
 ``EulerLagrangeRegressor()`` (rest strains, windows of 160 intervals, stride 40);
 7 s validation rollout from rest (Rosenbrock-W, rtol 3e-5, atol 3e-8); tip
@@ -43,7 +43,7 @@ def main() -> None:
                 EulerLagrangeRegressor()
                 if config != "weak40"
                 else EulerLagrangeRegressor(
-                    library=PhysicalPCSLibrary(rest_strain=rest), weak_window=40, weak_stride=20
+                    feature_library=PhysicalPCSLibrary(rest_strain=rest), weak_window=40, weak_stride=20
                 )
             )
             start = time.perf_counter()

@@ -105,7 +105,7 @@ def main() -> None:
     for name, X, act, m in tqdm(cases, desc="identify"):
         lib = PhysicalPCSLibrary() if m is None else PhysicalPCSLibrary(mass=m)
         t0 = time.perf_counter()
-        model = EulerLagrangeRegressor(actuation=act, library=lib).fit(X[:4], inputs[:4])
+        model = EulerLagrangeRegressor(actuation=act, feature_library=lib).fit(X[:4], inputs[:4])
         fit_s = time.perf_counter() - t0
         seg = model.kinematics_.segment_lengths
         if len(seg) == len(LENGTHS) and np.allclose(seg, LENGTHS, atol=2e-3):

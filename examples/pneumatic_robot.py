@@ -15,7 +15,7 @@ the mass, given as ``PhysicalPCSLibrary(mass=...)`` (docs/method.md,
    validation recording under slow sinusoidal pressures, with the seed's
    one-segment pose noise (0.5 mm, 1°) on the 20 tracked cross-sections;
 2. fuses the poses with ``KinematicFusion`` (one segment);
-3. fits ``EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=m),
+3. fits ``EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(mass=m),
    actuation=PressureActuation(start, end, side))`` and, for comparison, the
    chambers as pure bending moments (``LinearActuation``, a gain per chamber
    on the curvature, no axial force);
@@ -60,7 +60,7 @@ for label, actuation in [
     ("bending and axial gains identified", PressureActuation(layout["start"], layout["end"], layout["side"])),
     ("baseline: bending moments only", LinearActuation(pattern=bending_only)),
 ]:
-    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=actuation).fit(strains, u)
+    model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(mass=mass), actuation=actuation).fit(strains, u)
     sim = model.simulate(first.q[0], np.zeros(first.q.shape[1]), val.t, val.u)
     tip = sim.poses(np.array([fusion.segment_lengths_.sum()]))
     e_p, e_theta = end_effector_errors(tip, val.poses_true[:, -1:, :])

@@ -16,6 +16,9 @@
 3. With exact accelerations (a simulator), the strong form inside a plain
    ``SINDy``: ``StackedEulerLagrangeLibrary`` (states ``[q, qd, qdd]``, forces
    stacked per strain as ``x_dot``).
+4. A pysindy user's script, unchanged, on ``EulerLagrangeRegressor``: arrays in
+   (``fit(q, t=dt, u=u, segment_lengths=...)``), ``print(lhs=...)``,
+   ``coefficients()`` per strain equation, ``simulate(x0, t, u)``.
 
 Run: ``.venv/bin/python examples/pysindy_interop.py`` (about a minute).
 """
@@ -68,8 +71,10 @@ def from_videos() -> None:
     sindy.print(precision=4)
 
     # the package's estimator on the same strains, same library and optimizer
-    reg = EulerLagrangeRegressor(library=lib, optimizer=ps.STLSQ()).fit(strains, taus)
-    a, b = sindy.coefficients()[0], reg.coefficients()[0]
+    reg = EulerLagrangeRegressor(feature_library=lib, optimizer=ps.STLSQ()).fit(strains, taus)
+    # coefficients(): one row per strain equation (the terms acting on it); the physical values are coef_
+    assert sindy.coefficients().shape == reg.coefficients().shape == (lib.kinematics.n_active, reg.coef_.size)
+    a, b = sindy.regressor_.coef_, reg.coef_
     print("\n" + "coefficient".ljust(12) + "SINDy".rjust(14) + "regressor".rjust(14))
     for name, x, y in zip(sindy.get_feature_names(), a, b, strict=True):
         print(f"{name:<12}{x:14.6g}{y:14.6g}")
@@ -80,7 +85,7 @@ def from_videos() -> None:
     n = lib.kinematics.n_active
     s_end = np.array([float(np.sum(lengths))])
     kin = reg.kinematics_
-    x = sindy.simulate(np.zeros(2 * n), val.t, val.tau)
+    x = np.asarray(sindy.simulate(np.zeros(2 * n), val.t, val.tau))  # a StrainTrajectory; as an array [q, qd]
     tips = {
         "WeakEulerLagrangeSINDy": kin.forward_kinematics(x[:, :n], s_end)[:, 0],
         "EulerLagrangeRegressor": kin.forward_kinematics(reg.simulate(np.zeros(2 * n), val.t, val.tau).q, s_end)[:, 0],
@@ -114,12 +119,26 @@ def stacked_with_exact_accelerations() -> None:
         feature_names=names + [f"d{n}" for n in names] + [f"dd{n}" for n in names],
     )
     strains = [StrainTrajectory(r.q, r.t, segment_lengths=robot.segment_lengths) for r in recs]
-    reg = EulerLagrangeRegressor(library=lib, formulation="strong")
+    reg = EulerLagrangeRegressor(feature_library=lib, formulation="strong")
     reg.fit(strains, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
     coef = model.coefficients()[0]
     print("\npysindy.SINDy, stacked strong form with the simulator's accelerations (one_segment):")
     model.print(lhs=["tau"], precision=6)
     print(f"max relative difference SINDy vs regressor: {np.max(np.abs(coef - reg.coef_) / np.abs(reg.coef_)):.1e}")
+
+
+def pysindy_script() -> None:
+    scenario = get_scenario("one_segment")
+    data = scenario.generate(seed=0)
+    q, u = [r.q for r in data.train], [r.tau for r in data.train]  # strains (T, 3) and forces (T, 3)
+    model = EulerLagrangeRegressor()
+    model.fit(q, t=0.001, u=u, segment_lengths=[0.1])
+    print("\npysindy's idioms on EulerLagrangeRegressor (one_segment):")
+    model.print(lhs=["M_be", "F_sh", "F_ax"])
+    print("coefficients():", model.coefficients().shape, "columns", list(model.get_feature_names_out()[:4]), "...")
+    val = data.validation
+    x = np.asarray(model.simulate(np.r_[val.q[0], val.qd[0]], val.t, val.tau))  # (T, 6): [q, qd]
+    print(f"7 s validation: max |q - q_true| = {np.abs(x[:, :3] - val.q).max():.2e}")
 
 
 def main() -> None:
@@ -129,6 +148,7 @@ def main() -> None:
         from_videos()
     plain_sindy_is_refused()
     stacked_with_exact_accelerations()
+    pysindy_script()
     print(f"total {time.perf_counter() - start:.1f} s")
 
 

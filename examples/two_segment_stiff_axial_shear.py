@@ -33,7 +33,7 @@ from sklearn.model_selection import GridSearchCV, GroupKFold
 
 from pcs_sindy.core import end_effector_errors, rollout_r2_scorer
 from pcs_sindy.fusion import KinematicFusion
-from pcs_sindy.identification import EulerLagrangeRegressor, StiffnessThresholdOptimizer
+from pcs_sindy.identification import EulerLagrangeRegressor
 from pcs_sindy.pipeline import recording_groups
 from pcs_sindy.simulation import get_scenario
 
@@ -53,12 +53,10 @@ print(
     f"(true {list(scenario.robot.kinematics.segment_lengths)})"
 )
 
-# the defaults, with the optimizer named so that its threshold is a grid parameter
-base = EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer())
+# the defaults: the default optimizer's threshold is a grid parameter (optimizer__threshold)
+base = EulerLagrangeRegressor()
 # scored by the rollouts of the held-out recordings (R^2 of their tip paths), not by score (R^2 of the forces)
-search = GridSearchCV(
-    base, {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(n_splits=4), scoring=rollout_r2_scorer
-)
+search = GridSearchCV(base, {"optimizer__threshold": THRESHOLDS}, cv=GroupKFold(n_splits=4), scoring=rollout_r2_scorer)
 with warnings.catch_warnings():
     # fits on 6 of 8 recordings warn about weakly excited parameters; the held-out score judges them
     warnings.simplefilter("ignore", UserWarning)

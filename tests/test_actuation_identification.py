@@ -217,7 +217,9 @@ def test_pressure_gains_take_the_mass_or_the_stated_convention():
     # no mass: fitted under the stated 1 kg convention, every gain scaled by 1 / mass
     conv = EulerLagrangeRegressor(actuation=scenario.actuation).fit(X, u)
     assert "1 kg" in conv.scale_convention_
-    model = EulerLagrangeRegressor(actuation=scenario.actuation, library=PhysicalPCSLibrary(mass=mass)).fit(X, u)
+    model = EulerLagrangeRegressor(actuation=scenario.actuation, feature_library=PhysicalPCSLibrary(mass=mass)).fit(
+        X, u
+    )
     true = scenario.robot.actuation
     np.testing.assert_allclose(model.actuation_.gains_, np.r_[true.bending_gain, true.axial_gain], rtol=1e-2)
     np.testing.assert_allclose(model.stiffness_, scenario.robot.stiffness, rtol=1e-2)

@@ -427,10 +427,10 @@ def test_fit_options_reach_the_regressor_library_and_optimizer():
     )
     reg = build_regressor(**command_kwargs(build_regressor, args))
     assert (reg.formulation, reg.window_length, reg.exclude_force_jumps) == ("strong", 15, True)
-    assert reg.library.get_params() == PhysicalPCSLibrary(rest_strain=False, rotary_inertia="tied").get_params()
+    assert reg.feature_library.get_params() == PhysicalPCSLibrary(rest_strain=False, rotary_inertia="tied").get_params()
     assert reg.optimizer.threshold == np.inf
     seed = build_parser().parse_args(["fit", "s.npz", "--tau", "t.npz", "--out", "m", "--basis", "monomial"])
-    assert build_regressor(**command_kwargs(build_regressor, seed)).library == "monomial"  # former option name
+    assert build_regressor(**command_kwargs(build_regressor, seed)).feature_library == "monomial"  # former option name
     with pytest.raises(CLIError, match="--rest-strain"):
         build_regressor(library="monomial", rest_strain=True)
 

@@ -167,7 +167,7 @@ def test_identified_chamber_model_regulates_the_true_robot():
     trajs = [PoseTrajectory(r.poses, t=r.t) for r in data.train]
     fusion = KinematicFusion(total_length=0.1).fit(trajs)
     mass = float(np.sum(robot.density * robot.area * robot.segment_lengths))
-    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation)
+    model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         model.fit(fusion.transform(trajs), [r.u for r in data.train])

@@ -76,10 +76,10 @@ def test_regressor_prints_what_its_library_prints():
 def test_seed_preset_is_the_seeds_method():
     seed = EulerLagrangeRegressor.seed_method()
     p = seed.get_params()
-    assert (p["library"], p["formulation"], p["window_length"], p["polyorder"]) == ("monomial", "strong", 25, 3)
+    assert (p["feature_library"], p["formulation"], p["window_length"], p["polyorder"]) == ("monomial", "strong", 25, 3)
     assert EulerLagrangeRegressor.seed_method(window_length=15).window_length == 15
     default = EulerLagrangeRegressor().get_params()
-    assert (default["library"], default["formulation"], default["window_length"]) == (None, "weak", 7)
+    assert (default["feature_library"], default["formulation"], default["window_length"]) == (None, "weak", 7)
 
 
 @pytest.mark.parametrize("name", ["one_segment", "two_segment"])

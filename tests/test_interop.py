@@ -115,8 +115,10 @@ def test_recording_list_indexes_recordings_and_stacks_as_an_array():
 def test_regressor_pysindy_idioms(one_segment, capsys):
     robot, recs, X, y = one_segment
     model = EulerLagrangeRegressor().fit(X, y)
-    assert model.coefficients().shape == (1, len(model.get_feature_names()))
-    np.testing.assert_array_equal(model.coefficients()[0], model.coef_)
+    coefs = model.coefficients()  # one row per strain equation, the terms acting on it
+    assert coefs.shape == (3, len(model.get_feature_names()))
+    np.testing.assert_array_equal(np.where(coefs != 0, coefs, model.coef_), np.broadcast_to(model.coef_, coefs.shape))
+    assert np.all(np.any(coefs != 0, axis=0) == (model.coef_ != 0))
     model.print(by_strain=True)
     lines = capsys.readouterr().out.splitlines()
     assert [ln.split(" = ")[0] for ln in lines] == ["tau_be_1", "tau_sh_1", "tau_ax_1"]
@@ -139,18 +141,21 @@ def test_weak_sindy_matches_the_regressor_and_rolls_out(one_segment, capsys):
     lib = PhysicalPCSLibrary(robot.segment_lengths, rest_strain=False)
     model = WeakEulerLagrangeSINDy(feature_library=lib, optimizer=ps.STLSQ())
     model.fit([r.q for r in recs], t=[r.t for r in recs], u=[r.tau for r in recs])
-    reg = EulerLagrangeRegressor(library=lib, optimizer=ps.STLSQ()).fit(X, y)
+    reg = EulerLagrangeRegressor(feature_library=lib, optimizer=ps.STLSQ()).fit(X, y)
     np.testing.assert_allclose(model.coefficients(), reg.coefficients(), rtol=1e-12)
+    assert model.coefficients().shape == (3, model.n_output_features_)
     truth = lib.coefficients_from_parameters(
         robot.density, robot.radius, robot.youngs_modulus, robot.shear_modulus, robot.damping
     )
     stiff = np.asarray(lib.stiffness_index_)
-    np.testing.assert_allclose(model.coefficients()[0][stiff], truth[stiff], rtol=0.01)
+    # strain e's stiffness sits in row e (its equation), and nowhere else
+    np.testing.assert_allclose(model.coefficients()[[0, 1, 2], stiff], truth[stiff], rtol=0.01)
+    np.testing.assert_allclose(model.coefficients()[:, stiff].sum(axis=0), truth[stiff], rtol=0.01)
     model.print()
     out = capsys.readouterr().out.splitlines()
     assert [ln.split(" = ")[0] for ln in out] == ["tau_be_1", "tau_sh_1", "tau_ax_1"]
     r = recs[1]
-    x = model.simulate(np.r_[r.q[0], r.qd[0]], r.t, r.tau)
+    x = np.asarray(model.simulate(np.r_[r.q[0], r.qd[0]], r.t, r.tau))  # a StrainTrajectory: [q, qd]
     q_true, qd_true = simulate_truth(robot, r.q[0], r.qd[0], r.t, r.tau)
     assert x.shape == (r.t.size, 6)
     assert np.abs(x[:, :3] - q_true).max() < 0.01 * np.abs(q_true).max()

@@ -69,7 +69,7 @@ def data():
 @pytest.fixture(scope="module")
 def regressors(cache_env, data):
     X, tau, _ = data
-    return {b: EulerLagrangeRegressor(library=b).fit(X, tau) for b in ("physical", "monomial")}
+    return {b: EulerLagrangeRegressor(feature_library=b).fit(X, tau) for b in ("physical", "monomial")}
 
 
 def _arrays(json_path: pathlib.Path) -> dict[str, np.ndarray]:

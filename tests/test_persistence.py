@@ -65,7 +65,7 @@ def fusion(poses_two):
 def regressors(one_segment):
     X, tau, qd, qdd, _ = one_segment
     return {
-        basis: EulerLagrangeRegressor(library=basis, formulation="strong").fit(X, tau, qd=qd, qdd=qdd)
+        basis: EulerLagrangeRegressor(feature_library=basis, formulation="strong").fit(X, tau, qd=qd, qdd=qdd)
         for basis in ("physical", "monomial")
     }
 

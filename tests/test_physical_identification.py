@@ -64,7 +64,7 @@ def noisy(scenario):
 def _fit_noisy(scenario, X, taus, bounded: bool) -> EulerLagrangeRegressor:
     lib = PhysicalPCSLibrary(scenario.robot.kinematics.segment_lengths, rest_strain=False)
     model = EulerLagrangeRegressor(
-        library=lib,
+        feature_library=lib,
         formulation="strong",
         window_length=7,
         exclude_force_jumps=True,
@@ -84,7 +84,7 @@ def test_exact_derivatives_recover_every_parameter(scenario):
     # exact accelerations from the simulator's forward dynamics at the recorded states
     qdd = [robot.forward_dynamics(r.q, r.qd, r.tau) for r in data.train]
     lib = PhysicalPCSLibrary(L, rest_strain=False)
-    model = EulerLagrangeRegressor(library=lib, formulation="strong").fit(
+    model = EulerLagrangeRegressor(feature_library=lib, formulation="strong").fit(
         X, [r.tau for r in data.train], qd=[r.qd for r in data.train], qdd=qdd
     )
 

@@ -239,7 +239,7 @@ def test_pipeline_fits_actuator_inputs_from_poses() -> None:
     pipe = make_pcs_pipeline(
         start="poses",
         fusion=KinematicFusion(total_length=0.1),
-        regressor=EulerLagrangeRegressor(library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation),
+        regressor=EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(mass=mass), actuation=scenario.actuation),
     )
     pipe.fit(poses, [r.u for r in data.train])
     true = scenario.robot.actuation

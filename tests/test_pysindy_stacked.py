@@ -50,7 +50,7 @@ def test_sindy_stacked_equals_regressor(one_segment, kind, optimizer):
         lib = PCSLagrangianLibrary(robot.segment_lengths, basis="physical")
     L = robot.segment_lengths
     X = [StrainTrajectory(r.q, r.t, segment_lengths=L) for r in recs]
-    reg = EulerLagrangeRegressor(library=lib, formulation="strong", check_mass_matrix=False).fit(
+    reg = EulerLagrangeRegressor(feature_library=lib, formulation="strong", check_mass_matrix=False).fit(
         X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd
     )
     assert reg.removed_strains_ == []
@@ -101,7 +101,7 @@ def test_stacked_layout_and_errors(one_segment):
 def _strong_fit(one_segment, optimizer):
     robot, recs, qdd = one_segment
     X = [StrainTrajectory(r.q, r.t, segment_lengths=robot.segment_lengths) for r in recs]
-    reg = EulerLagrangeRegressor(library=_physical(robot), formulation="strong", optimizer=optimizer)
+    reg = EulerLagrangeRegressor(feature_library=_physical(robot), formulation="strong", optimizer=optimizer)
     return reg.fit(X, [r.tau for r in recs], qd=[r.qd for r in recs], qdd=qdd)
 
 

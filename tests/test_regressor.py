@@ -79,7 +79,9 @@ def _toy_data(n_rec=3, k=K_TOY):
 def test_toy_exact_derivatives_recover_coefficients():
     X, taus, qds, qdds, _ = _toy_data()
     model = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     model.fit(X, taus, qd=qds, qdd=qdds)
     np.testing.assert_allclose(model.coef_, PI_TOY, rtol=1e-7)
@@ -98,14 +100,18 @@ def test_toy_exact_derivatives_recover_coefficients():
 def test_toy_savitzky_golay_recovers_stiffness_and_rollout_matches_closed_form():
     X, taus, _, _, recs = _toy_data()
     model = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     model.fit(X, taus)
     np.testing.assert_allclose(model.stiffness_, K_TOY, rtol=0.05)  # measured 3.2-3.6 %
     assert model.rollout_score(X, taus) > 0.9  # measured 0.95 (force jumps smeared by the filter)
     # rollout of the exactly identified model versus the matrix exponential
     exact = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     exact.fit(X, taus, qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
     t, q, qd, _, tau = _toy_recording(11)
@@ -124,7 +130,9 @@ def test_toy_stiff_strain_is_removed_and_stays_zero_in_rollout():
     k_stiff = np.array([1.2, 3e4, 8.0])  # the "shear" is far above a bound of 1e3
     X, taus, qds, qdds, _ = _toy_data(k=k_stiff)
     model = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     model.fit(X, taus, qd=qds, qdd=qdds)
     assert model.removed_strains_ == ["sh_1"]
@@ -149,7 +157,9 @@ def test_toy_non_positive_definite_mass_matrix_warns():
     flipped = [a * np.array([-1.0, 1.0, 1.0]) for a in qdds]
     with pytest.warns(UserWarning, match=r"not positive definite on 100\.0%"):
         model = EulerLagrangeRegressor(
-            library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+            feature_library=ToyLibrary(),
+            formulation="strong",
+            optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
         ).fit(X, bad, qd=qds, qdd=flipped)
     assert model.mass_matrix_not_pd_fraction_ == 1.0
 
@@ -157,7 +167,9 @@ def test_toy_non_positive_definite_mass_matrix_warns():
 def test_toy_divergence_is_reported():
     X, taus, qds, qdds, recs = _toy_data()
     model = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     model.fit(X, taus, qd=qds, qdd=qdds)
     t = np.arange(2000) * 1e-3
@@ -168,7 +180,9 @@ def test_toy_divergence_is_reported():
 def test_bad_input_raises_clear_errors():
     X, taus, qds, qdds, _ = _toy_data()
     make = lambda: EulerLagrangeRegressor(  # noqa: E731
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     short = [StrainTrajectory(X[0].q[:5], X[0].t[:5], segment_lengths=[0.1])]
     with pytest.raises(ValueError, match="window_length"):
@@ -195,7 +209,7 @@ def test_bad_input_raises_clear_errors():
     with pytest.raises(ValueError, match="uniformly sampled"):
         make().fit([StrainTrajectory(X[0].q, t_bad, segment_lengths=[0.1])], taus[:1])
     with pytest.raises(ValueError, match="window_length"):
-        EulerLagrangeRegressor(library=ToyLibrary(), window_length=24).fit(X, taus)
+        EulerLagrangeRegressor(feature_library=ToyLibrary(), window_length=24).fit(X, taus)
     model = make().fit(X, taus, qd=qds, qdd=qdds)
     with pytest.raises(ValueError, match="u must have shape"):
         model.simulate(np.zeros(3), np.zeros(3), X[0].t, taus[0][:-1])
@@ -213,7 +227,9 @@ def test_bad_input_raises_clear_errors():
 def test_rollout_score_is_the_r2_of_the_tip_against_a_closed_form():
     X, taus, qds, qdds, _ = _toy_data()
     exact = EulerLagrangeRegressor(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     exact.fit(X, taus, qd=qds, qdd=qdds)
     held = [
@@ -282,10 +298,11 @@ def _exact_recordings(robot, n_rec, n_samples, seed):
 
 
 @pytest.mark.parametrize("library", ["monomial", "physical"])
+@pytest.mark.filterwarnings("ignore::pcs_sindy.identification.regressor.PoorFitWarning")  # random states, not motions
 def test_pcs_exact_derivatives_match_simulator(library):
     robot = _robot("one_segment")
     X, taus, qds, qdds = _exact_recordings(robot, 2, 300, seed=0)
-    model = EulerLagrangeRegressor(library=library, formulation="strong").fit(X, taus, qd=qds, qdd=qdds)
+    model = EulerLagrangeRegressor(feature_library=library, formulation="strong").fit(X, taus, qd=qds, qdd=qdds)
     assert model.removed_strains_ == []
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-3)
     np.testing.assert_allclose(model.damping_, robot.damping, rtol=1e-3)
@@ -358,10 +375,12 @@ def test_pcs_savitzky_golay_and_rollout():
 def test_exclude_force_jumps_removes_the_differentiation_bias():
     X, taus, _, _, _ = _toy_data()
     kw = dict(
-        library=ToyLibrary(), formulation="strong", optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3)
+        feature_library=ToyLibrary(),
+        formulation="strong",
+        optimizer=StiffnessThresholdOptimizer(max_stiffness=[1e3] * 3),
     )
     plain = EulerLagrangeRegressor(**kw).fit(X, taus)
-    kw["library"] = ToyLibrary()
+    kw["feature_library"] = ToyLibrary()
     clean = EulerLagrangeRegressor(window_length=7, exclude_force_jumps=True, **kw).fit(X, taus)
     # measured: 3.2-3.6 % across force jumps, below 2e-5 with the jumps left out
     assert np.max(np.abs(plain.stiffness_ / K_TOY - 1)) > 0.01
@@ -380,7 +399,7 @@ def test_exclude_force_jumps_removes_the_differentiation_bias():
     np.testing.assert_array_equal(jump_free(tau, 7), ref)
     with pytest.raises(ValueError, match="exclude_force_jumps left no sample"):
         EulerLagrangeRegressor(
-            window_length=25, exclude_force_jumps=True, library=ToyLibrary(), formulation="strong"
+            window_length=25, exclude_force_jumps=True, feature_library=ToyLibrary(), formulation="strong"
         ).fit(X, [np.repeat(t[::10], 10, axis=0)[: len(t)] + np.arange(len(t))[:, None] * 1e-3 for t in taus])
 
 
@@ -390,7 +409,7 @@ def test_physical_library_stiffness_sign_and_removal():
 
     robot = _robot("one_segment_stiff_shear")
     X, taus, qds, qdds = _exact_recordings(robot, 2, 300, seed=3)
-    model = EulerLagrangeRegressor(library=PhysicalPCSLibrary((0.1,)), formulation="strong").fit(
+    model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary((0.1,)), formulation="strong").fit(
         X, taus, qd=qds, qdd=qdds
     )
     assert model.optimizer_.history_[0]["stiffness"][1] == pytest.approx(robot.stiffness[1], rel=1e-3)
@@ -398,6 +417,7 @@ def test_physical_library_stiffness_sign_and_removal():
     np.testing.assert_allclose(model.stiffness_[[0, 2]], robot.stiffness[[0, 2]], rtol=1e-3)
 
 
+@pytest.mark.filterwarnings("ignore::pcs_sindy.identification.regressor.PoorFitWarning")  # random states, not motions
 def test_physical_library_bounded_fit_keeps_parameters_non_negative():
     from pcs_sindy.identification import PhysicalPCSLibrary
 
@@ -407,7 +427,7 @@ def test_physical_library_bounded_fit_keeps_parameters_non_negative():
         rng = np.random.default_rng(seed)
         noisy = [tau + 0.3 * np.std(tau, axis=0) * rng.standard_normal(tau.shape) for tau in taus]
         free = EulerLagrangeRegressor(
-            library=PhysicalPCSLibrary((0.1,), rest_strain=False),
+            feature_library=PhysicalPCSLibrary((0.1,), rest_strain=False),
             formulation="strong",
             optimizer=StiffnessThresholdOptimizer(bounded=False, threshold=np.inf),
             check_mass_matrix=False,  # unbounded estimates may well give an indefinite M: that is the point
@@ -417,7 +437,7 @@ def test_physical_library_bounded_fit_keeps_parameters_non_negative():
     else:
         pytest.fail("no noise seed produced a negative unbounded estimate")
     bounded = EulerLagrangeRegressor(
-        library=PhysicalPCSLibrary((0.1,), rest_strain=False),
+        feature_library=PhysicalPCSLibrary((0.1,), rest_strain=False),
         formulation="strong",
         optimizer=StiffnessThresholdOptimizer(threshold=np.inf),
     ).fit(X, noisy, qd=qds, qdd=qdds)

@@ -22,7 +22,11 @@ from pcs_sindy.simulation import get_scenario
 
 # the defaults, written out (and a library without constant forces where the truth has none)
 WEAK = dict(
-    library=PhysicalPCSLibrary(rest_strain=False), formulation="weak", weak_window=40, weak_stride=20, window_length=7
+    feature_library=PhysicalPCSLibrary(rest_strain=False),
+    formulation="weak",
+    weak_window=40,
+    weak_stride=20,
+    window_length=7,
 )
 
 
@@ -89,7 +93,7 @@ def test_weak_form_on_held_simulator_data_recovers_stiffness_and_damping():
 def test_weak_form_two_segments_and_string_library():
     robot = _robot("two_segment")
     X, taus, _ = _held_recordings(robot, 2, n_samples=500, seed=1)
-    model = EulerLagrangeRegressor(library="physical", formulation="weak", window_length=7).fit(X, taus)
+    model = EulerLagrangeRegressor(feature_library="physical", formulation="weak", window_length=7).fit(X, taus)
     # measured: worst stiffness 0.13 % (shear of segment 1), damping 0.03 %
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=5e-3)
     np.testing.assert_allclose(model.damping_, robot.damping, rtol=2e-3)
@@ -124,7 +128,9 @@ def test_weak_form_smooth_actuation_and_strain_removal():
 def test_identified_gravity_matches_known_gravity():
     robot = _robot("one_segment")
     X, taus, _ = _held_recordings(robot, 3, seed=2)
-    model = EulerLagrangeRegressor(**{**WEAK, "library": PhysicalPCSLibrary(identify_gravity=True, rest_strain=False)})
+    model = EulerLagrangeRegressor(
+        **{**WEAK, "feature_library": PhysicalPCSLibrary(identify_gravity=True, rest_strain=False)}
+    )
     model.fit(X, taus)
     names = model.library_.euler_lagrange_names()
     rhoA = model.model_coef_[names.index("rhoA_1")]
@@ -215,15 +221,15 @@ def test_weak_bad_input_raises_naming_the_argument():
         with pytest.raises(ValueError, match=match):
             EulerLagrangeRegressor(**{**dict(weak_window=20), **kw}).fit(X, taus)
     with pytest.raises(ValueError, match="library must be a LagrangianLibrary"):
-        EulerLagrangeRegressor(library="cubic").fit(X, taus)
+        EulerLagrangeRegressor(feature_library="cubic").fit(X, taus)
     with pytest.raises(ValueError, match="library must be a LagrangianLibrary"):
-        EulerLagrangeRegressor(library=object()).fit(X, taus)
+        EulerLagrangeRegressor(feature_library=object()).fit(X, taus)
     with pytest.raises(ValueError, match="optimizer must be a pysindy optimizer"):
         EulerLagrangeRegressor(optimizer="lstsq").fit(X, taus)
     # a library given with another segmentation than the data's
     mono = PCSLagrangianLibrary((0.05, 0.05))
     with pytest.raises(ValueError, match="differ from the data's"):
-        EulerLagrangeRegressor(library=mono, weak_window=20).fit(X, taus)
+        EulerLagrangeRegressor(feature_library=mono, weak_window=20).fit(X, taus)
     with pytest.raises(ValueError, match="design"):
         StiffnessThresholdOptimizer().fit(np.ones((6, 2)), np.ones(6), design=lambda lib, keep: None)
 

@@ -33,7 +33,7 @@ def test_rest_length_needs_a_model_with_axial_rest_strains() -> None:
     for rest in (False, ("be", "sh")):
         with pytest.raises(ValueError, match="axial rest strains"):
             estimate_rest_length(
-                poses, taus, regressor=EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=rest))
+                poses, taus, regressor=EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=rest))
             )
     with pytest.raises(ValueError, match="one array per recording"):
         estimate_rest_length(poses, taus[:1])

@@ -147,7 +147,7 @@ def test_regressor_recovers_a_known_rest_strain_and_rolls_it_out():
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-3)
     np.testing.assert_allclose(model.damping_, robot.damping, rtol=1e-3)
     # without the offsets the same data bias the stiffness (measured 13-69 %)
-    plain = EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=False), **WEAK).fit(X, taus)
+    plain = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=False), **WEAK).fit(X, taus)
     assert np.max(np.abs(plain.stiffness_ / robot.stiffness - 1)) > 0.1
     np.testing.assert_array_equal(plain.rest_strain_, np.zeros(3))
     # the compiled and the solve_ivp rollouts both carry f0 and reproduce the simulator (measured 3.7e-4 rad/m)
@@ -175,7 +175,7 @@ def test_parameter_validation():
     tau = [np.zeros((50, 3))]
     refused = "PhysicalPCSLibrary: rest_strain must be a boolean or a tuple of strain kinds"
     with pytest.raises(ValueError, match=refused):
-        EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain="yes")).fit(X, tau)
+        EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain="yes")).fit(X, tau)
     with pytest.raises(ValueError, match=refused):
         PhysicalPCSLibrary([0.1], rest_strain=1).n_coefficients_
 
@@ -196,7 +196,7 @@ def test_wrong_rest_length_is_absorbed_by_the_axial_offset():
     k = int(round(1.0 / (val.t[1] - val.t[0]))) + 1  # 1 s of the validation
     errors, models = [], []
     for rest in (False, True):
-        model = EulerLagrangeRegressor(library=PhysicalPCSLibrary(rest_strain=rest), window_length=15)
+        model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=rest), window_length=15)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             model.fit(strains, [r.tau for r in data.train])

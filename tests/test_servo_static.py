@@ -113,7 +113,7 @@ def test_servo_tendon_stiffness_radius_and_slack_are_identified(servo_data):
     assert "1 kg" in conv.scale_convention_
     np.testing.assert_allclose(conv.actuation_.gains_ * MASS, SERVO["stiffness"], rtol=0.01)
     np.testing.assert_allclose(conv.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)
-    model = EulerLagrangeRegressor(actuation=free, library=PhysicalPCSLibrary(mass=MASS)).fit(X, U)
+    model = EulerLagrangeRegressor(actuation=free, feature_library=PhysicalPCSLibrary(mass=MASS)).fit(X, U)
     np.testing.assert_allclose(model.actuation_.gains_, SERVO["stiffness"], rtol=0.01)
     np.testing.assert_allclose(model.actuation_.offsets_[p : 2 * p], SERVO["pulley_radius"], rtol=0.01)
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=0.01)
@@ -146,7 +146,9 @@ def test_learned_actuation_recovers_a_constant_map_and_is_passive_with_inputs_of
     U = [r.u for r in data.train]
     mass = float(np.sum(np.asarray(scenario.parameters["density"]) * np.pi * 0.02**2 * np.asarray(lengths)))
     act = LearnedActuation(2, strains="all")
-    model = EulerLagrangeRegressor(actuation=act, library=PhysicalPCSLibrary(mass=mass), refine="none").fit(X, U)
+    model = EulerLagrangeRegressor(actuation=act, feature_library=PhysicalPCSLibrary(mass=mass), refine="none").fit(
+        X, U
+    )
     # no mass: the stated convention (1 kg) scales every parameter alike, and the motion is the same
     conv = EulerLagrangeRegressor(actuation=act, refine="none").fit(X, U)
     assert "1 kg" in conv.scale_convention_ and "scale convention" in conv.identifiability_report()

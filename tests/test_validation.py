@@ -268,8 +268,8 @@ BAD = [
     (KinematicFusion, "max_refine_frames", True),
     (KinematicFusion, "n_jobs", 0),
     (KinematicFusion, "n_jobs", True),
-    (EulerLagrangeRegressor, "library", "cubic"),
-    (EulerLagrangeRegressor, "library", KinematicFusion()),
+    (EulerLagrangeRegressor, "feature_library", "cubic"),
+    (EulerLagrangeRegressor, "feature_library", KinematicFusion()),
     (EulerLagrangeRegressor, "formulation", "mixed"),
     (EulerLagrangeRegressor, "optimizer", "lstsq"),
     (EulerLagrangeRegressor, "window_length", 4),
@@ -383,7 +383,7 @@ def test_fit_refuses_a_bad_value_naming_class_parameter_and_value(cls, name, val
             "EulerLagrangeRegressor: polyorder must be < window_length = 7; got 7",
         ),
         (
-            lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary(n_quadrature=0)),
+            lambda: EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(n_quadrature=0)),
             lambda e: e.fit(None, None),
             "PhysicalPCSLibrary: n_quadrature must be an integer >= 1; got 0",
         ),
@@ -480,7 +480,7 @@ def _tampered(path, name, field, value):
             "TendonActuation: max_offset must be a finite number > 0; got -0.01",
         ),
         (
-            lambda: EulerLagrangeRegressor(library=PhysicalPCSLibrary()),
+            lambda: EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary()),
             "PhysicalPCSLibrary",
             "rotary_inertia",
             "solid",

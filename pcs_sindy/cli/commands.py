@@ -25,6 +25,7 @@ import functools
 import json
 import os
 import time
+import warnings
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -839,7 +840,7 @@ def build_regressor(
         require_installed("sympy", "the monomial library (--library monomial)")
     reg = pipeline_step(
         "dynamics",
-        library=library,
+        feature_library=library,
         formulation=formulation,
         window_length=window_length,
         polyorder=polyorder,
@@ -853,8 +854,10 @@ def build_regressor(
         unknown = [k for k in lib_options if k not in lib.get_params()]
         if unknown:
             opts = ", ".join("--" + k.replace("_", "-") for k in unknown)
-            raise CLIError(f"{opts}: not an option of the {reg.library or 'default'} library ({type(lib).__name__})")
-        reg.set_params(library=lib.set_params(**lib_options))
+            raise CLIError(
+                f"{opts}: not an option of the {reg.feature_library or 'default'} library ({type(lib).__name__})"
+            )
+        reg.set_params(feature_library=lib.set_params(**lib_options))
     if stiffness_threshold is not None:
         reg.set_params(optimizer__threshold=stiffness_threshold)
     return reg
@@ -945,8 +948,15 @@ def fit(
     )
     if layout is not None:
         model.set_params(actuation=layout)
+    from ..identification.regressor import PoorFitWarning
+
     start = time.perf_counter()
-    model.fit(data, taus)
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", PoorFitWarning)  # a model worse than no model is not written
+            model.fit(data, taus)
+    except PoorFitWarning as err:
+        raise CLIError(f"{err}; no model written") from None
     seconds = time.perf_counter() - start
     target = file_target(out, "model.json")
     path = files.write_model_file(model, files.output_dir(target.parent) / target.name)

@@ -514,6 +514,13 @@ class StrainTrajectory:
     dt : float, optional
         Sample period, used when ``t`` is not given.
     metadata : mapping, optional
+
+    Notes
+    -----
+    ``np.asarray(traj)`` is the state ``[q, qd]``, shape (T, 6m), all strains (unmodelled ones
+    0): what pysindy's ``simulate`` returns, for the trajectories every ``simulate`` of the
+    package returns.  A trajectory without rates (measured strains) has no such state and
+    refuses the conversion; read ``traj.q``.
     """
 
     def __init__(
@@ -565,6 +572,26 @@ class StrainTrajectory:
         """Poses (T, P, 3) at global arc lengths ``s``."""
         return self.kinematics.forward_kinematics(self.q, s)
 
+    @property
+    def state(self) -> NDArray[np.float64]:
+        """The state ``[q, qd]`` (T, 6m) (pysindy's ``x``); ``np.asarray(traj)`` gives the same array.
+
+        Raises
+        ------
+        ValueError
+            When the trajectory has no rates ``qd`` (measured strains).
+        """
+        if self.qd is None:
+            raise ValueError(
+                "this StrainTrajectory has no rates qd (measured strains), so no state [q, qd]; "
+                "read its strains as .q (rollouts of simulate carry both)"
+            )
+        return np.hstack([self.q, self.qd])
+
+    def __array__(self, dtype: Any = None, copy: bool | None = None) -> NDArray:
+        state = self.state
+        return state if dtype is None else state.astype(dtype, copy=False)
+
     def __repr__(self) -> str:
         return (
             f"StrainTrajectory(n_frames={self.n_frames}, segment_lengths={list(self.segment_lengths)}, "
@@ -610,19 +637,101 @@ def as_pose_trajectories(X: Any, *, dt: float | None = None, name: str = "X") ->
     return out
 
 
-def as_strain_trajectories(X: Any, *, name: str = "X") -> list[StrainTrajectory]:
-    """Coerce a StrainTrajectory or a list of them to a list; raise otherwise."""
+def as_strain_trajectories(
+    X: Any, *, name: str = "X", t: Any = None, segment_lengths: Sequence[float] | None = None
+) -> list[StrainTrajectory]:
+    """Coerce a StrainTrajectory, a list of them, or strain arrays with their segmentation to a list.
+
+    Parameters
+    ----------
+    X : StrainTrajectory, list of StrainTrajectory, or array_like (T, 3m) or a list of them
+        Recordings.  Plain arrays are the full strains of each recording and need
+        ``segment_lengths`` and ``t``.
+    name : str
+        The argument's name in error messages.
+    t : float, array_like (T,), or list of them, optional
+        With arrays: the sample period [s] of every recording, the time stamps of a single
+        recording, or one of either per recording.
+    segment_lengths : sequence of float, optional
+        With arrays: the rest length [m] of each segment the strains refer to.
+
+    Returns
+    -------
+    list of StrainTrajectory
+
+    Raises
+    ------
+    ValueError
+        For anything else, and for arrays without ``segment_lengths`` (saying how to give them).
+    """
     if isinstance(X, StrainTrajectory):
-        return [X]
+        X = [X]
     _reject_sparse(X, name)
-    if not isinstance(X, (list, tuple)) or len(X) == 0:
-        raise ValueError(f"{name} must be a non-empty list of StrainTrajectory; got {type(X).__name__}")
-    for k, rec in enumerate(X):
-        if not isinstance(rec, StrainTrajectory):
+    if isinstance(X, np.ndarray):
+        if X.ndim not in (2, 3):
             raise ValueError(
-                f"{name}[{k}] must be a StrainTrajectory (it carries the segmentation); got {type(rec).__name__}"
+                f"{name} as an array must be the strains (T, 3m) of one recording or (R, T, 3m) of R; got {X.shape}"
             )
-    return list(X)
+        X = [X] if X.ndim == 2 else list(X)
+    if not isinstance(X, (list, tuple)) or len(X) == 0:
+        raise ValueError(
+            f"{name} must be a non-empty list of StrainTrajectory (or of strain arrays with segment_lengths); "
+            f"got {type(X).__name__}"
+        )
+    trajectories = [isinstance(rec, StrainTrajectory) for rec in X]
+    if all(trajectories):
+        if t is not None or segment_lengths is not None:
+            raise ValueError(
+                f"{name} holds StrainTrajectory objects, which carry their own time stamps and segmentation: "
+                "give t and segment_lengths only with plain strain arrays"
+            )
+        return list(X)
+    if any(trajectories):
+        k = trajectories.index(False)
+        raise ValueError(
+            f"{name}[{k}] is a {type(X[k]).__name__} among StrainTrajectory objects; give only StrainTrajectory "
+            "objects, or only strain arrays"
+        )
+    if segment_lengths is None:
+        raise ValueError(
+            f"{name}[0] is a {type(X[0]).__name__}, a plain array that does not say which segmentation its strains "
+            "refer to (a StrainTrajectory carries it): give segment_lengths=[L_1, ..., L_m], the rest length of each "
+            "segment in metres (q has 3 strains per segment, shape (T, 3m)), and t= (the sample period [s], the time "
+            "stamps, or one per recording), e.g. fit(q, t=0.001, u=u, segment_lengths=[0.07, 0.1]); or build "
+            "StrainTrajectory(q, t, segment_lengths=[0.07, 0.1]) per recording"
+        )
+    if t is None:
+        raise ValueError(
+            f"{name} holds strain arrays: give t= (the sample period [s], the time stamps, or one per recording)"
+        )
+    if isinstance(t, (list, tuple)):
+        ts = list(t)
+        if len(ts) != len(X):
+            raise ValueError(
+                f"t must give one sample period or time array per recording of {name} ({len(X)}); got {len(ts)}"
+            )
+    elif np.ndim(t) == 0 or len(X) == 1:
+        ts = [t] * len(X)
+    else:
+        raise ValueError(
+            f"t is one time array but {name} holds {len(X)} recordings: give a sample period [s] or a list of "
+            "time arrays, one per recording"
+        )
+    out = []
+    for k, (rec, tk) in enumerate(zip(X, ts)):
+        scalar = np.ndim(tk) == 0
+        try:
+            out.append(
+                StrainTrajectory(
+                    rec,
+                    None if scalar else tk,
+                    dt=float(tk) if scalar else None,
+                    segment_lengths=segment_lengths,
+                )
+            )
+        except (TypeError, ValueError) as err:
+            raise ValueError(f"{name}[{k}]: {err}") from None
+    return out
 
 
 def kinematics_of(x: Any) -> PlanarPCS | None:

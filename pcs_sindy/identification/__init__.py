@@ -25,7 +25,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
     __name__,
     submodules=["library"],
     submod_attrs={
-        "regressor": ["EulerLagrangeRegressor"],
+        "regressor": ["EulerLagrangeRegressor", "PoorFitWarning"],
         "weak_sindy": ["WeakEulerLagrangeSINDy"],
         "optimizers": ["StiffnessThresholdOptimizer"],
         "library": [

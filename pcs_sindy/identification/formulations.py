@@ -36,6 +36,8 @@ from scipy import sparse
 from scipy.integrate import cumulative_simpson, cumulative_trapezoid
 from scipy.signal import savgol_filter
 
+from .library.with_gains import WithGains
+
 __all__ = [
     "FORMULATIONS",
     "PreparedRecording",
@@ -592,6 +594,9 @@ def regression(
         y = np.concatenate([y, np.zeros((n_pins, y.shape[1]))])
 
     def design(lib: Any, kept: NDArray[np.bool_]) -> NDArray[np.float64]:
+        # the optimizer restricts the column layout it was given: with identified gains a WithGains,
+        # whose Lagrangian rows are its library's (the gain columns follow from ``linear``)
+        lib = lib.library if isinstance(lib, WithGains) else lib
         rows = library_rows(lib, recs, formulation, kept, test_function=test_function)
         x = np.concatenate([rows, -linear[:, kept, :]], axis=2)
         if n_pins:

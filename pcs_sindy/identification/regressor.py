@@ -37,7 +37,7 @@ from ..core.recording_list import RecordingList
 from ..core.saving import PersistenceMixin
 from ..core.simulate_contract import DivergenceError, simulate_inputs
 from ..core.spatial import SpatialPCS
-from ..core.trajectory import StrainTrajectory
+from ..core.trajectory import StrainTrajectory, as_strain_trajectories
 from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
 from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
 from ..models.forward import reduce_strains
@@ -50,7 +50,7 @@ from .optimizers import StiffnessThresholdOptimizer, fit_normalized
 from .recordings import WEAK_WINDOW
 from .variable_projection import fit_offsets
 
-__all__ = ["EulerLagrangeRegressor", "DivergenceError", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
+__all__ = ["EulerLagrangeRegressor", "DivergenceError", "PoorFitWarning", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
 
 #: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
@@ -61,6 +61,18 @@ _REFINE = ("auto", "output_error", "none")
 SCALE_CONVENTION_MASS = 1.0
 #: inputs this far (relative to the training range, at least 1e-9) outside it are out of range
 INPUT_RANGE_TOL = 0.05
+
+
+class PoorFitWarning(UserWarning):
+    """A fitted model predicts its own training recordings worse than a model with no inputs.
+
+    Warned by :meth:`EulerLagrangeRegressor.fit` when open-loop rollouts of the training
+    recordings miss the recorded tip by more, on average over their samples, than the zero-input
+    prediction, the tip held where each rollout starts (``training_rollout_error_`` against
+    ``no_input_error_``).  The model then cannot represent the data: typically an actuation
+    layout that does not match the robot (tendon sides, ends, drive), or inputs in other units.
+    The command line's ``fit`` refuses to write such a model.
+    """
 
 
 def _odd_window(value: Any) -> bool:
@@ -76,6 +88,16 @@ def _expand_gains(reduced: Actuation, full: Actuation, directions: NDArray[np.fl
     return out
 
 
+def _reduce_gains(reduced: Actuation, full: Actuation, directions: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The inverse of :func:`_expand_gains`: a full map's gains on the varying inputs (columns of the identity)."""
+    by_term = {tuple(int(v) for v in row): g for row, g in zip(full._arrays["index"], full.gains_, strict=True)}
+    column = np.argmax(directions, axis=0)  # the input each direction selects
+    return np.array(
+        [by_term[(int(a), int(column[i]), int(b), int(part))] for a, i, b, part in reduced._arrays["index"]],
+        dtype=float,
+    )
+
+
 class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     """Identify ``M(q) qdd + C(q, qd) qd + G(q) + K q + D qd = tau`` by regression.
 
@@ -84,8 +106,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
 
     Parameters
     ----------
-    library : LagrangianLibrary or {"physical", "monomial"}, optional
-        The Lagrangian library, cloned and fitted on the data's segmentation in
+    feature_library : LagrangianLibrary or {"physical", "monomial"}, optional
+        The Lagrangian library (pysindy's name for the term library), cloned and fitted on the data's segmentation in
         :meth:`fit`.  Default ``PhysicalPCSLibrary()``: one coefficient per
         physical unknown (line density, rotary inertia, stiffness, damping,
         rest force per strain), any number of segments, bounded fits (passive
@@ -109,8 +131,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         (tensions, a given tendon stiffness) or from the robot's mass
         (``PhysicalPCSLibrary(mass=...)``) when every input gain is identified.
     optimizer : pysindy optimizer, optional
-        Cloned in ``fit``.  Default ``StiffnessThresholdOptimizer()`` (the seed's
-        material bounds; removes over-stiff strains).  Any other pysindy
+        Cloned in ``fit``.  Default (None) ``StiffnessThresholdOptimizer()`` (the seed's
+        material bounds; removes over-stiff strains); its parameters are those of
+        ``get_params(deep=True)`` and ``set_params`` too (``optimizer__threshold``,
+        e.g. in a grid search), which then store that optimizer here.  Any other pysindy
         ``BaseOptimizer`` (``STLSQ``, ``SR3``, ...) fits the same rows without
         strain removal or bounds, at its own defaults: it sees each strain's
         equation scaled to a unit-RMS target and unit-norm columns
@@ -169,6 +193,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         :class:`~pcs_sindy.models.actuation.LearnedActuation` (an input map of
         unknown layout, which the equation error fits worst: measured on the
         real Trunk step recordings, docs/results.md), none otherwise.
+    check_fit : bool, default True
+        After :meth:`fit`, roll each training recording out (``training_rollout_error_``,
+        ``no_input_error_``) and warn with :class:`PoorFitWarning` when the model is worse than a
+        model with no inputs.  This costs one rollout per training recording (on 8 recordings of
+        0.5 s at 1 kHz: 0.2-0.6 s, several times the equation-error fit); False skips it, e.g.
+        inside a grid search whose scorer rolls the held-out recordings out anyway.
+    library : deprecated
+        Former name of ``feature_library`` (a FutureWarning in :meth:`fit`); kept so that
+        existing scripts and model files work.
 
     Attributes
     ----------
@@ -223,13 +256,57 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         With the default library on positions-only strains (refined): which gravity model was kept
         (``"known"`` along the rest direction, or ``"identified"``), each one's training rollout RMSE
         [m], failures and the reason; None otherwise.
+    training_r2_ : ndarray, shape (n,)
+        How well the fitted model balances each modelled strain's equation on the training data:
+        ``R^2 = 1 - sum (F - F_hat)^2 / sum (F - mean F)^2`` over the rows the regression fitted
+        (window integrals in the weak form, samples in the strong form, holds in the static form),
+        with ``F`` the input forces ``A(q) u`` (the generalised forces without actuation) and
+        ``F_hat = Psi(q, qd, qdd) @ coef`` the identified model's inverse dynamics, both of the
+        final model (after any output-error refinement).  1 is a perfect balance; NaN for a strain
+        whose input force does not vary.  The order is ``kinematics_.strain_names(active_only=True)``.
+        A strain the inputs barely act on can read far below 0 on a good model (measured: the
+        shear equations of a clean 8 s servo capture, -72, -2.7 and -6.5, where its training
+        rollouts are within 0.07 mm), so the check of a fit is its rollouts (``no_input_error_``), not this number.
+    training_rollout_error_ : ndarray, shape (n_recordings,), or None
+        :meth:`rollout_error` of the training recordings themselves [m]: the mean tip error of
+        open-loop rollouts from each recording's measured state under its own inputs (``inf``
+        for one that diverged).  None when not computed: ``check_fit=False``, the static
+        formulation (no dynamics), or a library without compiled rollouts (the monomial one, whose
+        rollouts take seconds).
+    no_input_error_ : ndarray, shape (n_recordings,), or None
+        The same error for the zero-input prediction, a model the inputs do not move: the tip held
+        where each rollout starts [m].  :meth:`fit` warns with :class:`PoorFitWarning` when the
+        training rollouts are worse on average (pooled over the samples of all recordings).
+
+    Notes
+    -----
+    **Which score answers which question.**  :meth:`score` is scikit-learn's ``R^2`` of the
+    forces :meth:`predict` returns, sample by sample (inverse dynamics with this estimator's
+    rates and accelerations, recordings stacked; ``scoring="r2"`` gives the same).  It asks "how
+    well does the model explain the recorded forces?", and with noisy poses the twice
+    differentiated strains make those forces noisy: a model whose rollouts follow the tip within
+    0.1 mm can score near 0 or below.  To ask "does the model predict the motion?" (choosing
+    thresholds, segmentations, libraries for simulation or control) use the rollout scorers of
+    :mod:`pcs_sindy.core.metrics`: ``rollout_r2_scorer`` (``R^2`` of the tip path of rollouts of
+    held-out recordings, :meth:`rollout_score`) or ``rollout_scorer`` (minus their mean tip error
+    in metres, :meth:`rollout_error`), e.g. ``GridSearchCV(EulerLagrangeRegressor(),
+    {"optimizer__threshold": [1, 0.3, 0.1]}, scoring=rollout_r2_scorer)``.  After a fit,
+    ``training_r2_`` says how well each equation balances on the (integrated) training rows and
+    ``training_rollout_error_`` against ``no_input_error_`` whether the model beats doing nothing.
+
+    **pysindy's idioms.**  ``fit(q, t=dt, u=u, segment_lengths=[...])`` with arrays (the strains
+    ``q`` (T, 3m) of each recording, ``t`` a sample period, time stamps or a list of them, ``u`` the
+    inputs), ``print()`` / ``print(lhs=[...])``, ``coefficients()`` (one row per strain equation),
+    ``get_feature_names_out()``, ``simulate(x0, t, u)`` with ``x0 = [q0, qd0]``: it returns a
+    :class:`~pcs_sindy.core.StrainTrajectory`, and ``np.asarray`` of it is pysindy's state
+    ``[q, qd]`` (T, 6m).
     """
 
     identifiability_tol = 0.1
 
     def __init__(
         self,
-        library: Any = None,
+        feature_library: Any = None,
         formulation: str = "weak",
         optimizer: Any = None,
         differentiation_method: Any = None,
@@ -245,8 +322,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         progress: bool = False,
         actuation: Any = None,
         refine: str = "auto",
+        check_fit: bool = True,
+        library: Any = None,
     ) -> None:
-        self.library = library
+        self.feature_library = feature_library
         self.formulation = formulation
         self.optimizer = optimizer
         self.differentiation_method = differentiation_method
@@ -262,6 +341,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.progress = progress
         self.actuation = actuation
         self.refine = refine
+        self.check_fit = check_fit
+        self.library = library
 
     @classmethod
     def seed_method(cls, **overrides: Any) -> EulerLagrangeRegressor:
@@ -276,13 +357,18 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         -------
         EulerLagrangeRegressor
         """
-        params = {"library": "monomial", "formulation": "strong", "window_length": 25, "polyorder": 3}
+        params = {"feature_library": "monomial", "formulation": "strong", "window_length": 25, "polyorder": 3}
         params.update(overrides)
         return cls(**params)
 
     # ------------------------------------------------------------------ parameters and data
     #: read by validate_parameters in fit and predict, and by model files
     _parameter_constraints: dict = {
+        "feature_library": [
+            InstanceOf(LagrangianLibrary, "a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary)"),
+            Options(_LIBRARIES),
+            None,
+        ],
         "library": [
             InstanceOf(LagrangianLibrary, "a LagrangianLibrary (PhysicalPCSLibrary, PCSLagrangianLibrary)"),
             Options(_LIBRARIES),
@@ -309,39 +395,75 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         "progress": "no_validation",
         "actuation": [None, InstanceOf(Actuation, "an Actuation"), InstanceOf(dict, "a layout dict")],
         "refine": [Options(_REFINE)],
+        "check_fit": "no_validation",
     }
 
     def _check_joint_parameters(self) -> None:
         """What the table cannot say: ``polyorder < window_length``, and a library instance's own table."""
         if self.polyorder >= self.window_length:
             raise InvalidParameterError.of(self, "polyorder", f"< window_length = {self.window_length}", self.polyorder)
-        if isinstance(self.library, LagrangianLibrary):
-            validate_parameters(self.library)
+        if self.library is not None and self.feature_library is not None:
+            raise InvalidParameterError.of(
+                self,
+                "library",
+                "None when feature_library is given (it is feature_library's former name)",
+                self.library,
+            )
+        if isinstance(self._library_choice(), LagrangianLibrary):
+            validate_parameters(self._library_choice())
+
+    def _library_choice(self) -> Any:
+        """``feature_library``, or the deprecated ``library`` when only that was given (None: the default)."""
+        return self.library if self.feature_library is None else self.feature_library
 
     def make_library(self, kinematics: Any = None) -> LagrangianLibrary:
-        """The library this regressor fits: a fresh, unfitted instance of ``library`` (default physical).
+        """The library this regressor fits: a fresh, unfitted instance of ``feature_library`` (default physical).
 
         For spatial (3-D) data (``kinematics`` a :class:`~pcs_sindy.core.SpatialPCS`) the default is
         :class:`~pcs_sindy.identification.library.spatial_physical.SpatialPhysicalPCSLibrary`.
         """
-        if isinstance(kinematics, SpatialPCS) and (self.library is None or isinstance(self.library, str)):
-            if self.library not in (None, "physical"):
+        chosen = self._library_choice()
+        if isinstance(kinematics, SpatialPCS) and (chosen is None or isinstance(chosen, str)):
+            if chosen not in (None, "physical"):
                 raise ValueError(
-                    f"library={self.library!r} is planar only; spatial strains take the physical library "
-                    "(library=None, 'physical' or a SpatialPhysicalPCSLibrary)"
+                    f"feature_library={chosen!r} is planar only; spatial strains take the physical library "
+                    "(feature_library=None, 'physical' or a SpatialPhysicalPCSLibrary)"
                 )
             from .library.spatial_physical import SpatialPhysicalPCSLibrary
 
             return SpatialPhysicalPCSLibrary()
-        if self.library is None or self.library == "physical":
+        if chosen is None or (isinstance(chosen, str) and chosen == "physical"):
             from .library.physical import PhysicalPCSLibrary
 
             return PhysicalPCSLibrary()
-        if isinstance(self.library, str):
+        if isinstance(chosen, str):
             from .library.pcs_lagrangian import PCSLagrangianLibrary
 
             return PCSLagrangianLibrary()
-        return clone(self.library)
+        return clone(chosen)
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        """Parameters (scikit-learn); with ``deep`` and no optimizer given, those of the default one as well.
+
+        ``optimizer=None`` means ``StiffnessThresholdOptimizer()``: its parameters are listed as
+        ``optimizer__<name>`` so that a search over them (``optimizer__threshold``) is validated
+        like any nested parameter.
+        """
+        params = super().get_params(deep=deep)
+        if deep and self.optimizer is None:
+            params.update({f"optimizer__{k}": v for k, v in StiffnessThresholdOptimizer().get_params().items()})
+        return params
+
+    def set_params(self, **params: Any) -> EulerLagrangeRegressor:
+        """Set parameters (scikit-learn); ``optimizer__<name>`` with no optimizer given sets the default one's.
+
+        The default ``StiffnessThresholdOptimizer()`` is then created and stored as ``optimizer``
+        (a new object for this estimator: no default instance is shared between estimators).
+        """
+        nested = any(k.startswith("optimizer__") for k in params)
+        if nested and params.get("optimizer", self.optimizer) is None:
+            params = {**params, "optimizer": StiffnessThresholdOptimizer()}
+        return super().set_params(**params)
 
     def _new_actuation(self, kin: PlanarPCS) -> Actuation:
         act = self.actuation
@@ -391,20 +513,37 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     # ------------------------------------------------------------------ fit
     def fit(
         self,
-        X: Sequence[StrainTrajectory],
-        y: Sequence[ArrayLike],
+        X: Any,
+        y: Any = None,
         *,
+        t: Any = None,
+        u: Any = None,
+        segment_lengths: Sequence[float] | None = None,
         qd: Sequence[ArrayLike] | None = None,
         qdd: Sequence[ArrayLike] | None = None,
     ) -> EulerLagrangeRegressor:
         """Identify the model.
 
+        Two call styles: scikit-learn's ``fit(X, y)`` with ``StrainTrajectory`` recordings, and
+        pysindy's ``fit(q, t=dt, u=u, segment_lengths=[...])`` with plain arrays (``fit(q, dt,
+        u=u, ...)`` too: with ``u`` given, a second positional argument is ``t``, pysindy's order).
+        Array strains are differentiated like a trajectory's (``differentiation_method``,
+        default Savitzky–Golay).
+
         Parameters
         ----------
-        X : list of StrainTrajectory
-            Recordings (time stamps, full strains ``q`` (T, 3m), segmentation).
-        y : list of array_like, shape (T, 3m)
-            Generalized forces of each recording (held constant per sample).
+        X : list of StrainTrajectory, or array_like (T, 3m) or a list of them
+            Recordings: trajectories (time stamps, full strains ``q`` (T, 3m), segmentation),
+            or the full strains ``q`` of each recording as arrays, with ``t`` and ``segment_lengths``.
+        y : list of array_like, shape (T, 3m) or (T, p)
+            Inputs of each recording, held constant per sample: the generalised forces
+            (T, 3m), or with an ``actuation`` the actuator inputs (T, p).
+        t : float, array_like (T,), or list of them, optional
+            With array strains: the sample period [s], the time stamps, or one per recording.
+        u : list of array_like, optional
+            pysindy's name for ``y`` (give one of them).
+        segment_lengths : sequence of float, optional
+            With array strains: the rest length [m] of each segment (m segments: ``q`` (T, 3m)).
         qd, qdd : list of array_like, optional
             Known strain rates and accelerations (e.g. from a simulator)
             instead of differentiating ``q`` (the weak form needs only ``qd``).
@@ -412,14 +551,31 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Returns
         -------
         self
+
+        Warns
+        -----
+        PoorFitWarning
+            When the training rollouts are further off than the zero-input prediction (see
+            ``no_input_error_``).
+        FutureWarning
+            When the deprecated ``library`` parameter is set (use ``feature_library``).
         """
         start = time.perf_counter()
         validate_parameters(self)
         self._check_joint_parameters()
+        if self.library is not None:
+            warnings.warn(
+                f"{type(self).__name__}(library=...) is deprecated: the parameter is now feature_library "
+                "(pysindy's name); library will be removed in a future release",
+                FutureWarning,
+                stacklevel=2,
+            )
+        X, y = self._training_data(X, y, t, u, segment_lengths)
         X = _rec.as_trajectories(X)
+        given_inputs = y
         self.gravity_choice_ = None
         if (
-            self.library is None
+            self._library_choice() is None
             and not isinstance(_rec.data_kinematics(X), SpatialPCS)
             and self.formulation != "static"
             and all(x.metadata.get("shape_fit") == "positions" for x in X)
@@ -473,7 +629,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 f"{type(act).__name__} with identified gains makes the regression homogeneous: densities, stiffness, "
                 "damping and gains are determined only up to one common factor (the motion is the same when all are "
                 "scaled alike, known gravity included). Give one absolute quantity: the robot's mass, "
-                "library=PhysicalPCSLibrary(mass=...), or the gains themselves"
+                "feature_library=PhysicalPCSLibrary(mass=...), or the gains themselves"
             )
         opt = StiffnessThresholdOptimizer() if self.optimizer is None else clone(self.optimizer)
         p_lib = lib.n_coefficients_
@@ -520,6 +676,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         q_kept = np.concatenate([r.q[:, kept] for r in recs])
         self.strain_range_ = np.stack([q_kept.min(axis=0), q_kept.max(axis=0)])
         self.input_directions_ = directions
+        n_data = sum(r.q.shape[0] for r in recs) if self.formulation == "static" else x_final.shape[0]
+        rows = (x_final[:n_data], np.asarray(target)[:n_data][:, kept])
+        self._set_training_r2(rows, coef_all[final_cols])
+        reduced_act = act
         if full_act is not None:
             full_act.set_identified(_expand_gains(act, full_act, directions), full_act.offsets_)
             self.actuation_ = act = full_act
@@ -532,11 +692,38 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.refinement_ = None
         if self._refines(act):
             self._refine_output_error(X, recs, kept, inputs)
+            gains = reduced_act.gains_ if full_act is None else _reduce_gains(reduced_act, full_act, directions)
+            self._set_training_r2(rows, np.r_[self.model_coef_, gains if act.n_gains else []])
         self.mass_matrix_not_pd_fraction_ = 0.0
         if self.check_mass_matrix and self.formulation != "static":  # a static fit leaves the inertia open
             self._check_mass_matrix(q_kept)
+        self._check_training_fit(X, given_inputs)
         self.fit_time_ = time.perf_counter() - start
         return self
+
+    @staticmethod
+    def _training_data(X: Any, y: Any, t: Any, u: Any, segment_lengths: Any) -> tuple[list[StrainTrajectory], Any]:
+        """The recordings and inputs of :meth:`fit`, from either call style."""
+        arrays = not (
+            isinstance(X, StrainTrajectory)
+            or (isinstance(X, (list, tuple)) and len(X) and all(isinstance(r, StrainTrajectory) for r in X))
+        )
+        if u is not None:
+            if y is not None:
+                if not arrays or t is not None:
+                    raise ValueError(
+                        "the inputs were given twice, as y and as u: give them once (y, scikit-learn's name, or u, "
+                        "pysindy's)"
+                    )
+                t = y  # pysindy's positional order: fit(x, t, u=u)
+            y = u
+        if y is None:
+            how = "fit(q, t=dt, u=u, segment_lengths=[...])" if arrays else "fit(X, y)"
+            raise ValueError(
+                f"the inputs of each recording are required: {how}, the generalised forces (T, 3m) or, with an "
+                "actuation, the actuator inputs (T, p)"
+            )
+        return as_strain_trajectories(X, t=t, segment_lengths=segment_lengths), y
 
     def _fit_choosing_gravity(self, X: list, y: Any, qd: Any, qdd: Any, start: float) -> EulerLagrangeRegressor:
         """Strains fused from marker positions alone: gravity known along the rest direction, or identified.
@@ -552,7 +739,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         fitted: dict[str, tuple[float, EulerLagrangeRegressor, list]] = {}
         errors: dict[str, str] = {}
         for name, identify in (("known", False), ("identified", True)):
-            est = clone(self).set_params(library=PhysicalPCSLibrary(identify_gravity=identify))
+            est = clone(self).set_params(feature_library=PhysicalPCSLibrary(identify_gravity=identify), library=None)
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
                 try:
@@ -579,6 +766,57 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         }
         self.fit_time_ = time.perf_counter() - start
         return self
+
+    def _set_training_r2(self, rows: tuple, coef: NDArray[np.float64]) -> None:
+        """``training_r2_`` of the regression rows ``x @ [coef, gains] = known`` (n_rows, n, n_cols)."""
+        x, known = rows
+        n_lib = self.model_coef_.size
+        model = x[..., :n_lib] @ coef[:n_lib]  # Psi @ coef: the model's inverse dynamics
+        inputs = known - x[..., n_lib:] @ coef[n_lib:]  # A(q) u: the gain columns hold minus the input forces
+        res = np.sum((inputs - model) ** 2, axis=0)
+        tot = np.sum((inputs - inputs.mean(axis=0)) ** 2, axis=0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            self.training_r2_ = np.where(tot > 0, 1.0 - res / tot, np.nan)
+
+    def _check_training_fit(self, X: list[StrainTrajectory], y: Any) -> None:
+        """Roll the training recordings out; :class:`PoorFitWarning` when worse than the zero-input prediction."""
+        pooled, baseline = self._training_rollouts(X, y)
+        if np.isnan(baseline) or pooled <= baseline:
+            return
+        still = f"the {1e3 * baseline:.3g} mm of the zero-input prediction (the tip held where each rollout starts)"
+        what = f"miss the recorded tip by {1e3 * pooled:.3g} mm on average, more than {still}"
+        r2 = ", ".join(
+            f"{nm} {v:.3g}" for nm, v in zip(self.kinematics_.strain_names(active_only=True), self.training_r2_)
+        )
+        warnings.warn(
+            "the model does not represent its training data: it is worse than a model with no inputs, its open-loop "
+            f"rollouts of the training recordings {what if np.isfinite(pooled) else 'diverge, against ' + still}; "
+            f"training R^2 per strain equation: {r2}. "
+            "Check the actuation layout (tendon sides, ends, drive), the units of the inputs and the segmentation",
+            PoorFitWarning,
+            stacklevel=3,
+        )
+
+    def _training_rollouts(self, X: list[StrainTrajectory], y: Any) -> tuple[float, float]:
+        """Pooled mean tip errors [m] of the training rollouts and the zero-input prediction (NaN: none rolled out)."""
+        self.training_rollout_error_ = self.no_input_error_ = None
+        if not self.check_fit or self.formulation == "static":
+            return np.nan, np.nan
+        try:
+            fm = self.forward_model()
+        except (NotImplementedError, AttributeError):  # a library without a forward model
+            return np.nan, np.nan
+        if fm.default_method not in getattr(fm, "compiled_methods", ()):
+            return np.nan, np.nan  # solve_ivp rollouts (the monomial library) take seconds per recording
+        try:
+            pairs = self._rollout_tips(X, y)
+        except (ValueError, np.linalg.LinAlgError):  # the check never makes a fit fail; rollout_error says why
+            return np.nan, np.nan
+        model = np.array([np.inf if sim is None else np.linalg.norm(sim - true, axis=1).mean() for sim, true in pairs])
+        still = np.array([np.linalg.norm(true - true[0], axis=1).mean() for _, true in pairs])
+        self.training_rollout_error_, self.no_input_error_ = model, still
+        weight = np.array([true.shape[0] for _, true in pairs], dtype=float)
+        return float(np.sum(weight * model) / weight.sum()), float(np.sum(weight * still) / weight.sum())
 
     def _refines(self, act: Actuation) -> bool:
         if self.refine == "none" or self.formulation == "static":
@@ -707,11 +945,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         frac = float(np.mean(~(eig[:, 0] > 0)))
         self.mass_matrix_not_pd_fraction_ = frac
         if frac > 0:
+            bounded = getattr(self.library_, "lower_bounds_", None) is not None and getattr(
+                self.optimizer_, "bounded", False
+            )
+            if bounded and self.formulation == "weak":  # the default's bounds hold: an inertia was fitted to 0
+                advice = (
+                    "the fit set a line density or rotary inertia to its bound 0, so the data do not support any "
+                    "inertia: check the actuation layout (tendon sides, ends, drive) and the units of the inputs, "
+                    "or give the robot's mass (PhysicalPCSLibrary(mass=...))"
+                )
+            else:
+                advice = (
+                    "use more or cleaner data, or the default EulerLagrangeRegressor() (physical library, bounded "
+                    "fit: positive definite unless an inertia is fitted to 0; weak form: no second derivatives)"
+                )
             warnings.warn(
                 f"the identified mass matrix is not positive definite on {frac:.1%} of the training samples "
-                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: use more or cleaner "
-                "data, or the default EulerLagrangeRegressor() (physical library, bounded fit: positive definite "
-                "by construction; weak form: no second derivatives)",
+                f"(smallest eigenvalue {eig[:, 0].min():.3g}); a rollout will likely diverge: {advice}",
                 UserWarning,
                 stacklevel=3,
             )
@@ -927,7 +1177,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             except DivergenceError:
                 out.append((None, true))
                 continue
-            out.append((self._tip_path(self.kinematics_, sim.q, s), true))
+            # the recording's frame (fused strains carry their base pose; the model's kinematics do not)
+            out.append((self._tip_path(rec.kinematics, sim.q, s), true))
         return out
 
     @staticmethod
@@ -996,7 +1247,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         -------
         StrainTrajectory
             Full strains ``q`` and rates ``qd`` (T, 3m) of the segmentation; strains
-            that are not modelled stay 0.
+            that are not modelled stay 0.  ``np.asarray`` of it is the state ``[q, qd]``
+            (T, 6m), pysindy's ``simulate`` result (the same type from every ``simulate``
+            of the package, :class:`~pcs_sindy.identification.WeakEulerLagrangeSINDy`'s included).
 
         Raises
         ------
@@ -1139,31 +1392,106 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             return lines
         return lines[:-1] + act.describe(precision) + lines[-1:]
 
-    def print(self, precision: int = 3, threshold: float = 0.0, *, by_strain: bool = False) -> None:
-        """Print :meth:`equations` (``by_strain=True``: one ``tau_<strain> = ...`` line per modelled strain)."""
-        if by_strain:
-            names = ["tau_" + nm for nm in self.kinematics_.strain_names(active_only=True)]
+    def print(
+        self,
+        lhs: Sequence[str] | None = None,
+        precision: int = 3,
+        threshold: float = 0.0,
+        *,
+        by_strain: bool = False,
+        **kwargs: Any,
+    ) -> None:
+        """Print the identified model; with ``lhs`` (pysindy's ``print``), one line per strain equation.
+
+        Parameters
+        ----------
+        lhs : list of str, optional
+            Names of the left-hand sides, one per modelled strain (pysindy's meaning): prints
+            ``lhs[i] = <right-hand side of strain i>`` (:meth:`strain_equations`).  Without it,
+            :meth:`equations`: the library's own format (Lagrangian, parameters, damping).
+        precision : int
+            Significant digits.
+        threshold : float
+            Terms with ``|coefficient| <= threshold`` are hidden.
+        by_strain : bool
+            One ``tau_<strain> = ...`` line per modelled strain (``lhs`` of those names).
+        **kwargs
+            Passed to the builtin ``print`` (e.g. ``file=``).
+        """
+        check_is_fitted(self, "coef_")
+        if lhs is not None or by_strain:
+            strains = self.kinematics_.strain_names(active_only=True)
+            names = ["tau_" + nm for nm in strains] if lhs is None else lhs
+            if isinstance(names, str) or not isinstance(names, Sequence) or len(names) != len(strains):
+                raise ValueError(
+                    f"lhs must be a list of {len(strains)} names, one per modelled strain {strains} "
+                    f"(precision is the second argument); got {lhs!r}"
+                )
             for name, rhs in zip(names, self.strain_equations(precision=precision, threshold=threshold), strict=True):
-                print(f"{name} = {rhs}")
+                print(f"{name} = {rhs}", **kwargs)
             return
         for line in self.equations(precision=precision, threshold=threshold):
-            print(line)
+            print(line, **kwargs)
 
     # pysindy's idioms: coefficients(), get_feature_names(), one equation per coordinate
     def coefficients(self) -> NDArray[np.float64]:
-        """The coefficients as pysindy's ``SINDy.coefficients()``: shape (1, n_psi), one shared row.
+        """The coefficients as pysindy's ``SINDy.coefficients()``: one row per strain equation.
 
-        Every strain's equation ``tau = Psi(q, qd, qdd) @ coef`` shares the same
-        physical coefficients, so there is one row (the columns of
-        :meth:`get_feature_names`; ``coef_`` as a row).
+        Row ``i`` holds the coefficients of the terms that enter the equation of the ``i``-th
+        modelled strain (``kinematics_.strain_names(active_only=True)``, the lines of
+        :meth:`strain_equations` and ``print(lhs=...)``) and 0 for the columns that do not act on
+        it.  The columns are those of :meth:`get_feature_names_out` (the full library's
+        coefficients, ``coef_``): one physical coefficient (a segment's line density, say)
+        enters several equations, so its value repeats down its column: every nonzero entry of
+        column ``j`` is ``coef_[j]``.
+
+        Returns
+        -------
+        ndarray, shape (n, n_features)
         """
         check_is_fitted(self, "coef_")
-        return self.coef_[None, :].copy()
+        acts = np.zeros((self.kinematics_.n_active, self.coef_.size), dtype=bool)
+        acts[:, np.asarray(self.column_map_, dtype=int)] = self._equation_terms()
+        return np.where(acts, self.coef_[None, :], 0.0)
 
     def get_feature_names(self) -> list[str]:
         """Names of the columns of :meth:`coefficients` (the full library's coefficient names)."""
         check_is_fitted(self, "coef_")
         return list(self.full_library_.coefficient_names())
+
+    def get_feature_names_out(self, input_features: Any = None) -> NDArray[np.object_]:
+        """Names of the columns of :meth:`coefficients`, as scikit-learn's ``get_feature_names_out``.
+
+        Parameters
+        ----------
+        input_features : None
+            scikit-learn's argument; the names are the library's coefficients, whatever the
+            inputs are called, so it must be None.
+
+        Returns
+        -------
+        ndarray of str (object dtype), shape (n_features,)
+        """
+        if input_features is not None:
+            raise ValueError(
+                "input_features must be None: the columns are the library's coefficients (e.g. rhoA_1, k_be_1), "
+                f"named by the library; got {input_features!r}"
+            )
+        return np.asarray(self.get_feature_names(), dtype=object)
+
+    def _equation_terms(self) -> NDArray[np.bool_]:
+        """Which columns of ``library_`` act on which modelled strain's equation, shape (n, n_columns).
+
+        Read off ``Psi`` at random states inside the training range: a column that acts on an
+        equation is nonzero there at almost every state.
+        """
+        lib = self.library_
+        n = lib.n_strains
+        rng = np.random.default_rng(0)
+        lo, hi = self.strain_range_ if getattr(self, "strain_range_", None) is not None else (-np.ones(n), np.ones(n))
+        q = rng.uniform(lo, hi, (4, n)) + 1e-3 * rng.standard_normal((4, n))
+        psi = np.asarray(lib.euler_lagrange_matrix(q, rng.standard_normal((4, n)), rng.standard_normal((4, n))))
+        return np.any(psi != 0, axis=0)
 
     def strain_equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """Right-hand sides of ``tau_e = ...``, one per modelled strain (pysindy's ``equations()`` form).
@@ -1190,11 +1518,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         n = lib.n_strains
         strains = self.kinematics_.strain_names(active_only=True)
         names = lib.coefficient_names()
-        rng = np.random.default_rng(0)  # probe states: which columns act on which equation
-        lo, hi = self.strain_range_ if getattr(self, "strain_range_", None) is not None else (-np.ones(n), np.ones(n))
-        q = rng.uniform(lo, hi, (4, n)) + 1e-3 * rng.standard_normal((4, n))
-        psi = np.asarray(lib.euler_lagrange_matrix(q, rng.standard_normal((4, n)), rng.standard_normal((4, n))))
-        acts = np.any(psi != 0, axis=0)  # (n, n_psi)
+        acts = self._equation_terms()  # (n, n_psi)
         kind = {int(j): ("k", e) for e, j in enumerate(np.asarray(lib.stiffness_index_))}
         kind.update({int(j): ("d", e) for e, j in enumerate(np.asarray(lib.damping_index_))})
         rest = np.asarray(lib.rest_force_index_)
@@ -1248,7 +1572,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         lib = feat.library
         if coef.shape != (1, lib.n_coefficients_):
             raise ValueError(f"model.coefficients() must have shape (1, {lib.n_coefficients_}); got {coef.shape}")
-        reg = cls(library=lib, optimizer=model.optimizer)
+        reg = cls(feature_library=lib, optimizer=model.optimizer)
         kin = lib.kinematics
         reg.optimizer_ = model.optimizer
         reg.full_library_ = reg.library_ = lib
@@ -1263,6 +1587,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         reg.identifiability_ = None
         reg.mass_matrix_not_pd_fraction_ = 0.0
         reg.n_regression_samples_ = 0
+        reg.training_r2_ = np.full(kin.n_active, np.nan)
+        reg.training_rollout_error_ = reg.no_input_error_ = None
         reg.fit_time_ = 0.0
         return reg
 

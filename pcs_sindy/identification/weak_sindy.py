@@ -19,10 +19,12 @@ so a Lagrangian library inside a plain ``SINDy`` fits nonsense (its
 * any pysindy ``optimizer`` (default ``STLSQ()``), fitted on unit-norm columns
   (:func:`pcs_sindy.identification.optimizers.fit_normalized`), or the
   package's :class:`~pcs_sindy.identification.optimizers.StiffnessThresholdOptimizer`;
-* pysindy's read-outs: ``coefficients()`` (one shared row), ``get_feature_names()``,
-  ``equations()`` and ``print()`` (``tau_<strain> = ...`` per strain),
-  ``predict(x)`` (the forces), ``score`` and ``simulate(x0, t, u)`` with
-  ``x0 = [q0, qd0]`` (returns ``[q, qd]`` like pysindy's).
+* pysindy's read-outs: ``coefficients()`` (one row per strain equation),
+  ``get_feature_names()`` / ``get_feature_names_out()``, ``equations()`` and ``print()``
+  (``tau_<strain> = ...`` per strain), ``predict(x)`` (the forces), ``score`` and
+  ``simulate(x0, t, u)`` with ``x0 = [q0, qd0]``, which returns a
+  :class:`~pcs_sindy.core.StrainTrajectory` like every ``simulate`` of the package:
+  ``np.asarray`` of it is pysindy's ``[q, qd]``.
 
 The rows, the optimizer call and the rollout are those of
 :class:`~pcs_sindy.identification.regressor.EulerLagrangeRegressor` (fitted
@@ -169,7 +171,7 @@ class WeakEulerLagrangeSINDy(SINDy):
 
     def _regressor(self) -> EulerLagrangeRegressor:
         return EulerLagrangeRegressor(
-            library=self.feature_library,
+            feature_library=self.feature_library,
             formulation="weak",
             optimizer=STLSQ() if self.optimizer is None else self.optimizer,
             differentiation_method=self.differentiation_method,
@@ -227,7 +229,11 @@ class WeakEulerLagrangeSINDy(SINDy):
         return self
 
     def coefficients(self) -> NDArray[np.float64]:
-        """The shared coefficient row, shape (1, n_output_features_) (the full library's columns)."""
+        """Coefficients per strain equation, shape (n, n_output_features_) (``EulerLagrangeRegressor.coefficients``).
+
+        Row ``i`` holds the coefficients of the terms acting on strain ``i``'s equation (0
+        elsewhere); the columns are the full library's (``regressor_.coef_``).
+        """
         check_is_fitted(self, "regressor_")
         return self.regressor_.coefficients()
 
@@ -235,6 +241,11 @@ class WeakEulerLagrangeSINDy(SINDy):
         """Names of the columns of :meth:`coefficients`."""
         check_is_fitted(self, "regressor_")
         return self.regressor_.get_feature_names()
+
+    def get_feature_names_out(self, input_features: Any = None) -> NDArray[np.object_]:
+        """Names of the columns of :meth:`coefficients` (scikit-learn's spelling; ``input_features`` must be None)."""
+        check_is_fitted(self, "regressor_")
+        return self.regressor_.get_feature_names_out(input_features)
 
     def equations(self, precision: int = 3) -> list[str]:
         """Right-hand sides ``tau_<strain> = ...``, one per strain (see ``EulerLagrangeRegressor.strain_equations``)."""
@@ -279,12 +290,20 @@ class WeakEulerLagrangeSINDy(SINDy):
         truth = np.concatenate([tau[:, active] for tau in taus])
         return float((r2_score if metric is None else metric)(truth, pred, **metric_kws))
 
-    def simulate(self, x0: ArrayLike, t: ArrayLike, u: Any = None, **simulate_kwargs: Any) -> NDArray[np.float64]:
-        """Roll the model out from ``x0 = [q0, qd0]`` under the forces ``u``; returns ``[q, qd]`` (T, 2n).
+    def simulate(self, x0: ArrayLike, t: ArrayLike, u: Any = None, **simulate_kwargs: Any) -> StrainTrajectory:
+        """Roll the model out from ``x0 = [q0, qd0]`` under the forces ``u``.
 
         ``u``: (T, n) forces held over each sample, or a callable ``u(time)``;
         other keywords go to ``EulerLagrangeRegressor.simulate`` (``method``,
         ``rtol``, ...).  Raises ``SimulationError`` when the rollout diverges.
+
+        Returns
+        -------
+        StrainTrajectory
+            Like every ``simulate`` of the package: strains ``q`` and rates ``qd`` (T, 3m) of all
+            strains of the segmentation.  ``np.asarray`` of it is the state ``[q, qd]`` (T, 6m),
+            pysindy's ``simulate`` result when the library models every strain (the default; the
+            states ``x`` are ``sim.q[:, feature_library.kinematics.active_mask]`` otherwise).
         """
         check_is_fitted(self, "regressor_")
         kin = self.feature_library.kinematics
@@ -306,9 +325,7 @@ class WeakEulerLagrangeSINDy(SINDy):
             raise ValueError(f"x0 must be [q0, qd0] of the {n} modelled strains, shape ({2 * n},); got {x.shape}")
         q0 = self._full(x[None, :n], "x0", 0)[0]
         qd0 = self._full(x[None, n:], "x0", 0)[0]
-        sim = self.regressor_.simulate(q0, qd0, t, u, **simulate_kwargs)
-        active = kin.active_mask
-        return np.hstack([sim.q[:, active], sim.qd[:, active]])
+        return self.regressor_.simulate(q0, qd0, t, u, **simulate_kwargs)
 
     @property
     def complexity(self) -> int:

@@ -61,8 +61,8 @@ def _default_regressor() -> Any:
 def _identifies_axial_rest_strain(regressor: Any) -> bool:
     from ..identification.library.physical import PhysicalPCSLibrary
 
-    library = getattr(regressor, "library", None)
-    library = PhysicalPCSLibrary() if library is None else library
+    make = getattr(regressor, "make_library", None)
+    library = make() if make is not None else PhysicalPCSLibrary()
     return isinstance(library, PhysicalPCSLibrary) and "ax" in library.rest_strain_kinds
 
 
@@ -121,7 +121,8 @@ def estimate_rest_length(
     if not _identifies_axial_rest_strain(reg_template):
         raise ValueError(
             "regressor must identify axial rest strains (a PhysicalPCSLibrary with rest_strain=True or a tuple "
-            f"holding 'ax'): that is what corrects the length; got library={getattr(reg_template, 'library', None)!r}"
+            "holding 'ax'): that is what corrects the length; got "
+            f"feature_library={getattr(reg_template, 'feature_library', None)!r}"
         )
     fus, _, kinematic, _ = _one(trajs, taus, template, reg_template)
     # the corrected strains are refitted, so the model matches the corrected segmentation

@@ -235,7 +235,8 @@ class LagrangianLibrary(BaseFeatureLibrary, ABC):
         raise TypeError(
             f"{type(self).__name__} is a Lagrangian library (tau = Psi(q, qd, qdd) @ coef, one coefficient vector "
             "shared by every strain), which a plain pysindy.SINDy (x_dot = Theta(x) Xi) cannot fit: it would print "
-            "meaningless equations. Use one of: EulerLagrangeRegressor(library=...).fit(strain_trajectories, forces); "
+            "meaningless equations. Use one of: "
+            "EulerLagrangeRegressor(feature_library=...).fit(strain_trajectories, forces); "
             "or the pysindy route WeakEulerLagrangeSINDy(feature_library=...).fit(q, t=t, u=forces) "
             "(pcs_sindy.identification; weak form, no accelerations); or, with exact accelerations, "
             "SINDy(feature_library=StackedEulerLagrangeLibrary(library)) with x = [q, qd, qdd] and "
