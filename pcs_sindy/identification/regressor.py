@@ -723,6 +723,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 f"the inputs of each recording are required: {how}, the generalised forces (T, 3m) or, with an "
                 "actuation, the actuator inputs (T, p)"
             )
+        if _rec.spatial_kinematics_of(X) is not None:  # spatial strain trajectories carry their segmentation
+            return _rec.as_trajectories(X), y
         return as_strain_trajectories(X, t=t, segment_lengths=segment_lengths), y
 
     def _fit_choosing_gravity(self, X: list, y: Any, qd: Any, qdd: Any, start: float) -> EulerLagrangeRegressor:
