@@ -121,9 +121,9 @@ def test_regressor_pysindy_idioms(one_segment, capsys):
     assert np.all(np.any(coefs != 0, axis=0) == (model.coef_ != 0))
     model.print(by_strain=True)
     lines = capsys.readouterr().out.splitlines()
-    assert [ln.split(" = ")[0] for ln in lines] == ["tau_be_1", "tau_sh_1", "tau_ax_1"]
-    k_be = float(lines[0].split(" be_1")[0].split(" + ")[-1])  # the printed bending stiffness
-    assert k_be == pytest.approx(robot.stiffness[0], rel=0.01)
+    assert [ln.split(" = ")[0] for ln in lines] == ["tau_be_1 [N·m²]", "tau_sh_1 [N·m]", "tau_ax_1 [N·m]"]
+    k_be, unit = lines[0].split(" be_1")[0].split(" + ")[-1].split()  # the printed bending stiffness
+    assert float(k_be) == pytest.approx(robot.stiffness[0], rel=0.01) and unit == "[N·m³]"
     # simulate(x0, t, u) with the state [q0, qd0] is simulate(q0, qd0, t, u), and follows the simulator
     r = recs[0]
     a = model.simulate(np.r_[r.q[0], r.qd[0]], r.t, r.tau)

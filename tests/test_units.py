@@ -187,3 +187,19 @@ def test_learned_and_linear_gains_print_the_force_per_input_unit():
     linear = LinearActuation(pattern).fit(kin)
     text = linear.describe()[0]
     assert "a_be_1_1 = " in text and "N·m²/u" in text and "a_ax_1_1 = " in text and "N·m/u" in text
+
+
+def test_the_identifiability_report_and_strain_equations_carry_units():
+    """Each coefficient line of the report ends in its unit; each strain equation's lhs is a generalised force."""
+    from pcs_sindy import EulerLagrangeRegressor, StrainTrajectory
+    from pcs_sindy.simulation import get_scenario
+
+    d = get_scenario("one_segment").generate(seed=0, n_train=2, train_duration=0.2, validation=False)
+    X = [StrainTrajectory(r.q, t=r.t, segment_lengths=[0.1]) for r in d.train]
+    model = EulerLagrangeRegressor().fit(X, [r.tau for r in d.train])
+    rows = {
+        ln.split()[0]: ln.split()[4] for ln in model.identifiability_report().splitlines() if ln[:2] in ("rh", "k_")
+    }
+    assert rows == {"rhoA_1": "kg/m", "rhoI_1": "kg·m", "k_be_1": "N·m³", "k_sh_1": "N·m", "k_ax_1": "N·m"}
+    first = model.strain_equations()[0]
+    assert "[N·m³] be_1" in first and "[kg/m] EL[rhoA_1]" in first

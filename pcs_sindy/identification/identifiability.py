@@ -125,18 +125,22 @@ def strain_excitation(
     return [nm for nm, c in zip(strain_names, cols) if np.any(bad[c])]
 
 
-def report(info: dict | None, tol: float = 0.1) -> str:
-    """Readable summary of an identifiability dict: one line per coefficient, then the flags."""
+def report(info: dict | None, tol: float = 0.1, units: dict[str, str] | None = None) -> str:
+    """Readable summary of an identifiability dict: one line per coefficient, then the flags.
+
+    ``units`` maps coefficient names to their units (shown beside value and standard error).
+    """
+    units = units or {}
     if info is None:
         return "identifiability not available: the regression had no more rows than coefficients"
     lines = [
         f"{info.get('formulation', 'the')}-form regression: condition number {info['condition_number']:.3g} "
         f"(column-scaled), rank {info['rank']} of {len(info['names'])}, residual std {info['residual_std']:.3g}",
-        f"{'coefficient':<14} {'value':>12} {'std error':>12} {'rel. error':>11}",
+        f"{'coefficient':<14} {'value':>12} {'std error':>12} {'rel. error':>11}  unit",
     ]
     for nm, c, se, rel in zip(info["names"], info["coef"], info["standard_errors"], info["relative_standard_errors"]):
         flag = "" if rel <= tol else "  <- poorly determined"
-        lines.append(f"{nm:<14} {c:>12.4g} {se:>12.3g} {rel:>11.2%}{flag}")
+        lines.append(f"{nm:<14} {c:>12.4g} {se:>12.3g} {rel:>11.2%}  {units.get(nm, '?')}{flag}")
     lines += _offset_lines(info, tol)
     lines.append(f"poorly determined (rel. error > {tol:.0%}): " + (", ".join(info["poorly_determined"]) or "none"))
     excited = info.get("poorly_excited_strains", [])

@@ -40,6 +40,7 @@ from ..core.spatial import SpatialPCS
 from ..core.trajectory import StrainTrajectory, as_strain_trajectories
 from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError, Options, validate_parameters
 from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
+from ..models.actuation.base import gain_unit
 from ..models.forward import reduce_strains
 from . import formulations as _form
 from . import identifiability as _ident
@@ -971,7 +972,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def identifiability_report(self) -> str:
         """Readable summary of :attr:`identifiability_`: one line per coefficient, then the flags."""
         check_is_fitted(self, "identifiability_")
-        text = _ident.report(self.identifiability_, self.identifiability_tol)
+        text = _ident.report(self.identifiability_, self.identifiability_tol, self._coefficient_unit_names())
         conv = getattr(self, "scale_convention_", None)
         if conv:
             text = f"scale convention: {conv}\n" + text
@@ -990,6 +991,16 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 + ("" if ref["slope_factor"] == 1.0 else f"; input-stiffness terms shrunk x{ref['slope_factor']:.3g}")
             )
         return text
+
+    def _coefficient_unit_names(self) -> dict[str, str]:
+        """Units of the library's coefficients and the actuation's gains, by name (for printouts)."""
+        lib = self.full_library_
+        out = {nm: ("-" if u is None else str(u)) for nm, u in zip(lib.coefficient_names(), lib.coefficient_units())}
+        act = getattr(self, "actuation_", None)
+        strains = self.kinematics_.strain_names(active_only=False)
+        for nm in getattr(act, "gain_names_", None) or []:
+            out.setdefault(nm, gain_unit(nm, strains))
+        return out
 
     # ------------------------------------------------------------------ the identified model
     def _model_q(self, q: ArrayLike, name: str = "q") -> NDArray[np.float64]:
@@ -1423,7 +1434,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         check_is_fitted(self, "coef_")
         if lhs is not None or by_strain:
             strains = self.kinematics_.strain_names(active_only=True)
-            names = ["tau_" + nm for nm in strains] if lhs is None else lhs
+            if lhs is None:
+                from ..core.units import generalised_force_unit
+
+                names = [f"tau_{nm} [{generalised_force_unit(nm)}]" for nm in strains]
+            else:
+                names = lhs
             if isinstance(names, str) or not isinstance(names, Sequence) or len(names) != len(strains):
                 raise ValueError(
                     f"lhs must be a list of {len(strains)} names, one per modelled strain {strains} "
@@ -1498,6 +1514,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
     def strain_equations(self, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """Right-hand sides of ``tau_e = ...``, one per modelled strain (pysindy's ``equations()`` form).
 
+        Every coefficient carries its unit in brackets (:meth:`LagrangianLibrary.coefficient_units`).
         A stiffness reads ``k e`` (the strain), a damping ``d de/dt``, a constant
         force ``- f0``; every other column ``c EL[name]``, the Euler–Lagrange
         image ``d/dt dL/d(de/dt) - dL/de`` of the Lagrangian term ``name``
@@ -1526,6 +1543,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         rest = np.asarray(lib.rest_force_index_)
         kind.update({int(j): ("f0", int(r)) for j, r in zip(rest, np.asarray(lib.rest_force_rows_))})
         factor = float(lib.stiffness_factor_)
+        units = lib.coefficient_units()
         out = []
         for e in range(n):
             terms = []
@@ -1542,7 +1560,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                     label = f"EL[{names[j]}]"
                 if c == 0.0 or abs(c) <= threshold:
                     continue
-                terms.append(f"{c:.{precision}g}" + ("" if label == "1" else f" {label}"))
+                unit = "" if units[j] is None or str(units[j]) in ("", "1", "-") else f" [{units[j]}]"
+                terms.append(f"{c:.{precision}g}{unit}" + ("" if label == "1" else f" {label}"))
             out.append(" + ".join(terms).replace("+ -", "- ") if terms else "0")
         return out
 
