@@ -47,6 +47,8 @@ ORDER = [
     "real_robots",
     "spatial_rollout_speed",
     "spatial_accuracy",
+    "spatial_fusion",
+    "spatial_identification",
 ]
 # arguments of the benchmarks that write docs/results.md only when asked to
 ARGS = {
@@ -54,6 +56,7 @@ ARGS = {
     "real_robots": ["--write", "--plots", "docs"],
     "spatial_rollout_speed": ["--write"],
     "spatial_accuracy": ["--write"],
+    "spatial_identification": ["--write"],
 }
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
