@@ -25,7 +25,8 @@ PCS failures (exceptions, divergence) are rows of the table, never a crash of th
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/real_robots.py [--quick] [--write] [--plots DIR]``
 (``--quick``: 20 s of each Trunk file, a smoke run; ``--write``: the
-"Real robots" section of docs/results.md).
+"Real robots" section of docs/results.md).  The 3-D file alone with the spatial PCS path:
+``--only trunk3d --pcs-3d [--write]`` (``--write``: its own section, "Real robots: the Trunk in 3-D").
 """
 
 from __future__ import annotations
@@ -556,7 +557,11 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--write", action="store_true", help='write the "Real robots" section of docs/results.md')
     ap.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ap.add_argument("--no-pcs", action="store_true", help="baselines only (fast)")
-    ap.add_argument("--only", choices=("trunk", "tentacle"), help="one robot only (no --write)")
+    ap.add_argument(
+        "--only",
+        choices=("trunk", "tentacle", "trunk3d"),
+        help="one robot only (no --write); trunk3d: the 3-D Trunk file alone (--write: its own section)",
+    )
     ap.add_argument("--pcs-3d", action="store_true", help="also run the spatial (3-D) PCS path on the 3-D recording")
     args = ap.parse_args(argv)
     root = real_data_dir()
@@ -567,7 +572,7 @@ def main(argv: list[str] | None = None) -> dict:
     n_rows = 2000 if args.quick else None
     trunk, three_d, rest, tent = [], None, None, None
     tdir = root / "trunk"
-    for name in TRUNK_STEP_FILES if args.only != "tentacle" else ():
+    for name in TRUNK_STEP_FILES if args.only not in ("tentacle", "trunk3d") else ():
         if (tdir / name).is_file():
             trunk.append(run_trunk_file(tdir / name, n_rows, pcs=not args.no_pcs))
             print(f"{name}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in trunk[-1]["rows"]), flush=True)
@@ -583,9 +588,9 @@ def main(argv: list[str] | None = None) -> dict:
             pcs_label="PCS 3-D, documented spatial path (equation error, refine='none')",
         )
         print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d["rows"]), flush=True)
-    if (tdir / TRUNK_REST_FILE).is_file() and args.only != "tentacle":
+    if (tdir / TRUNK_REST_FILE).is_file() and args.only not in ("tentacle", "trunk3d"):
         rest = rest_file(tdir / TRUNK_REST_FILE)
-    if (root / "tentacle").is_dir() and args.only != "trunk":
+    if (root / "tentacle").is_dir() and args.only not in ("trunk", "trunk3d"):
         # static holds: the frames of a hold differ by noise only (< 0.4 mm), 30 of them say what all do
         tent = run_tentacle(root / "tentacle", 30, pcs=not args.no_pcs)
         if args.no_pcs:
@@ -600,6 +605,13 @@ def main(argv: list[str] | None = None) -> dict:
             plot_trunk(r, args.plots / f"real_trunk_{Path(r['name']).stem}.png")
         if tent is not None and tent["holds"]:
             plot_tentacle(tent, args.plots / "real_tentacle_holds.png")
+    if args.write and not args.quick and args.only == "trunk3d" and three_d is not None:
+        write_section(
+            "real_robots_3d",
+            "Real robots: the Trunk in 3-D (issue 26)",
+            body + f"\nWall time {seconds:.0f} s.\n",
+            "OMP_NUM_THREADS=1 .venv/bin/python benchmarks/real_robots.py --only trunk3d --pcs-3d --write",
+        )
     if args.write and not args.quick and args.only is None:
         write_section(
             "real_robots",
