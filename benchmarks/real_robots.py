@@ -13,8 +13,8 @@ Data (read at run time from the real-data folder, see ``_real_data.py``; never c
   PCS rollout stays bounded (finite, and within twice the measured tip's largest excursion from its
   mean) and whether the PCS model released from its most bent training state with the angles at 0
   comes to rest.  ``observations_controlled_1`` (all motors, 3-D motion, commanded angles in a second
-  file): the baselines on both the measured and the commanded angles, and the planar PCS path labelled
-  out of scope.  ``observations_zeros_0g`` (rest): noise level and frozen samples.
+  file): the baselines on both the measured and the commanded angles, and with ``--pcs-3d`` the spatial
+  PCS path (:func:`pcs_trunk_3d`, issue 26).  ``observations_zeros_0g`` (rest): noise level and frozen samples.
 * Tentacle (tud-phi soromox): 8 static holds under two tendon loads, 5 unlabelled markers (base included)
   in a per-file column order, ordered here from the base along the body.  Leave one hold out, predict its
   marker positions from the other seven: the PCS static path (:func:`pcs_tentacle`), linear interpolation
@@ -25,7 +25,8 @@ PCS failures (exceptions, divergence) are rows of the table, never a crash of th
 
 Run: ``OMP_NUM_THREADS=1 .venv/bin/python benchmarks/real_robots.py [--quick] [--write] [--plots DIR]``
 (``--quick``: 20 s of each Trunk file, a smoke run; ``--write``: the
-"Real robots" section of docs/results.md).
+"Real robots" section of docs/results.md).  The 3-D file alone with the spatial PCS path:
+``--only trunk3d --pcs-3d [--write]`` (``--write``: its own section, "Real robots: the Trunk in 3-D").
 """
 
 from __future__ import annotations
@@ -117,6 +118,59 @@ def pcs_trunk(
     return pred.positions[:, -1, :]
 
 
+def pcs_trunk_3d(
+    train_positions: np.ndarray,
+    train_inputs: np.ndarray,
+    test_positions: np.ndarray,
+    test_inputs: np.ndarray,
+    dt: float,
+    details: dict | None = None,
+    refine: str = "none",
+) -> np.ndarray:
+    """The documented spatial path (issue 26) on a recording that moves in 3-D.
+
+    ``KinematicFusion()`` at its defaults (``space="auto"`` goes 3-D on such a recording; arc lengths
+    1, 2, 3 disk spacings as in :func:`pcs_trunk`) -> ``EulerLagrangeRegressor(actuation=LearnedActuation(6),
+    refine=refine)`` (the spatial physical library, chosen for 3-D strains; no mass: the scale convention)
+    -> ``simulate`` of the test inputs from the fused first test state at rest rates ->
+    ``fusion.inverse_transform``; returns the predicted tip (T_test, 3) in the capture frame.
+    ``refine="auto"`` (the regressor's default) adds the output-error refinement, whose finite-difference
+    Jacobian needs one rollout of the training half per refined parameter: not affordable with the NumPy
+    spatial rollout (docs/real_robots.md), hence ``"none"`` here.  ``details`` receives ``"fit"``, and
+    ``"release"`` as in :func:`pcs_trunk`.
+    """
+    from pcs_sindy.core import PoseTrajectory
+    from pcs_sindy.fusion import KinematicFusion
+    from pcs_sindy.identification import EulerLagrangeRegressor
+    from pcs_sindy.models import LearnedActuation
+
+    arcs = TRUNK_DISK_SPACING * np.arange(1, train_positions.shape[1] + 1)
+    train = PoseTrajectory.from_positions(train_positions, dt=dt, arc_lengths=arcs)
+    test = PoseTrajectory.from_positions(test_positions, dt=dt, arc_lengths=arcs)
+    fusion = KinematicFusion().fit(train)
+    (strains,), (st_test,) = fusion.transform(train), fusion.transform(test)
+    if details is not None:
+        lengths = np.round(1e3 * np.asarray(fusion.segment_lengths_)).astype(int).tolist()
+        details["fit"] = f"space {fusion.space_}, {fusion.n_segments_} segment(s) {lengths} mm"
+    model = EulerLagrangeRegressor(actuation=LearnedActuation(train_inputs.shape[1]), refine=refine)
+    model.fit([strains], [train_inputs])
+    if details is not None:
+        details["model"] = model
+        details["fit"] += f", strains {', '.join(model.kinematics_.strain_names(active_only=True))}"
+        q_bent = strains.q[np.argmax(np.abs(strains.q).sum(axis=1))]
+
+        def release(duration: float) -> np.ndarray:
+            t = np.arange(int(round(duration / dt)) + 1) * dt
+            sim = model.simulate(q_bent, np.zeros(q_bent.size), t, np.zeros((t.size, train_inputs.shape[1])))
+            return np.gradient(sim.q, t, axis=0) if sim.qd is None else sim.qd
+
+        details["release"] = release
+    sim = model.simulate(st_test.q[0], np.zeros(st_test.q.shape[1]), st_test.t, test_inputs)
+    sim.metadata.update({k: v for k, v in st_test.metadata.items() if k not in sim.metadata})
+    (pred,) = fusion.inverse_transform([sim])
+    return pred.positions[:, -1, :]
+
+
 def pcs_tentacle(train_holds: list[np.ndarray], train_loads: np.ndarray, test_load: np.ndarray) -> np.ndarray:
     """The documented static path (docs/mocap.md, "Static holds in 3-D"); the predicted markers (5, 3).
 
@@ -192,7 +246,15 @@ def baselines_trunk(u: np.ndarray, tip: np.ndarray, ok: np.ndarray, half: int, d
 
 
 # ================================================================================ Trunk
-def run_trunk_file(path: Path, n_rows: int | None, pcs: bool = True, commanded: Path | None = None) -> dict:
+def run_trunk_file(
+    path: Path,
+    n_rows: int | None,
+    pcs: bool = True,
+    commanded: Path | None = None,
+    pcs_fn: Callable[..., np.ndarray] | None = None,
+    pcs_label: str = "PCS, documented path at defaults",
+) -> dict:
+    pcs_fn = pcs_trunk if pcs_fn is None else pcs_fn
     rec = read_trunk(path, n_rows)
     P, u, dt = rec.positions, rec.inputs, rec.dt
     tip = P[:, -1]
@@ -229,10 +291,10 @@ def run_trunk_file(path: Path, n_rows: int | None, pcs: bool = True, commanded: 
             out["rows"].append((f"{name}, commanded angles", rmse_mm(pred, tip[n // 2 : n], ref_ok), ""))
     if pcs:
         details: dict = {}
-        pred, failure, secs = attempt(lambda: pcs_trunk(P[:half], u[:half], P[half:], u[half:], dt, details))
+        pred, failure, secs = attempt(lambda: pcs_fn(P[:half], u[:half], P[half:], u[half:], dt, details))
         out["pcs_seconds"] = secs
         out["pcs_fit"] = details.get("fit", "")
-        label = "PCS, documented path at defaults"
+        label = pcs_label
         if failure is not None:
             out["rows"].append((label, float("nan"), f"failed: {failure}"))
             out["pcs_bounded"], out["pcs_rest"] = "no prediction", "no model" if "release" not in details else ""
@@ -435,16 +497,24 @@ def table(trunk: list[dict], three_d: dict | None, rest: dict | None, tent: dict
         lines.append(f"\nRead with: {trunk[0]['reader']}.\n")
     if three_d is not None:
         r = three_d
+        pcs_run = any(name.startswith("PCS") for name, _, _ in r["rows"])
         lines += [
             f"`{r['name']}` (all six motors, the robot moves in 3-D: out-of-plane RMS {r['out_of_plane_mm']:.1f} mm): "
-            "the planar PCS model is out of scope here; same split and score.\n",
+            + (
+                "the spatial PCS path (issue 26) beside the black boxes; same split and score.\n"
+                if pcs_run
+                else "baselines only (`--pcs-3d` adds the spatial PCS path); same split and score.\n"
+            ),
             "| model | tip RMSE [mm] | note |",
             "|---|---|---|",
         ]
         for name, err, note in r["rows"]:
-            if name.startswith("PCS"):
-                note = ("out of scope (planar model); " + note).rstrip("; ")
             lines.append(f"| {name} | {'—' if not np.isfinite(err) else f'{err:.2f}'} | {note} |")
+        if pcs_run:
+            lines.append(
+                f"\nSpatial PCS: {r.get('pcs_fit', '')}; rollout bounded: {r.get('pcs_bounded', '—')}; released at 0 "
+                f"comes to rest: {r.get('pcs_rest', '—')}; time {r.get('pcs_seconds', float('nan')):.0f} s."
+            )
         lines.append("")
     if rest is not None:
         lines += [
@@ -487,8 +557,12 @@ def main(argv: list[str] | None = None) -> dict:
     ap.add_argument("--write", action="store_true", help='write the "Real robots" section of docs/results.md')
     ap.add_argument("--plots", type=Path, default=None, help="write PNG plots into this folder")
     ap.add_argument("--no-pcs", action="store_true", help="baselines only (fast)")
-    ap.add_argument("--only", choices=("trunk", "tentacle"), help="one robot only (no --write)")
-    ap.add_argument("--pcs-3d", action="store_true", help="also run the planar PCS path on the 3-D recording")
+    ap.add_argument(
+        "--only",
+        choices=("trunk", "tentacle", "trunk3d"),
+        help="one robot only (no --write); trunk3d: the 3-D Trunk file alone (--write: its own section)",
+    )
+    ap.add_argument("--pcs-3d", action="store_true", help="also run the spatial (3-D) PCS path on the 3-D recording")
     args = ap.parse_args(argv)
     root = real_data_dir()
     if root is None:
@@ -498,18 +572,25 @@ def main(argv: list[str] | None = None) -> dict:
     n_rows = 2000 if args.quick else None
     trunk, three_d, rest, tent = [], None, None, None
     tdir = root / "trunk"
-    for name in TRUNK_STEP_FILES if args.only != "tentacle" else ():
+    for name in TRUNK_STEP_FILES if args.only not in ("tentacle", "trunk3d") else ():
         if (tdir / name).is_file():
             trunk.append(run_trunk_file(tdir / name, n_rows, pcs=not args.no_pcs))
             print(f"{name}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in trunk[-1]["rows"]), flush=True)
     if (tdir / TRUNK_3D_FILE).is_file() and args.only != "tentacle":
         commanded = tdir / TRUNK_3D_INPUTS if (tdir / TRUNK_3D_INPUTS).is_file() else None
-        # the planar PCS path is not run on the 3-D recording (out of scope: issue 26); the baselines are
-        three_d = run_trunk_file(tdir / TRUNK_3D_FILE, n_rows, pcs=args.pcs_3d and not args.no_pcs, commanded=commanded)
+        # the planar PCS model is out of scope on the 3-D recording; --pcs-3d runs the spatial path (issue 26)
+        three_d = run_trunk_file(
+            tdir / TRUNK_3D_FILE,
+            n_rows,
+            pcs=args.pcs_3d and not args.no_pcs,
+            commanded=commanded,
+            pcs_fn=pcs_trunk_3d,
+            pcs_label="PCS 3-D, documented spatial path (equation error, refine='none')",
+        )
         print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d["rows"]), flush=True)
-    if (tdir / TRUNK_REST_FILE).is_file() and args.only != "tentacle":
+    if (tdir / TRUNK_REST_FILE).is_file() and args.only not in ("tentacle", "trunk3d"):
         rest = rest_file(tdir / TRUNK_REST_FILE)
-    if (root / "tentacle").is_dir() and args.only != "trunk":
+    if (root / "tentacle").is_dir() and args.only not in ("trunk", "trunk3d"):
         # static holds: the frames of a hold differ by noise only (< 0.4 mm), 30 of them say what all do
         tent = run_tentacle(root / "tentacle", 30, pcs=not args.no_pcs)
         if args.no_pcs:
@@ -524,6 +605,13 @@ def main(argv: list[str] | None = None) -> dict:
             plot_trunk(r, args.plots / f"real_trunk_{Path(r['name']).stem}.png")
         if tent is not None and tent["holds"]:
             plot_tentacle(tent, args.plots / "real_tentacle_holds.png")
+    if args.write and not args.quick and args.only == "trunk3d" and three_d is not None:
+        write_section(
+            "real_robots_3d",
+            "Real robots: the Trunk in 3-D (issue 26)",
+            body + f"\nWall time {seconds:.0f} s.\n",
+            "OMP_NUM_THREADS=1 .venv/bin/python benchmarks/real_robots.py --only trunk3d --pcs-3d --write",
+        )
     if args.write and not args.quick and args.only is None:
         write_section(
             "real_robots",

@@ -241,7 +241,7 @@ def refine_output_error(
     recordings : sequence of (t, q, qd0, u, valid)
         Per recording: times (T,), modelled strains (T, n), the initial rate (n,),
         inputs (T, p) and which samples to compare (T,) bool.
-    kinematics : PlanarPCS
+    kinematics : PlanarPCS or SpatialPCS
         The model's segmentation (marker positions of strains).
     arc_lengths : ndarray
         Arc lengths at which rolled-out and recorded shapes are compared (the markers').
@@ -266,7 +266,9 @@ def refine_output_error(
     def shapes(q: NDArray) -> NDArray:
         full = np.zeros((q.shape[0], kinematics.n_q))
         full[:, mask] = q
-        return kinematics.forward_kinematics(full, s)[:, :, :2]
+        poses = kinematics.forward_kinematics(full, s)
+        # planar: (T, K, 3) poses (x, y, theta), the positions compared; spatial: (positions, rotations)
+        return poses[0] if isinstance(poses, tuple) else poses[:, :, :2]
 
     targets = [shapes(q)[valid] for (_, q, _, _, valid) in recordings]
     n_res = sum(tg.size for tg in targets)
