@@ -1,20 +1,23 @@
 """What the planar and the spatial ground-truth robots share: argument checks and the terms built on ``_bias``.
 
 :class:`RobotBase` holds the methods of :class:`~pcs_sindy.simulation.PCSRobot` and
-:class:`~pcs_sindy.simulation.SpatialPCSRobot` whose code does not depend on the kinematics (the
-input checks, the elastic and damping forces, the energies built on ``mass_matrix`` and
-``gravitational_energy``, and the inverse and forward dynamics built on ``_bias``); the
-subclasses set ``n_q``, ``n_inputs``, ``stiffness`` and ``damping`` and supply ``mass_matrix``,
+:class:`~pcs_sindy.simulation.SpatialPCSRobot` whose code does not depend on the kinematics: the
+checks of the material, damping and gravity arguments, the input checks, the elastic and damping
+forces, the energies built on ``mass_matrix`` and ``gravitational_energy``, and the inverse and
+forward dynamics built on ``_bias``.  The subclasses set ``_gravity_shape``, ``n_segments``,
+``n_q``, ``segment_lengths``, ``n_inputs`` and ``stiffness``, and supply ``mass_matrix``,
 ``gravitational_energy`` and ``_bias``.  This module must not know either robot's geometry or
 kernels.
 """
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["RobotBase", "finite_array", "per_segment_values"]
+__all__ = ["RobotBase", "finite_array", "per_segment_values", "positive_int"]
 
 
 def per_segment_values(value: ArrayLike, m: int, name: str, *, positive: bool) -> NDArray[np.float64]:
@@ -41,13 +44,57 @@ def finite_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray
     return arr
 
 
+def positive_int(value: Any, name: str) -> int:
+    """``value`` as an int >= 1 (bools and non-integral numbers refused)."""
+    if isinstance(value, bool) or int(value) != value or value < 1:
+        raise ValueError(f"{name} must be a positive integer; got {value!r}")
+    return int(value)
+
+
 class RobotBase:
     """Methods shared by the planar and spatial robots (see the module docstring for the contract)."""
 
+    _gravity_shape: tuple[int, ...]  # (2,) in the plane, (3,) in space
+    n_segments: int
     n_q: int
     n_inputs: int
+    segment_lengths: NDArray[np.float64]
     stiffness: NDArray[np.float64]
     damping: NDArray[np.float64]
+
+    # -- construction -------------------------------------------------------------
+    def _set_material(
+        self,
+        density: float | ArrayLike,
+        youngs_modulus: float | ArrayLike,
+        shear_modulus: float | ArrayLike,
+        damping: ArrayLike,
+        radius: float | ArrayLike,
+        gravity: ArrayLike,
+        shear_factor: float,
+        stiffness_scaling: str,
+    ) -> NDArray[np.float64]:
+        """Check and store the material, damping and gravity arguments (``n_segments``, ``n_q`` and
+        ``segment_lengths`` already set); return the stiffness factors ``f_L`` (m,)."""
+        m = self.n_segments
+        self.density = per_segment_values(density, m, "density", positive=True)
+        self.youngs_modulus = per_segment_values(youngs_modulus, m, "youngs_modulus", positive=False)
+        self.shear_modulus = per_segment_values(shear_modulus, m, "shear_modulus", positive=False)
+        self.radius = per_segment_values(radius, m, "radius", positive=True)
+        damping_arr = finite_array(damping, (self.n_q,), "damping")
+        if np.any(damping_arr < 0):
+            raise ValueError(f"damping must be >= 0; got {damping_arr.tolist()}")
+        self.damping = damping_arr
+        self.gravity = finite_array(gravity, self._gravity_shape, "gravity")
+        if not (np.isfinite(shear_factor) and shear_factor > 0):
+            raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
+        self.shear_factor = float(shear_factor)
+        if stiffness_scaling not in ("seed", "length"):
+            raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
+        self.stiffness_scaling = stiffness_scaling
+        self.area = np.pi * self.radius**2
+        self.second_moment = np.pi * self.radius**4 / 4.0
+        return np.ones(m) if stiffness_scaling == "seed" else self.segment_lengths
 
     # -- input checks -----------------------------------------------------------
     def _check(

@@ -37,7 +37,7 @@ from ..core.simulate_contract import SimulationError
 from ..core.trajectory import StrainTrajectory
 from . import _kernels
 from ._backbone import backbone_moments, segment_terms
-from ._robot_base import RobotBase, finite_array, per_segment_values
+from ._robot_base import RobotBase, finite_array, positive_int
 from .actuation import PressureChambers, Tendons
 from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
@@ -97,6 +97,8 @@ class PCSRobot(RobotBase):
         Diagonal of ``D``.
     """
 
+    _gravity_shape = (2,)
+
     def __init__(
         self,
         segment_lengths: Sequence[float],
@@ -120,25 +122,11 @@ class PCSRobot(RobotBase):
         self.segment_lengths = np.asarray(self.kinematics.segment_lengths)
         self.n_segments = m
         self.n_q = 3 * m
-        self.density = per_segment_values(density, m, "density", positive=True)
-        self.youngs_modulus = per_segment_values(youngs_modulus, m, "youngs_modulus", positive=False)
-        self.shear_modulus = per_segment_values(shear_modulus, m, "shear_modulus", positive=False)
-        self.radius = per_segment_values(radius, m, "radius", positive=True)
-        damping_arr = finite_array(damping, (self.n_q,), "damping")
-        if np.any(damping_arr < 0):
-            raise ValueError(f"damping must be >= 0; got {damping_arr.tolist()}")
-        self.damping = damping_arr
-        self.gravity = finite_array(gravity, (2,), "gravity")
-        if not (np.isfinite(shear_factor) and shear_factor > 0):
-            raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
-        self.shear_factor = float(shear_factor)
-        if stiffness_scaling not in ("seed", "length"):
-            raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
-        self.stiffness_scaling = stiffness_scaling
         self.base_pose = np.asarray(self.kinematics.base_pose)
-        if isinstance(n_quadrature, bool) or int(n_quadrature) != n_quadrature or n_quadrature < 1:
-            raise ValueError(f"n_quadrature must be a positive integer; got {n_quadrature!r}")
-        self.n_quadrature = int(n_quadrature)
+        f_len = self._set_material(
+            density, youngs_modulus, shear_modulus, damping, radius, gravity, shear_factor, stiffness_scaling
+        )
+        self.n_quadrature = positive_int(n_quadrature, "n_quadrature")
         self.actuation = actuation
         if actuation is None:
             self._act = (_kernels.ACT_IDENTITY, np.zeros(0), np.zeros((0, m)), np.zeros((self.n_q, 0)))
@@ -149,9 +137,6 @@ class PCSRobot(RobotBase):
         else:
             raise ValueError(f"actuation must be None, a Tendons or a PressureChambers; got {actuation!r}")
 
-        self.area = np.pi * self.radius**2
-        self.second_moment = np.pi * self.radius**4 / 4.0
-        f_len = np.ones(m) if stiffness_scaling == "seed" else self.segment_lengths
         self.stiffness = (
             f_len[:, None]
             * np.stack(

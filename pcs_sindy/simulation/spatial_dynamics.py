@@ -38,7 +38,7 @@ from ..core.simulate_contract import SimulationError
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
 from . import _spatial_kernels
 from ._kernels import ACT_IDENTITY, ACT_TENDON
-from ._robot_base import RobotBase, finite_array, per_segment_values
+from ._robot_base import RobotBase, finite_array, positive_int
 from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
 __all__ = ["SpatialPCSRobot", "SpatialTendons", "SimulationError"]
@@ -178,6 +178,8 @@ class SpatialPCSRobot(RobotBase):
         Diagonal of ``D``.
     """
 
+    _gravity_shape = (3,)
+
     def __init__(
         self,
         segment_lengths: Sequence[float],
@@ -203,25 +205,11 @@ class SpatialPCSRobot(RobotBase):
         self.segment_lengths = np.asarray(self.kinematics.segment_lengths)
         self.n_segments = m
         self.n_q = 6 * m
-        self.density = per_segment_values(density, m, "density", positive=True)
-        self.youngs_modulus = per_segment_values(youngs_modulus, m, "youngs_modulus", positive=False)
-        self.shear_modulus = per_segment_values(shear_modulus, m, "shear_modulus", positive=False)
-        self.radius = per_segment_values(radius, m, "radius", positive=True)
-        damping_arr = finite_array(damping, (self.n_q,), "damping")
-        if np.any(damping_arr < 0):
-            raise ValueError(f"damping must be >= 0; got {damping_arr.tolist()}")
-        self.damping = damping_arr
-        self.gravity = finite_array(gravity, (3,), "gravity")
-        if not (np.isfinite(shear_factor) and shear_factor > 0):
-            raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
-        self.shear_factor = float(shear_factor)
-        if stiffness_scaling not in ("seed", "length"):
-            raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
-        self.stiffness_scaling = stiffness_scaling
         self.base_position, self.base_rotation = self.kinematics.base_pose
-        if isinstance(n_quadrature, bool) or int(n_quadrature) != n_quadrature or n_quadrature < 1:
-            raise ValueError(f"n_quadrature must be a positive integer; got {n_quadrature!r}")
-        self.n_quadrature = int(n_quadrature)
+        f_len = self._set_material(
+            density, youngs_modulus, shear_modulus, damping, radius, gravity, shear_factor, stiffness_scaling
+        )
+        self.n_quadrature = positive_int(n_quadrature, "n_quadrature")
         self.actuation = actuation
         if actuation is None:
             self._act = (ACT_IDENTITY, np.zeros((0, 2)), np.zeros((0, m)), np.zeros((self.n_q, 0)))
@@ -232,9 +220,6 @@ class SpatialPCSRobot(RobotBase):
         else:
             raise ValueError(f"actuation must be None or a SpatialTendons; got {actuation!r}")
 
-        self.area = np.pi * self.radius**2
-        self.second_moment = np.pi * self.radius**4 / 4.0
-        f_len = np.ones(m) if stiffness_scaling == "seed" else self.segment_lengths
         E, G, A, second = self.youngs_modulus, self.shear_modulus, self.area, self.second_moment
         c_sh = self.shear_factor
         per_segment = np.stack([E * second, E * second, 2.0 * G * second, c_sh * G * A, c_sh * G * A, E * A], axis=1)
