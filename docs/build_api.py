@@ -78,8 +78,17 @@ def _doc(obj: object) -> str:
 
 
 def _public_methods(cls: type) -> list[tuple[str, object]]:
+    """The class's own documented methods, then those it inherits from the package's private modules."""
     out = []
-    for name, member in vars(cls).items():
+    # A base class in a private module (e.g. simulation/_robot_base.py) is no page of its own: its
+    # methods are documented on the public classes that inherit them.
+    hidden = [base for base in cls.__mro__[1:] if base.__module__.startswith("pcs_sindy.") and "._" in base.__module__]
+    seen = set(vars(cls))
+    members = list(vars(cls).items())
+    for base in hidden:
+        members += [(name, member) for name, member in vars(base).items() if name not in seen]
+        seen.update(vars(base))
+    for name, member in members:
         if name.startswith("_") or not (inspect.isfunction(member) or isinstance(member, (classmethod, staticmethod))):
             continue
         func = member.__func__ if isinstance(member, (classmethod, staticmethod)) else member

@@ -15,7 +15,7 @@ from scipy.integrate import quad
 from scipy.optimize import fsolve
 
 from pcs_sindy.core import SimulationError, forward_kinematics_jacobian
-from pcs_sindy.simulation import _kernels
+from pcs_sindy.simulation import _dispatch, _kernels
 from pcs_sindy.simulation._backbone import backbone_moments
 from pcs_sindy.simulation.dynamics import PCSRobot
 
@@ -397,7 +397,7 @@ def test_compiled_terms_equal_numpy_terms(make):
     np.testing.assert_allclose(M, M_ref, rtol=0, atol=1e-12 * np.abs(M_ref).max())
     np.testing.assert_allclose(bias, bias_ref, rtol=0, atol=1e-12 * np.abs(bias_ref).max())
     y = np.concatenate([q, qd], axis=1)
-    f = _kernels.rhs_batch(y, tau, robot._jit_geometry())
+    f = _dispatch.rhs_batch(y, tau, robot._jit_geometry())
     f_ref = numpy_rhs(robot, y, tau)
     # accelerations go through two different solvers of M x = b: compare relative to their size per state
     np.testing.assert_allclose(f, f_ref, rtol=0, atol=1e-10 * np.abs(f_ref).max())
@@ -429,7 +429,7 @@ def test_compiled_acceleration_jacobian_matches_central_differences():
     tol = 5e-5 * np.abs(ref).max()
     np.testing.assert_allclose(jac, ref, rtol=0, atol=tol)
     # the full state Jacobian handed to scipy's implicit methods
-    full = _kernels.state_jacobian_batch(y[None], tau[None], geo)[0]
+    full = _dispatch.state_jacobian_batch(y[None], tau[None], geo)[0]
     np.testing.assert_array_equal(full[:n], np.hstack([np.zeros((n, n)), np.eye(n)]))
     np.testing.assert_allclose(full[n:], ref, rtol=0, atol=tol)
 

@@ -12,7 +12,8 @@ Everything is exact at zero curvature: the closed forms are written with
 identities that have no cancellation, and their derivatives through series
 near ``u = 0``.  No epsilon is ever added to the bending strain.
 
-This module is the ground floor of the package and imports nothing else of it.
+This module is the ground floor of the package: of it, it imports only the sizes, masks and checks it
+shares with the spatial description (``core/_segmented.py``).
 """
 
 from __future__ import annotations
@@ -21,6 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
+
+from ._segmented import SegmentedStrains, check_lengths
 
 __all__ = [
     "STRAIN_NAMES",
@@ -233,15 +236,6 @@ def segment_inverse_kinematics(pose: ArrayLike, s: ArrayLike) -> NDArray[np.floa
 # --------------------------------------------------------------------------
 # m segments
 # --------------------------------------------------------------------------
-def _check_lengths(segment_lengths: ArrayLike) -> NDArray[np.float64]:
-    lengths = np.atleast_1d(np.asarray(segment_lengths, dtype=float))
-    if lengths.ndim != 1 or lengths.size == 0:
-        raise ValueError(f"segment_lengths must be a non-empty 1-D sequence; got shape {lengths.shape}")
-    if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
-        raise ValueError(f"segment_lengths must be finite and > 0; got {lengths.tolist()}")
-    return lengths
-
-
 def _check_q(q: ArrayLike, n_segments: int) -> NDArray[np.float64]:
     q = np.asarray(q, dtype=float)
     if q.ndim == 0 or q.shape[-1] != 3 * n_segments:
@@ -298,7 +292,7 @@ def forward_kinematics(
     ndarray, shape (P, 3) or (T, P, 3)
         ``[x, y, theta]`` in the base frame; θ is continuous (not wrapped).
     """
-    lengths = _check_lengths(segment_lengths)
+    lengths = check_lengths(segment_lengths)
     q = _check_q(q, lengths.size)
     s = np.atleast_1d(np.asarray(s, dtype=float))
     if s.ndim != 1:
@@ -325,7 +319,7 @@ def forward_kinematics_jacobian(
         ``d[x, y, theta] / dq``.  Rows 0–1 are the positional Jacobian J_p,
         row 2 the orientation Jacobian J_o.
     """
-    lengths = _check_lengths(segment_lengths)
+    lengths = check_lengths(segment_lengths)
     q = _check_q(q, lengths.size)
     m = lengths.size
     s = np.atleast_1d(np.asarray(s, dtype=float))
@@ -378,7 +372,7 @@ def forward_kinematics_jacobian(
 # Kinematic model object
 # --------------------------------------------------------------------------
 @dataclass(frozen=True)
-class PlanarPCS:
+class PlanarPCS(SegmentedStrains):
     """Kinematic description of a planar PCS robot.
 
     Parameters
@@ -396,66 +390,27 @@ class PlanarPCS:
     active_strains: NDArray[np.bool_] | None = None
     base_pose: tuple[float, float, float] = (0.0, 0.0, 0.0)
     _mask: NDArray[np.bool_] = field(init=False, repr=False, compare=False)
+    _n_strains = 3
 
     def __post_init__(self) -> None:
-        lengths = _check_lengths(self.segment_lengths)
-        object.__setattr__(self, "segment_lengths", tuple(float(v) for v in lengths))
-        m = lengths.size
-        if self.active_strains is None:
-            mask = np.ones((m, 3), dtype=bool)
-        else:
-            raw = np.asarray(self.active_strains)
-            if raw.shape not in ((m, 3), (3 * m,)):
-                raise ValueError(
-                    f"active_strains must have shape ({m}, 3) or ({3 * m},) for {m} segment(s); got {raw.shape}"
-                )
-            if raw.dtype != bool and not np.all(np.isin(raw, (0, 1))):
-                raise ValueError(f"active_strains must be boolean; got {raw.tolist()}")
-            mask = raw.astype(bool).reshape(m, 3)
-        mask = mask.copy()
-        mask.setflags(write=False)
-        object.__setattr__(self, "active_strains", mask)
-        object.__setattr__(self, "_mask", mask.reshape(-1))
+        self._init_strains()
         base = _as_pose(self.base_pose, "base_pose").reshape(3)
         object.__setattr__(self, "base_pose", tuple(float(v) for v in base))
 
     # -- sizes -----------------------------------------------------------
-    @property
-    def n_segments(self) -> int:
-        """Number of segments ``m``."""
-        return len(self.segment_lengths)
-
     @property
     def n_q(self) -> int:
         """Size of the full configuration, ``3m``."""
         return 3 * self.n_segments
 
     @property
-    def n_active(self) -> int:
-        """Number of modelled strains."""
-        return int(self._mask.sum())
-
-    @property
     def active_mask(self) -> NDArray[np.bool_]:
         """Flat boolean mask of shape (3m,) of the modelled strains."""
         return self._mask
 
-    @property
-    def total_length(self) -> float:
-        """Rest length of the robot."""
-        return float(sum(self.segment_lengths))
-
-    @property
-    def boundaries(self) -> NDArray[np.float64]:
-        """Arc lengths of the segment ends, shape (m,)."""
-        return np.cumsum(self.segment_lengths)
-
     def strain_names(self, active_only: bool = False) -> list[str]:
         """Names such as ``"be_1"``, ``"sh_1"``, ``"ax_1"``, ``"be_2"``, ..."""
-        names = [f"{n}_{i + 1}" for i in range(self.n_segments) for n in STRAIN_NAMES]
-        if active_only:
-            names = [n for n, a in zip(names, self._mask) if a]
-        return names
+        return self._strain_names(STRAIN_NAMES, active_only)
 
     # -- configuration maps ----------------------------------------------
     def to_active(self, q_full: ArrayLike) -> NDArray[np.float64]:

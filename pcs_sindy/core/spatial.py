@@ -33,7 +33,9 @@ products need ``b1 = b'/u``, ``c1 = c'/u`` (closed forms with 1/u⁴ and 1/u⁵ 
 switch point and by its closed form above it, the switch chosen where both are accurate to round-off
 (:func:`tangent_coefficients`); nothing adds an epsilon to a strain, so zero strain is exact.
 
-This module is part of the ground floor and imports nothing else of the package.
+This module is part of the ground floor: of the package it imports only the sizes, masks and checks it
+shares with the planar containers (``core/_segmented.py``), and :mod:`pcs_sindy.core.kinematics` inside
+:meth:`SpatialPCS.to_planar`.
 """
 
 from __future__ import annotations
@@ -48,7 +50,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.spatial.transform import Rotation
 from scipy.special import bernoulli
 
-from .trajectory import check_time
+from ._segmented import SegmentedStrains, StrainSeries
 
 __all__ = [
     "SPATIAL_STRAIN_NAMES",
@@ -304,15 +306,6 @@ def _as_rotations(x: ArrayLike, name: str) -> NDArray[np.float64]:
     return _finite(arr, name)
 
 
-def _check_lengths(segment_lengths: ArrayLike) -> NDArray[np.float64]:
-    lengths = np.atleast_1d(np.asarray(segment_lengths, dtype=float))
-    if lengths.ndim != 1 or lengths.size == 0:
-        raise ValueError(f"segment_lengths must be a non-empty 1-D sequence; got shape {lengths.shape}")
-    if not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
-        raise ValueError(f"segment_lengths must be finite and > 0; got {lengths.tolist()}")
-    return lengths
-
-
 def _check_arc(s: ArrayLike, name: str = "s") -> NDArray[np.float64]:
     arr = np.asarray(s, dtype=float)
     if not np.all(np.isfinite(arr)) or np.any(arr <= 0):
@@ -526,7 +519,7 @@ def planar_to_spatial_pose(pose: ArrayLike) -> tuple[NDArray[np.float64], NDArra
 # the robot's kinematics
 # --------------------------------------------------------------------------
 @dataclass(frozen=True, eq=False)
-class SpatialPCS:
+class SpatialPCS(SegmentedStrains):
     """Kinematic description of a spatial PCS robot (six strains per segment).
 
     Parameters
@@ -554,26 +547,10 @@ class SpatialPCS:
     base_position: tuple[float, float, float] = (0.0, 0.0, 0.0)
     base_rotation: NDArray[np.float64] | None = None
     _mask: NDArray[np.bool_] = field(init=False, repr=False, compare=False)
+    _n_strains = 6
 
     def __post_init__(self) -> None:
-        lengths = _check_lengths(self.segment_lengths)
-        object.__setattr__(self, "segment_lengths", tuple(float(v) for v in lengths))
-        m = lengths.size
-        if self.active_strains is None:
-            mask = np.ones((m, 6), dtype=bool)
-        else:
-            raw = np.asarray(self.active_strains)
-            if raw.shape not in ((m, 6), (6 * m,)):
-                raise ValueError(
-                    f"active_strains must have shape ({m}, 6) or ({6 * m},) for {m} segment(s); got {raw.shape}"
-                )
-            if raw.dtype != bool and not np.all(np.isin(raw, (0, 1))):
-                raise ValueError(f"active_strains must be boolean; got {raw.tolist()}")
-            mask = raw.astype(bool).reshape(m, 6)
-        mask = mask.copy()
-        mask.setflags(write=False)
-        object.__setattr__(self, "active_strains", mask)
-        object.__setattr__(self, "_mask", mask.reshape(-1))
+        self._init_strains()
         base_p = np.asarray(self.base_position, dtype=float)
         if base_p.shape != (3,) or not np.all(np.isfinite(base_p)):
             raise ValueError(f"base_position must be 3 finite numbers; got {self.base_position!r}")
@@ -608,34 +585,14 @@ class SpatialPCS:
 
     # -- sizes -----------------------------------------------------------
     @property
-    def n_segments(self) -> int:
-        """Number of segments ``m``."""
-        return len(self.segment_lengths)
-
-    @property
     def n_q(self) -> int:
         """Size of the full configuration, ``6m``."""
         return 6 * self.n_segments
 
     @property
-    def n_active(self) -> int:
-        """Number of modelled strains."""
-        return int(self._mask.sum())
-
-    @property
     def active_mask(self) -> NDArray[np.bool_]:
         """Flat boolean mask of shape (6m,) of the modelled strains."""
         return self._mask
-
-    @property
-    def total_length(self) -> float:
-        """Rest length of the robot."""
-        return float(sum(self.segment_lengths))
-
-    @property
-    def boundaries(self) -> NDArray[np.float64]:
-        """Arc lengths of the segment ends, shape (m,)."""
-        return np.cumsum(self.segment_lengths)
 
     @property
     def base_pose(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -644,10 +601,7 @@ class SpatialPCS:
 
     def strain_names(self, active_only: bool = False) -> list[str]:
         """Names such as ``"bend_z_1"``, ..., ``"axial_1"``, ``"bend_z_2"``, ..."""
-        names = [f"{n}_{i + 1}" for i in range(self.n_segments) for n in SPATIAL_STRAIN_NAMES]
-        if active_only:
-            names = [n for n, a in zip(names, self._mask) if a]
-        return names
+        return self._strain_names(SPATIAL_STRAIN_NAMES, active_only)
 
     def marker_arc_lengths(self, n_markers: int) -> NDArray[np.float64]:
         """Arc lengths of the base and ``n_markers`` equally spaced cross-sections (the last at the tip)."""
@@ -945,7 +899,7 @@ def _advance_points(advance, start_pt, R0_pt, W, V, r, co, Wd, Vd):
     return [np.moveaxis(x.reshape((B, K, C, 3)), 2, 1) for x in res]
 
 
-class SpatialStrainTrajectory:
+class SpatialStrainTrajectory(StrainSeries):
     """Strains of a spatial PCS segmentation over time, carrying the segmentation.
 
     The spatial counterpart of :class:`~pcs_sindy.core.StrainTrajectory` (what
@@ -985,36 +939,7 @@ class SpatialStrainTrajectory:
         self.kinematics = SpatialPCS(
             tuple(np.atleast_1d(segment_lengths)), active_strains, tuple(base_position), base_rotation
         )
-        n = self.kinematics.n_q
-        q = np.asarray(q, dtype=float)
-        if q.ndim != 2 or q.shape[1] != n:
-            raise ValueError(f"q must have shape (T, {n}) for {self.kinematics.n_segments} segment(s); got {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise ValueError(f"q contains NaN or inf (first at frame {np.argwhere(~np.isfinite(q))[0][0]})")
-        self.q = q
-        self.t = check_time(t, q.shape[0], dt=dt)
-        if qd is not None:
-            qd = np.asarray(qd, dtype=float)
-            if qd.shape != q.shape:
-                raise ValueError(f"qd must have the shape of q {q.shape}; got {qd.shape}")
-            _finite(qd, "qd")
-        self.qd = qd
-        self.metadata = dict(metadata or {})
-
-    @property
-    def segment_lengths(self) -> tuple[float, ...]:
-        return self.kinematics.segment_lengths
-
-    @property
-    def active_strains(self) -> NDArray[np.bool_]:
-        return self.kinematics.active_strains
-
-    @property
-    def n_frames(self) -> int:
-        return self.q.shape[0]
-
-    def __len__(self) -> int:
-        return self.n_frames
+        self._init_series(q, t, qd, dt, metadata)
 
     def poses(self, s: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Positions (T, K, 3) and rotations (T, K, 3, 3) at global arc lengths ``s``."""

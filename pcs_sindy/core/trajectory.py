@@ -4,7 +4,8 @@ A recording is one trajectory.  Estimators take lists of them (one entry per
 recording), so cross-validation splits by recording.  Containers validate on
 construction and are otherwise plain holders of numpy arrays.
 
-Ground floor: imports only :mod:`pcs_sindy.core.kinematics`.
+Ground floor: imports only :mod:`pcs_sindy.core.kinematics`, :mod:`pcs_sindy.core.metrics` and the
+shared strain-container checks of ``core/_segmented.py``.
 """
 
 from __future__ import annotations
@@ -16,6 +17,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ._segmented import StrainSeries, check_time
 from .kinematics import PlanarPCS
 from .metrics import noise_level
 
@@ -34,41 +36,6 @@ __all__ = [
 MIN_JUMP = 1e-3
 # out-of-plane RMS above this fraction of the in-plane motion RMS warns in PoseTrajectory.from_positions
 WOBBLE_WARNING = 0.2
-
-
-def check_time(t: ArrayLike | None, n_samples: int, *, dt: float | None = None, name: str = "t") -> NDArray[np.float64]:
-    """Validate (or build) time stamps of length ``n_samples``.
-
-    Parameters
-    ----------
-    t : array_like or None
-        Strictly increasing, finite time stamps.  When ``None`` they are built
-        from ``dt``.
-    n_samples : int
-    dt : float, optional
-        Sample period used when ``t`` is None.
-    name : str
-        Argument name used in error messages.
-    """
-    if t is None:
-        if dt is None:
-            raise ValueError(f"either {name} (time stamps) or dt must be given")
-        if not np.isfinite(dt) or dt <= 0:
-            raise ValueError(f"dt must be finite and > 0; got {dt!r}")
-        return np.arange(n_samples) * float(dt)
-    t = np.asarray(t, dtype=float)
-    if t.ndim != 1 or t.shape[0] != n_samples:
-        raise ValueError(f"{name} must have shape ({n_samples},); got {t.shape}")
-    if not np.all(np.isfinite(t)):
-        k = int(np.argmax(~np.isfinite(t)))
-        raise ValueError(f"{name} contains NaN or inf ({name}[{k}] = {float(t[k])!r}); time stamps must be finite")
-    if n_samples > 1 and np.any(np.diff(t) <= 0):
-        k = int(np.argmax(np.diff(t) <= 0))
-        raise ValueError(
-            f"{name} must be strictly increasing; {name}[{k + 1}] = {float(t[k + 1])!r} <= "
-            f"{name}[{k}] = {float(t[k])!r}"
-        )
-    return t
 
 
 class MarkerPlane:
@@ -495,7 +462,7 @@ class PoseTrajectory:
         return f"PoseTrajectory(n_frames={self.n_frames}, n_markers={self.n_markers})"
 
 
-class StrainTrajectory:
+class StrainTrajectory(StrainSeries):
     """Strains of a PCS segmentation over time, carrying the segmentation.
 
     Parameters
@@ -536,37 +503,7 @@ class StrainTrajectory:
         metadata: Mapping[str, Any] | None = None,
     ) -> None:
         self.kinematics = PlanarPCS(tuple(np.atleast_1d(segment_lengths)), active_strains, tuple(base_pose))
-        n = self.kinematics.n_q
-        q = np.asarray(q, dtype=float)
-        if q.ndim != 2 or q.shape[1] != n:
-            raise ValueError(f"q must have shape (T, {n}) for {self.kinematics.n_segments} segment(s); got {q.shape}")
-        if not np.all(np.isfinite(q)):
-            raise ValueError(f"q contains NaN or inf (first at frame {np.argwhere(~np.isfinite(q))[0][0]})")
-        self.q = q
-        self.t = check_time(t, q.shape[0], dt=dt)
-        if qd is not None:
-            qd = np.asarray(qd, dtype=float)
-            if qd.shape != q.shape:
-                raise ValueError(f"qd must have the shape of q {q.shape}; got {qd.shape}")
-            if not np.all(np.isfinite(qd)):
-                raise ValueError("qd contains NaN or inf")
-        self.qd = qd
-        self.metadata = dict(metadata or {})
-
-    @property
-    def segment_lengths(self) -> tuple[float, ...]:
-        return self.kinematics.segment_lengths
-
-    @property
-    def active_strains(self) -> NDArray[np.bool_]:
-        return self.kinematics.active_strains
-
-    @property
-    def n_frames(self) -> int:
-        return self.q.shape[0]
-
-    def __len__(self) -> int:
-        return self.n_frames
+        self._init_series(q, t, qd, dt, metadata)
 
     def poses(self, s: ArrayLike) -> NDArray[np.float64]:
         """Poses (T, P, 3) at global arc lengths ``s``."""

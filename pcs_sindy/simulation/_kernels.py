@@ -422,16 +422,6 @@ def rhs(y, u, geo, out):
 
 
 @njit(cache=True)
-def rhs_batch(Y, U, geo):
-    """:func:`rhs` for states (B, 2n) and inputs (B, p)."""
-    out = np.empty_like(Y)
-    ws = workspace(geo)
-    for b in range(Y.shape[0]):
-        rhs_ws(Y[b], U[b], geo, ws, out[b])
-    return out
-
-
-@njit(cache=True)
 def mass_and_bias_batch(Q, QD, geo):
     """:func:`mass_and_bias` for batches (B, n); returns M (B, n, n) and bias (B, n)."""
     B, n = Q.shape
@@ -473,22 +463,3 @@ def accel_jacobian(y, f0, u, geo, ws, jac):
         qdp[c] = y[n + c]
         for r in range(n):
             jac[r, n + c] = (qdd[r] - f0[n + r]) / delta
-
-
-@njit(cache=True)
-def state_jacobian_batch(Y, U, geo):
-    """Jacobians (B, 2n, 2n) ``[[0, I], [∂q̈/∂q, ∂q̈/∂q̇]]`` of the state derivative (for scipy's implicit methods)."""
-    B, N = Y.shape
-    n = N // 2
-    out = np.zeros((B, N, N))
-    ws = workspace(geo)
-    f0 = np.empty(N)
-    jac = np.empty((n, N))
-    for b in range(B):
-        rhs_ws(Y[b], U[b], geo, ws, f0)
-        accel_jacobian(Y[b], f0, U[b], geo, ws, jac)
-        for r in range(n):
-            out[b, r, n + r] = 1.0
-            for c in range(N):
-                out[b, n + r, c] = jac[r, c]
-    return out

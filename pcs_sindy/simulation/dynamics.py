@@ -37,6 +37,7 @@ from ..core.simulate_contract import SimulationError
 from ..core.trajectory import StrainTrajectory
 from . import _kernels
 from ._backbone import backbone_moments, segment_terms
+from ._robot_base import RobotBase, finite_array, positive_int
 from .actuation import PressureChambers, Tendons
 from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
@@ -45,32 +46,10 @@ __all__ = ["PCSRobot", "SimulationError", "backbone_moments"]
 Inputs = ArrayLike | Callable[[float], ArrayLike]
 
 
-def _per_segment(value: ArrayLike, m: int, name: str, *, positive: bool) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(m, float(arr))
-    if arr.shape != (m,):
-        raise ValueError(f"{name} must be a scalar or have shape ({m},) (one per segment); got shape {arr.shape}")
-    bad = ~np.isfinite(arr) | ((arr <= 0) if positive else (arr < 0))
-    if np.any(bad):
-        cond = "> 0" if positive else ">= 0"
-        raise ValueError(f"{name} must be finite and {cond}; got {arr.tolist()}")
-    return arr
-
-
-def _finite_vector(value: ArrayLike, size: int, name: str) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != (size,):
-        raise ValueError(f"{name} must have shape ({size},); got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite; got {arr.tolist()}")
-    return arr
-
-
 # --------------------------------------------------------------------------
 # Robot
 # --------------------------------------------------------------------------
-class PCSRobot:
+class PCSRobot(RobotBase):
     """Planar PCS soft robot: mass, Coriolis, gravity, elastic, damping and actuation terms, and simulation.
 
     Parameters
@@ -118,6 +97,8 @@ class PCSRobot:
         Diagonal of ``D``.
     """
 
+    _gravity_shape = (2,)
+
     def __init__(
         self,
         segment_lengths: Sequence[float],
@@ -135,31 +116,17 @@ class PCSRobot:
     ) -> None:
         self.kinematics = PlanarPCS(
             tuple(np.atleast_1d(np.asarray(segment_lengths, dtype=float))),
-            base_pose=tuple(_finite_vector(base_pose, 3, "base_pose")),
+            base_pose=tuple(finite_array(base_pose, (3,), "base_pose")),
         )
         m = self.kinematics.n_segments
         self.segment_lengths = np.asarray(self.kinematics.segment_lengths)
         self.n_segments = m
         self.n_q = 3 * m
-        self.density = _per_segment(density, m, "density", positive=True)
-        self.youngs_modulus = _per_segment(youngs_modulus, m, "youngs_modulus", positive=False)
-        self.shear_modulus = _per_segment(shear_modulus, m, "shear_modulus", positive=False)
-        self.radius = _per_segment(radius, m, "radius", positive=True)
-        damping_arr = _finite_vector(damping, self.n_q, "damping")
-        if np.any(damping_arr < 0):
-            raise ValueError(f"damping must be >= 0; got {damping_arr.tolist()}")
-        self.damping = damping_arr
-        self.gravity = _finite_vector(gravity, 2, "gravity")
-        if not (np.isfinite(shear_factor) and shear_factor > 0):
-            raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
-        self.shear_factor = float(shear_factor)
-        if stiffness_scaling not in ("seed", "length"):
-            raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
-        self.stiffness_scaling = stiffness_scaling
         self.base_pose = np.asarray(self.kinematics.base_pose)
-        if isinstance(n_quadrature, bool) or int(n_quadrature) != n_quadrature or n_quadrature < 1:
-            raise ValueError(f"n_quadrature must be a positive integer; got {n_quadrature!r}")
-        self.n_quadrature = int(n_quadrature)
+        f_len = self._set_material(
+            density, youngs_modulus, shear_modulus, damping, radius, gravity, shear_factor, stiffness_scaling
+        )
+        self.n_quadrature = positive_int(n_quadrature, "n_quadrature")
         self.actuation = actuation
         if actuation is None:
             self._act = (_kernels.ACT_IDENTITY, np.zeros(0), np.zeros((0, m)), np.zeros((self.n_q, 0)))
@@ -170,9 +137,6 @@ class PCSRobot:
         else:
             raise ValueError(f"actuation must be None, a Tendons or a PressureChambers; got {actuation!r}")
 
-        self.area = np.pi * self.radius**2
-        self.second_moment = np.pi * self.radius**4 / 4.0
-        f_len = np.ones(m) if stiffness_scaling == "seed" else self.segment_lengths
         self.stiffness = (
             f_len[:, None]
             * np.stack(
@@ -237,25 +201,6 @@ class PCSRobot:
             np.ascontiguousarray(matrix, dtype=float),
         )
 
-    # -- input checks -----------------------------------------------------------
-    def _check(
-        self, name: str, value: ArrayLike, like: NDArray | None = None, size: int | None = None
-    ) -> NDArray[np.float64]:
-        size = self.n_q if size is None else size
-        arr = np.asarray(value, dtype=float)
-        if arr.ndim == 0 or arr.shape[-1] != size:
-            what = "n_q" if size == self.n_q and name != "u" else "p (the number of inputs)"
-            raise ValueError(f"{name} must have a last axis of length {what} = {size}; got shape {arr.shape}")
-        if like is not None and arr.shape[:-1] != like.shape[:-1]:
-            raise ValueError(f"{name} must have the leading shape of q, {like.shape[:-1]}; got shape {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} contains NaN or inf")
-        return arr
-
-    def _flatten(self, *arrays: NDArray) -> tuple[tuple[int, ...], list[NDArray]]:
-        lead = arrays[0].shape[:-1]
-        return lead, [np.ascontiguousarray(a.reshape((-1, a.shape[-1]))) for a in arrays]
-
     # -- dynamics terms -----------------------------------------------------------
     def _mass(self, J: NDArray) -> NDArray[np.float64]:
         wj = J * self._w_lin[None, :, None]
@@ -298,14 +243,6 @@ class PCSRobot:
         lead, (qf,) = self._flatten(q)
         return self._gravity(segment_terms(self, qf, None, "jac")["J"]).reshape(lead + (self.n_q,))
 
-    def elastic_forces(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Elastic forces ``K q``, shape (..., n)."""
-        return self._check("q", q) * self.stiffness
-
-    def damping_forces(self, qd: ArrayLike) -> NDArray[np.float64]:
-        """Damping forces ``D q̇``, shape (..., n)."""
-        return self._check("qd", qd) * self.damping
-
     def gravitational_energy(self, q: ArrayLike) -> NDArray[np.float64]:
         """``U_g = −Σ ∫ ρ A gᵀ p ds``, shape (...)."""
         q = self._check("q", q)
@@ -313,46 +250,12 @@ class PCSRobot:
         z = segment_terms(self, qf, None, "pos")["z"].reshape(qf.shape[0], -1)
         return -(self._g_conj * z * self._w_lin).sum(axis=1).real.reshape(lead)
 
-    def potential_energy(self, q: ArrayLike) -> NDArray[np.float64]:
-        """``U_g + ½ qᵀ K q``, shape (...)."""
-        q = self._check("q", q)
-        return self.gravitational_energy(q) + 0.5 * np.sum(self.stiffness * q * q, axis=-1)
-
-    def kinetic_energy(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
-        """``½ q̇ᵀ M(q) q̇``, shape (...)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        M = self.mass_matrix(q)
-        return 0.5 * np.einsum("...a,...ab,...b->...", qd, M, qd)
-
-    def total_energy(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
-        """Kinetic plus potential energy, shape (...)."""
-        return self.kinetic_energy(q, qd) + self.potential_energy(q)
-
     def _bias(self, qf: NDArray, qdf: NDArray) -> tuple[NDArray, NDArray]:
         """Mass matrix and ``C q̇ + G + K q + D q̇`` for flattened batches."""
         t = segment_terms(self, qf, qdf, "acc")
         M = self._mass(t["J"])
         bias = self._coriolis_vector(t) + self._gravity(t["J"]) + self.stiffness * qf + self.damping * qdf
         return M, bias
-
-    def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
-        """Generalised forces ``τ = M q̈ + C q̇ + G + K q + D q̇``, shape (..., n)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        qdd = self._check("qdd", qdd, q)
-        lead, (qf, qdf, qddf) = self._flatten(q, qd, qdd)
-        M, bias = self._bias(qf, qdf)
-        return (np.einsum("bij,bj->bi", M, qddf) + bias).reshape(lead + (self.n_q,))
-
-    def forward_dynamics(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
-        """Accelerations ``q̈ = M⁻¹ (τ − C q̇ − G − K q − D q̇)`` under generalised forces τ, shape (..., n)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        tau = self._check("tau", tau, q)
-        lead, (qf, qdf, tauf) = self._flatten(q, qd, tau)
-        M, bias = self._bias(qf, qdf)
-        return np.linalg.solve(M, (tauf - bias)[..., None])[..., 0].reshape(lead + (self.n_q,))
 
     # -- actuation --------------------------------------------------------------------
     def actuation_matrix(self, q: ArrayLike) -> NDArray[np.float64]:

@@ -38,33 +38,12 @@ from ..core.simulate_contract import SimulationError
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
 from . import _spatial_kernels
 from ._kernels import ACT_IDENTITY, ACT_TENDON
+from ._robot_base import RobotBase, finite_array, positive_int
 from .integrate import DEFAULT_STEP, UNSET, advance, simulate
 
 __all__ = ["SpatialPCSRobot", "SpatialTendons", "SimulationError"]
 
 Inputs = ArrayLike | Callable[[float], ArrayLike]
-
-
-def _per_segment(value: ArrayLike, m: int, name: str, *, positive: bool) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=float)
-    if arr.ndim == 0:
-        arr = np.full(m, float(arr))
-    if arr.shape != (m,):
-        raise ValueError(f"{name} must be a scalar or have shape ({m},) (one per segment); got shape {arr.shape}")
-    bad = ~np.isfinite(arr) | ((arr <= 0) if positive else (arr < 0))
-    if np.any(bad):
-        cond = "> 0" if positive else ">= 0"
-        raise ValueError(f"{name} must be finite and {cond}; got {arr.tolist()}")
-    return arr
-
-
-def _finite_array(value: ArrayLike, shape: tuple[int, ...], name: str) -> NDArray[np.float64]:
-    arr = np.asarray(value, dtype=float)
-    if arr.shape != shape:
-        raise ValueError(f"{name} must have shape {shape}; got shape {arr.shape}")
-    if not np.all(np.isfinite(arr)):
-        raise ValueError(f"{name} must be finite; got {arr.tolist()}")
-    return arr
 
 
 # --------------------------------------------------------------------------
@@ -105,7 +84,7 @@ class SpatialTendons:
         offset = np.asarray(self.offset, dtype=float)
         if offset.shape == (2,) and end.size == 1:
             offset = offset[None, :]
-        offset = _finite_array(offset, (end.size, 2), "offset")
+        offset = finite_array(offset, (end.size, 2), "offset")
         return end, offset
 
     def layout(self) -> dict[str, Any]:
@@ -150,7 +129,7 @@ class SpatialTendons:
 # --------------------------------------------------------------------------
 # robot
 # --------------------------------------------------------------------------
-class SpatialPCSRobot:
+class SpatialPCSRobot(RobotBase):
     """Spatial PCS soft robot: mass, Coriolis, gravity, elastic, damping and actuation terms, and simulation.
 
     Parameters
@@ -199,6 +178,8 @@ class SpatialPCSRobot:
         Diagonal of ``D``.
     """
 
+    _gravity_shape = (3,)
+
     def __init__(
         self,
         segment_lengths: Sequence[float],
@@ -217,32 +198,18 @@ class SpatialPCSRobot:
     ) -> None:
         self.kinematics = SpatialPCS(
             tuple(np.atleast_1d(np.asarray(segment_lengths, dtype=float))),
-            base_position=tuple(_finite_array(base_position, (3,), "base_position")),
+            base_position=tuple(finite_array(base_position, (3,), "base_position")),
             base_rotation=base_rotation,
         )
         m = self.kinematics.n_segments
         self.segment_lengths = np.asarray(self.kinematics.segment_lengths)
         self.n_segments = m
         self.n_q = 6 * m
-        self.density = _per_segment(density, m, "density", positive=True)
-        self.youngs_modulus = _per_segment(youngs_modulus, m, "youngs_modulus", positive=False)
-        self.shear_modulus = _per_segment(shear_modulus, m, "shear_modulus", positive=False)
-        self.radius = _per_segment(radius, m, "radius", positive=True)
-        damping_arr = _finite_array(damping, (self.n_q,), "damping")
-        if np.any(damping_arr < 0):
-            raise ValueError(f"damping must be >= 0; got {damping_arr.tolist()}")
-        self.damping = damping_arr
-        self.gravity = _finite_array(gravity, (3,), "gravity")
-        if not (np.isfinite(shear_factor) and shear_factor > 0):
-            raise ValueError(f"shear_factor must be finite and > 0; got {shear_factor!r}")
-        self.shear_factor = float(shear_factor)
-        if stiffness_scaling not in ("seed", "length"):
-            raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
-        self.stiffness_scaling = stiffness_scaling
         self.base_position, self.base_rotation = self.kinematics.base_pose
-        if isinstance(n_quadrature, bool) or int(n_quadrature) != n_quadrature or n_quadrature < 1:
-            raise ValueError(f"n_quadrature must be a positive integer; got {n_quadrature!r}")
-        self.n_quadrature = int(n_quadrature)
+        f_len = self._set_material(
+            density, youngs_modulus, shear_modulus, damping, radius, gravity, shear_factor, stiffness_scaling
+        )
+        self.n_quadrature = positive_int(n_quadrature, "n_quadrature")
         self.actuation = actuation
         if actuation is None:
             self._act = (ACT_IDENTITY, np.zeros((0, 2)), np.zeros((0, m)), np.zeros((self.n_q, 0)))
@@ -253,9 +220,6 @@ class SpatialPCSRobot:
         else:
             raise ValueError(f"actuation must be None or a SpatialTendons; got {actuation!r}")
 
-        self.area = np.pi * self.radius**2
-        self.second_moment = np.pi * self.radius**4 / 4.0
-        f_len = np.ones(m) if stiffness_scaling == "seed" else self.segment_lengths
         E, G, A, second = self.youngs_modulus, self.shear_modulus, self.area, self.second_moment
         c_sh = self.shear_factor
         per_segment = np.stack([E * second, E * second, 2.0 * G * second, c_sh * G * A, c_sh * G * A, E * A], axis=1)
@@ -324,25 +288,6 @@ class SpatialPCSRobot:
             metadata=metadata,
         )
 
-    # -- input checks -----------------------------------------------------------
-    def _check(
-        self, name: str, value: ArrayLike, like: NDArray | None = None, size: int | None = None
-    ) -> NDArray[np.float64]:
-        size = self.n_q if size is None else size
-        arr = np.asarray(value, dtype=float)
-        if arr.ndim == 0 or arr.shape[-1] != size:
-            what = "n_q" if size == self.n_q and name != "u" else "p (the number of inputs)"
-            raise ValueError(f"{name} must have a last axis of length {what} = {size}; got shape {arr.shape}")
-        if like is not None and arr.shape[:-1] != like.shape[:-1]:
-            raise ValueError(f"{name} must have the leading shape of q, {like.shape[:-1]}; got shape {arr.shape}")
-        if not np.all(np.isfinite(arr)):
-            raise ValueError(f"{name} contains NaN or inf")
-        return arr
-
-    def _flatten(self, *arrays: NDArray) -> tuple[tuple[int, ...], list[NDArray]]:
-        lead = arrays[0].shape[:-1]
-        return lead, [np.ascontiguousarray(a.reshape((-1, a.shape[-1]))) for a in arrays]
-
     def _terms(self, qf: NDArray, qdf: NDArray | None) -> tuple[NDArray, NDArray, NDArray]:
         qd = qf if qdf is None else qdf
         return _spatial_kernels.terms_batch(qf, qd, self._jit_geometry(), qdf is not None)
@@ -367,14 +312,6 @@ class SpatialPCSRobot:
         lead, (qf,) = self._flatten(q)
         return self._terms(qf, None)[1].reshape(lead + (self.n_q,))
 
-    def elastic_forces(self, q: ArrayLike) -> NDArray[np.float64]:
-        """Elastic forces ``K q``, shape (..., n)."""
-        return self._check("q", q) * self.stiffness
-
-    def damping_forces(self, qd: ArrayLike) -> NDArray[np.float64]:
-        """Damping forces ``D q̇``, shape (..., n)."""
-        return self._check("qd", qd) * self.damping
-
     def node_jacobians(self, q: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``J_p`` (base frame) and body ``J_w`` at the quadrature nodes, each (..., m K, 3, n)."""
         q = self._check("q", q)
@@ -389,42 +326,9 @@ class SpatialPCSRobot:
         positions, _ = self.kinematics.forward_kinematics(q, self._node_arcs)
         return -np.einsum("...k,k->...", positions @ self.gravity, self._w_lin)
 
-    def potential_energy(self, q: ArrayLike) -> NDArray[np.float64]:
-        """``U_g + ½ qᵀ K q``, shape (...)."""
-        q = self._check("q", q)
-        return self.gravitational_energy(q) + 0.5 * np.sum(self.stiffness * q * q, axis=-1)
-
-    def kinetic_energy(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
-        """``½ q̇ᵀ M(q) q̇``, shape (...)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        return 0.5 * np.einsum("...a,...ab,...b->...", qd, self.mass_matrix(q), qd)
-
-    def total_energy(self, q: ArrayLike, qd: ArrayLike) -> NDArray[np.float64]:
-        """Kinetic plus potential energy, shape (...)."""
-        return self.kinetic_energy(q, qd) + self.potential_energy(q)
-
     def _bias(self, qf: NDArray, qdf: NDArray) -> tuple[NDArray, NDArray]:
         M, G, C = self._terms(qf, qdf)
         return M, C + G + self.stiffness * qf + self.damping * qdf
-
-    def inverse_dynamics(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
-        """Generalised forces ``τ = M q̈ + C q̇ + G + K q + D q̇``, shape (..., n)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        qdd = self._check("qdd", qdd, q)
-        lead, (qf, qdf, qddf) = self._flatten(q, qd, qdd)
-        M, bias = self._bias(qf, qdf)
-        return (np.einsum("bij,bj->bi", M, qddf) + bias).reshape(lead + (self.n_q,))
-
-    def forward_dynamics(self, q: ArrayLike, qd: ArrayLike, tau: ArrayLike) -> NDArray[np.float64]:
-        """Accelerations ``q̈ = M⁻¹ (τ − C q̇ − G − K q − D q̇)`` under generalised forces τ, shape (..., n)."""
-        q = self._check("q", q)
-        qd = self._check("qd", qd, q)
-        tau = self._check("tau", tau, q)
-        lead, (qf, qdf, tauf) = self._flatten(q, qd, tau)
-        M, bias = self._bias(qf, qdf)
-        return np.linalg.solve(M, (tauf - bias)[..., None])[..., 0].reshape(lead + (self.n_q,))
 
     # -- actuation --------------------------------------------------------------------
     def actuation_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
