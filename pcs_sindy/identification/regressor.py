@@ -272,8 +272,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         :meth:`rollout_error` of the training recordings themselves [m]: the mean tip error of
         open-loop rollouts from each recording's measured state under its own inputs (``inf``
         for one that diverged).  None when not computed: ``check_fit=False``, the static
-        formulation (no dynamics), or a library without compiled rollouts (the monomial one, whose
-        rollouts take seconds).
+        formulation (no dynamics), or a model without compiled rollouts (the monomial library's, whose
+        rollouts take seconds, and the spatial model's NumPy loop, minutes).
     no_input_error_ : ndarray, shape (n_recordings,), or None
         The same error for the zero-input prediction, a model the inputs do not move: the tip held
         where each rollout starts [m].  :meth:`fit` warns with :class:`PoorFitWarning` when the
@@ -809,8 +809,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             fm = self.forward_model()
         except (NotImplementedError, AttributeError):  # a library without a forward model
             return np.nan, np.nan
-        if fm.default_method not in getattr(fm, "compiled_methods", ()):
-            return np.nan, np.nan  # solve_ivp rollouts (the monomial library) take seconds per recording
+        if fm.default_method not in getattr(fm, "compiled_methods", ()) or not getattr(fm, "compiled_rollouts", True):
+            # solve_ivp rollouts (the monomial library) and the NumPy spatial model take seconds to minutes
+            return np.nan, np.nan
         try:
             pairs = self._rollout_tips(X, y)
         except (ValueError, np.linalg.LinAlgError):  # the check never makes a fit fail; rollout_error says why

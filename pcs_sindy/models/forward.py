@@ -65,11 +65,15 @@ class ForwardModel(ABC):
         tabulated inputs; every other one goes through ``solve_ivp``.
     default_method : str
         The scheme used when ``method`` is not given (the best measured one).
+    compiled_rollouts : bool
+        Whether the default scheme runs compiled (rollouts of seconds of data in well under a
+        second); False for a model stepped in Python, which callers avoid rolling out unasked.
     """
 
     methods: tuple[str, ...] = tuple(SCIPY_METHODS)
     compiled_methods: tuple[str, ...] = ()
     default_method: str = "radau"
+    compiled_rollouts: bool = True
 
     def __init__(self, kinematics: PlanarPCS, actuation: Any = None) -> None:
         self.kinematics = kinematics

@@ -132,6 +132,8 @@ class SpatialPCSModel(ForwardModel):
     methods = ("rosenbrock",) + tuple(SCIPY_METHODS)
     compiled_methods = ("rosenbrock",)
     default_method = "rosenbrock"
+    #: the Rosenbrock loop is NumPy, not compiled: a 5-s rollout of six strains takes minutes
+    compiled_rollouts = False
 
     def __init__(
         self,
