@@ -204,7 +204,7 @@ def test_spatial_data_refuse_planar_only_choices():
     X = [SpatialStrainTrajectory(np.zeros((20, 6)), np.arange(20) * 0.01, segment_lengths=[0.1])]
     assert spatial_kinematics_of(X) == kin
     with pytest.raises(ValueError, match="planar only"):
-        EulerLagrangeRegressor(library="monomial").fit(X, [np.ones((20, 6))])
+        EulerLagrangeRegressor(feature_library="monomial").fit(X, [np.ones((20, 6))])
     with pytest.raises(ValueError, match="active_strains"):
         SpatialPhysicalPCSLibrary([0.1], active_strains=[True, False, True]).fit(np.zeros((1, 4)))
 
