@@ -542,20 +542,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             scales,
             n_segments=None if self.n_segments is None else int(self.n_segments),
         )
-        s = fit["arc_lengths"]
-        if known_arcs is None:  # a fit the markers contradict (what the checks above did not see)
-            check_arc_lengths([tr.positions for tr in trajs], s[1:], "the fitted marker arc lengths")
-        self.threshold_ = h
-        self.threshold_choice_ = choice
-        self.total_length_ = float(s[-1])
-        known = "marker_arc_lengths" in trajs[0].metadata
-        self.total_length_source_ = (
-            "arc length of the last marker (given)" if known else "arc length of the last marker, fitted to positions"
-        )
-        self.total_length_std_ = float(fit["arc_lengths_std"][-1])
-        self.marker_arc_lengths_ = s
-        self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
-        self.n_markers_ = s.size - 1
+        self._take_marker_fit(fit, trajs, known_arcs, h, choice)
         bend, _, twist = fit["scales"]
         self.q_max_ = np.array([bend, bend, twist, q_max[1], q_max[1], q_max[2]])
         self.history_ = fit["history"]
@@ -588,6 +575,23 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
         if len(flags) > 1:
             raise ValueError("X mixes positions-only recordings (PoseTrajectory.from_positions) with pose recordings")
         return flags.pop()
+
+    def _take_marker_fit(self, fit: dict, trajs: list, known_arcs: Any, h: float | None, choice: dict) -> None:
+        """Threshold, marker arc lengths and total length of a positions-only fit (planar or 3-D)."""
+        s = fit["arc_lengths"]
+        if known_arcs is None:  # a fit the markers contradict (what the checks above did not see)
+            check_arc_lengths([tr.positions for tr in trajs], s[1:], "the fitted marker arc lengths")
+        self.threshold_ = h
+        self.threshold_choice_ = choice
+        self.total_length_ = float(s[-1])
+        known = "marker_arc_lengths" in trajs[0].metadata
+        self.total_length_source_ = (
+            "arc length of the last marker (given)" if known else "arc length of the last marker, fitted to positions"
+        )
+        self.total_length_std_ = float(fit["arc_lengths_std"][-1])
+        self.marker_arc_lengths_ = s
+        self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
+        self.n_markers_ = s.size - 1
 
     def _fit_positions(self, X: Any) -> KinematicFusion:
         """Fit on positions-only recordings (:mod:`pcs_sindy.fusion.position_fusion`)."""
@@ -639,20 +643,7 @@ class KinematicFusion(PersistenceMixin, TransformerMixin, BaseEstimator):
             geometry=geometry,
             n_segments=None if self.n_segments is None else int(self.n_segments),
         )
-        s = fit["arc_lengths"]
-        if known_arcs is None:  # a fit the markers contradict (what the checks above did not see)
-            check_arc_lengths([tr.positions for tr in trajs], s[1:], "the fitted marker arc lengths")
-        self.threshold_ = h
-        self.threshold_choice_ = choice
-        self.total_length_ = float(s[-1])
-        known = "marker_arc_lengths" in trajs[0].metadata
-        self.total_length_source_ = (
-            "arc length of the last marker (given)" if known else "arc length of the last marker, fitted to positions"
-        )
-        self.total_length_std_ = float(fit["arc_lengths_std"][-1])
-        self.marker_arc_lengths_ = s
-        self.marker_arc_lengths_std_ = np.concatenate([[0.0], fit["arc_lengths_std"]])
-        self.n_markers_ = s.size - 1
+        self._take_marker_fit(fit, trajs, known_arcs, h, choice)
         self.q_max_ = np.array([fit["bend_scale"], q_max[1], q_max[2]]) if self.scaling == "data" else q_max
         self.history_ = fit["history"]
         self.distance_profile_ = self.history_[0]["distances"] if self.history_ else np.zeros(0)
