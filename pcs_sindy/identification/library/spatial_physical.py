@@ -53,6 +53,7 @@ from ...core.units import (
 )
 from ...core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 from ...models.spatial_forward import BODY_INERTIA, node_terms, spatial_quadrature
+from ..least_squares import stiffness_bounds
 from .base import LagrangianLibrary
 
 __all__ = ["SpatialPhysicalPCSLibrary", "spatial_kinematics_of", "spatial_stiffness_bounds"]
@@ -110,24 +111,21 @@ def spatial_stiffness_bounds(
     ndarray, shape (6m,)
         In the strain order of :data:`~pcs_sindy.core.spatial.SPATIAL_STRAIN_NAMES`.
     """
-    lengths = np.atleast_1d(np.asarray(segment_lengths, dtype=float))
-    if lengths.ndim != 1 or lengths.size == 0 or not np.all(np.isfinite(lengths)) or np.any(lengths <= 0):
-        raise ValueError(f"segment_lengths must be positive finite lengths; got {segment_lengths!r}")
-    for name, val in (
-        ("youngs_modulus_max", youngs_modulus_max),
-        ("shear_modulus_max", shear_modulus_max),
-        ("radius", radius),
-        ("shear_factor", shear_factor),
-    ):
-        if not np.isfinite(val) or val <= 0:
-            raise ValueError(f"{name} must be finite and > 0; got {val!r}")
-    if stiffness_scaling not in ("seed", "length"):
-        raise ValueError(f"stiffness_scaling must be 'seed' or 'length'; got {stiffness_scaling!r}")
-    f_l = np.ones_like(lengths) if stiffness_scaling == "seed" else lengths
-    area, inertia = np.pi * radius**2, np.pi * radius**4 / 4.0
-    E, G, c = youngs_modulus_max, shear_modulus_max, shear_factor
-    per = np.array([inertia * E, inertia * E, 2 * inertia * G, c * area * G, c * area * G, area * E])
-    return (f_l[:, None] * per[None, :]).reshape(-1)
+    # the planar bounds f_L [I E, c A G, A E] (arguments checked there) and the torsion f_L 2 I G from them
+    bend, shear, axial = (
+        stiffness_bounds(
+            segment_lengths,
+            youngs_modulus_max=youngs_modulus_max,
+            shear_modulus_max=shear_modulus_max,
+            radius=radius,
+            shear_factor=shear_factor,
+            stiffness_scaling=stiffness_scaling,
+        )
+        .reshape(-1, 3)
+        .T
+    )
+    twist = bend * (2.0 * shear_modulus_max / youngs_modulus_max)
+    return np.stack([bend, bend, twist, shear, shear, axial], axis=1).reshape(-1)
 
 
 def _lengths_ok(value: Any) -> bool:
