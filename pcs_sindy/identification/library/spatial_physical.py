@@ -128,11 +128,6 @@ def spatial_stiffness_bounds(
     return np.stack([bend, bend, twist, shear, shear, axial], axis=1).reshape(-1)
 
 
-def _lengths_ok(value: Any) -> bool:
-    lengths = np.atleast_1d(np.asarray(value, dtype=float))
-    return lengths.ndim == 1 and lengths.size > 0 and bool(np.all(np.isfinite(lengths)) and np.all(lengths > 0))
-
-
 def _mask6_ok(value: Any) -> bool:
     raw = np.asarray(value)
     shaped = (raw.ndim == 2 and raw.shape[0] >= 1 and raw.shape[1] == 6) or (
@@ -295,7 +290,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         self.mass = mass
 
     _parameter_constraints: dict = {
-        "segment_lengths": [None, Check(_lengths_ok, "a non-empty 1-D sequence of finite lengths > 0 [m]")],
+        "segment_lengths": LagrangianLibrary._parameter_constraints["segment_lengths"],
         "active_strains": [None, Check(_mask6_ok, "booleans (or 0/1) of shape (m, 6) or (6m,)")],
         "radius": [Check(_radius_ok, "a finite number > 0 or one per segment [m]")],
         "gravity": [Check(_gravity3_ok, "three finite numbers (g_x, g_y, g_z) [m/s^2]")],
