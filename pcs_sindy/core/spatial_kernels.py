@@ -136,7 +136,8 @@ def body_tuple(
     tiers : tuple of (bound, nodes), optional
         Default :data:`QUADRATURE_TIERS` (read at call time); ``()`` gives every segment ``n_quadrature`` nodes.
     """
-    L = np.ascontiguousarray(segment_lengths, dtype=float)
+    # fresh writable copies: a read-only array would be another numba type (another compiled signature)
+    L = np.array(segment_lengths, dtype=float).reshape(-1)
     K, m = int(n_quadrature), L.size
     rhoA = np.asarray(line_density, dtype=float).reshape(m)
     inertia = np.asarray(rotary_inertia, dtype=float).reshape(m, 3)
@@ -162,8 +163,8 @@ def body_tuple(
         w_lin,
         w_rot,
         w_grav,
-        np.ascontiguousarray(base_position, dtype=float).reshape(3),
-        np.ascontiguousarray(base_rotation, dtype=float).reshape(3, 3),
+        np.array(base_position, dtype=float).reshape(3),
+        np.array(base_rotation, dtype=float).reshape(3, 3),
         np.array([k for _, k in levels], dtype=np.int64),
         np.array([bound for bound, _ in levels]),
     )

@@ -12,10 +12,10 @@ simulator's materials or how the parameters were identified.
 
 ``P = (act (n,), body, f0 (n,), akind (1,), aoff, acover, amat, stiff (n,), damp (n,))`` (:data:`P_SIZE`
 entries; ``stiff``, ``damp`` at the planar tuple's positions 7 and 8, where the Rosenbrock loop reads
-its structural Jacobian) and ``W = (M (n, n), bias (n,), ws, q (6m,), qd (6m,), acc (n,), tau (n,),
-G (6m,), C (6m,))`` (:func:`workspace`; ``ws`` the shared kernels' scratch).  The input map ``akind``
-is a code of :data:`pcs_sindy.models._jit_dynamics.INPUT_MAPS` among :data:`INPUT_FORMS`: the maps
-that do not depend on the segmentation's strain layout.
+its structural Jacobian) and ``W = (M (n, n), bias (n,), ws, q (6m,), qd (6m,), r (n,), tau (n,),
+G (6m,), C (6m,), factor (n, n), pivots (n,))`` (:func:`workspace`; ``ws`` the shared kernels'
+scratch).  The input map ``akind`` is a code of :data:`pcs_sindy.models._jit_dynamics.INPUT_MAPS` among
+:data:`INPUT_FORMS`: the maps that do not depend on the segmentation's strain layout.
 """
 
 from __future__ import annotations
@@ -23,8 +23,8 @@ from __future__ import annotations
 import numba
 import numpy as np
 
-from ..core.linalg import solve
-from ..core.spatial_kernels import coriolis, geometry, gravity_forces, mass
+from ..core.linalg import lu_factor, lu_solve
+from ..core.spatial_kernels import cholesky, cholesky_solve, coriolis, geometry, gravity_forces, mass
 from ..core.spatial_kernels import workspace as body_workspace
 from ._jit_dynamics import strain_layout_free_forces
 
@@ -50,10 +50,13 @@ def workspace(P: tuple) -> tuple:
         np.empty(n),
         np.empty(N),
         np.empty(N),
+        np.empty((n, n)),
+        np.zeros(n, dtype=np.int64),
     )
 
 
-@numba.njit(cache=True)
+# inlined into rhs: one call less per evaluation (each passes the ~40 arrays of P and W, reference counted)
+@numba.njit(cache=True, inline="always")
 def dynamics(q, qd, P, W):
     """Fill ``W[0] = M`` (n, n) and ``W[1] = bias`` (n,) at the modelled strains ``q``, ``qd`` (n,)."""
     act, body, f0, stiff, damp = P[0], P[1], P[2], P[7], P[8]
@@ -77,7 +80,7 @@ def dynamics(q, qd, P, W):
             M[a, b] = Mf[ca, act[b]]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def input_forces(q, u, P, tau):
     """``tau = A(q) u`` on the modelled strains ``q`` (n,) for the input map of ``P``."""
     if not strain_layout_free_forces(P[3][0], P[6], q, u, tau):
@@ -92,15 +95,23 @@ def rhs(y, u, P, W, out):
     tau = W[6]
     input_forces(y[:n], u, P, tau)
     dynamics(y[:n], y[n:], P, W)
-    bias, acc = W[1], W[5]
+    M, bias, r, LU, piv = W[0], W[1], W[5], W[9], W[10]
     for a in range(n):
-        bias[a] = tau[a] - bias[a]
         out[a] = y[n + a]
-    # LU, not Cholesky: an identified M need not be positive definite
-    ok = solve(W[0], bias, acc)
+        r[a] = tau[a] - bias[a]
+    acc = out[n:]
+    # Cholesky (half the work of LU), and LU where it fails: an identified M need not be positive definite
+    if cholesky(M, LU):
+        cholesky_solve(LU, r, acc)
+        return True
     for a in range(n):
-        out[n + a] = acc[a]
-    return ok
+        acc[a] = r[a]
+        for b in range(n):
+            LU[a, b] = M[a, b]
+    if not lu_factor(LU, piv):
+        return False
+    lu_solve(LU, piv, acc)
+    return True
 
 
 @numba.njit(cache=True)
