@@ -168,6 +168,10 @@ def test_divergence_raises_the_planar_models_error():
         q0[0] = 1e-3
         with pytest.raises(DivergenceError, match="diverged at t"):
             model.simulate(q0, np.zeros(n), t, np.zeros((t.size, n)), max_abs_state=100.0)
+    # no inertia (an identified rhoA = rhoI = 0): a singular mass matrix, the same error
+    massless = SpatialPCSModel(kin, [0.0], [0.0], [[0.0, 0.0, 0.0]], np.ones(6), np.ones(6))
+    with pytest.raises(DivergenceError, match="singular mass matrix"):
+        massless.simulate(np.zeros(6), np.zeros(6), t[:3], np.zeros((3, 6)))
 
 
 def test_learned_actuation_runs_compiled_and_equals_its_python_map():
