@@ -88,7 +88,7 @@ def test_a_fitted_spatial_regressor_round_trips(fitted, tmp_path):
         loaded.predict(X[:1], qd=QD[:1], qdd=QDD[:1])[0], reg.predict(X[:1], qd=QD[:1], qdd=QDD[:1])[0]
     )
     q, qd = X[0].q[::9], QD[0][::9]
-    for a, b in zip(loaded.forward_model().mass_and_bias(q, qd), reg.forward_model().mass_and_bias(q, qd)):
+    for a, b in zip(loaded.forward_model().mass_and_bias(q, qd), reg.forward_model().mass_and_bias(q, qd), strict=True):
         np.testing.assert_array_equal(a, b)
     # a short rollout: the same numbers through the same code
     t = X[0].t[:4]
@@ -133,7 +133,7 @@ def test_a_spatial_forward_model_of_given_parameters_round_trips(fitted, tmp_pat
         np.testing.assert_array_equal(getattr(loaded, name), getattr(model, name))
     np.testing.assert_array_equal(loaded.quadrature[0], model.quadrature[0])
     q = np.random.default_rng(2).uniform(-3, 3, (5, 7))
-    for a, b in zip(loaded.mass_and_bias(q, q[::-1]), model.mass_and_bias(q, q[::-1])):
+    for a, b in zip(loaded.mass_and_bias(q, q[::-1]), model.mass_and_bias(q, q[::-1]), strict=True):
         np.testing.assert_array_equal(a, b)
 
 

@@ -756,9 +756,7 @@ def _check_regressor(obj: Any, fail: Any) -> None:
     if not np.array_equal(coef[cmap], model_coef, equal_nan=True):
         fail("model_coef_ differs from coef_[column_map_]: the coefficients were altered")
     active = obj.active_strains_
-    if not (
-        isinstance(active, np.ndarray) and active.shape == (m, per) and np.array_equal(active, kin.active_strains)
-    ):
+    if not (isinstance(active, np.ndarray) and active.shape == (m, per) and np.array_equal(active, kin.active_strains)):
         fail(f"active_strains_ must be the ({m}, {per}) active strains of kinematics_")
     if not np.array_equal(obj.library_.kinematics.active_strains, kin.active_strains):
         fail("library_'s active strains differ from kinematics_'s")
