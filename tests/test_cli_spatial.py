@@ -1,0 +1,149 @@
+"""``pcs-sindy fit`` and ``pcs-sindy rollout`` on spatial (3-D) strain files.
+
+Truth: the parameters the forces were made from (exact inverse dynamics of the spatial library
+along smooth paths: the command line is under test, not the simulator), the loaded model file's own
+rollout (the command must write what the model predicts), and the forward kinematics of the truth's
+strains (the metrics are recomputed here from the written positions).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from pcs_sindy.cli.main import main
+from pcs_sindy.core.spatial import SpatialPCS, SpatialStrainTrajectory
+from pcs_sindy.identification import EulerLagrangeRegressor
+from pcs_sindy.identification.library.spatial_physical import SpatialPhysicalPCSLibrary
+from pcs_sindy.io import load, write_poses, write_strains, write_tau
+
+ACTIVE = np.array([1, 1, 0, 0, 0, 0], dtype=bool)  # both bendings of one segment: a rollout takes seconds
+RHO, E, G, R = 1070.0, 1e4, 1e3, 0.02
+DAMP = [3e-5, 3e-5, 2e-5, 0.15, 0.15, 0.15]
+
+
+def _path(t, seed):
+    rng = np.random.default_rng(seed)
+    amp = rng.uniform(2.0, 5.0, (3, 2))
+    f = rng.uniform(0.5, 3.0, (3, 2)) * 2 * np.pi
+    ph = rng.uniform(0, 2 * np.pi, (3, 2))
+    a = f[None] * t[:, None, None] + ph[None]
+    return (amp * np.sin(a)).sum(1), (amp * f * np.cos(a)).sum(1), -(amp * f**2 * np.sin(a)).sum(1)
+
+
+@pytest.fixture(scope="module")
+def files(tmp_path_factory):
+    d = tmp_path_factory.mktemp("spatial_cli")
+    lib = SpatialPhysicalPCSLibrary([0.1], active_strains=ACTIVE, rest_strain=False).fit(np.zeros((1, 4)))
+    coef = lib.coefficients_from_parameters(RHO, R, E, G, DAMP)
+    kin = SpatialPCS((0.1,), ACTIVE)
+    out = {"coef": coef, "names": lib.coefficient_names()}
+    for k, duration in enumerate((1.5, 1.5, 0.12)):
+        t = np.arange(0.0, duration, 0.01)
+        q, qd, qdd = _path(t, k)
+        tau = lib.euler_lagrange_matrix(q, qd, qdd) @ coef
+        tr = SpatialStrainTrajectory(kin.to_full(q), t, segment_lengths=[0.1], active_strains=ACTIVE)
+        out[f"strains_{k}"] = str(write_strains(d / f"strain_{k}.npz", tr))
+        out[f"tau_{k}"] = str(write_tau(d / f"tau_{k}.npz", t, kin.to_full(tau)))
+    out["dir"] = d
+    return out
+
+
+def test_fit_on_spatial_strain_files_writes_a_spatial_model(files, capsys):
+    model = files["dir"] / "model.json"
+    argv = ["fit", files["strains_0"], files["strains_1"], "--tau", files["tau_0"], files["tau_1"], "--out", str(model)]
+    assert main(argv) == 0
+    text = capsys.readouterr().out
+    assert "k_bend_x_1" in text and "N·m³" in text
+    reg = load(model)
+    assert isinstance(reg, EulerLagrangeRegressor) and isinstance(reg.kinematics_, SpatialPCS)
+    assert reg.kinematics_.strain_names(active_only=True) == ["bend_z_1", "bend_x_1"]
+    coef = dict(zip(reg.library_.coefficient_names(), reg.model_coef_, strict=True))
+    truth = dict(zip(files["names"], files["coef"], strict=True))
+    for name in ("k_bend_z_1", "k_bend_x_1"):  # (the inertia of bending alone is weakly determined)
+        assert coef[name] == pytest.approx(truth[name], rel=2e-2), name
+
+
+def test_rollout_of_a_spatial_model_against_a_strain_file(files, capsys):
+    model = files["dir"] / "model.json"
+    if not model.exists():
+        main(
+            [
+                "fit",
+                files["strains_0"],
+                files["strains_1"],
+                "--tau",
+                files["tau_0"],
+                files["tau_1"],
+                "--out",
+                str(model),
+            ]
+        )
+    out = files["dir"] / "rollout"
+    argv = ["rollout", str(model), "--tau", files["tau_2"], "--truth", files["strains_2"], "--initial", "truth"]
+    assert main([*argv, "--n-markers", "4", "--out", str(out), "--quiet"]) == 0
+    with np.load(out / "rollout.npz") as npz:
+        got = {k: npz[k] for k in npz.files}
+    assert "poses" not in got and got["marker_positions"].shape == (12, 5, 3)
+    assert got["marker_rotations"].shape == (12, 5, 3, 3)
+    # what the loaded model predicts (same code, same numbers)
+    reg = load(model)
+    truth = load_strains(files["strains_2"])
+    _, tau = np.load(files["tau_2"])["t"], np.load(files["tau_2"])["tau"]
+    sim = reg.simulate(truth.q[0], np.zeros(6), truth.t, tau)
+    np.testing.assert_array_equal(got["q"], sim.q)
+    # the metrics, recomputed from the written positions and the truth's forward kinematics
+    s = got["marker_arc_lengths"]
+    np.testing.assert_allclose(s, np.linspace(0.0, 0.1, 5))
+    p_true, R_true = truth.kinematics.forward_kinematics(truth.q, s)
+    tip = np.linalg.norm(got["marker_positions"][:, -1] - p_true[:, -1], axis=-1)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["tip_position_rmse_mm"] == pytest.approx(1e3 * np.sqrt(np.mean(tip**2)), rel=1e-12)
+    assert metrics["e_p_ee_mm"] == pytest.approx(1e3 * tip.mean(), rel=1e-12)
+    rel = np.einsum("tji,tjk->tik", got["marker_rotations"][:, -1], R_true[:, -1])
+    angle = np.arccos(np.clip((np.trace(rel, axis1=1, axis2=2) - 1) / 2, -1, 1))
+    assert metrics["e_theta_ee_rad"] == pytest.approx(angle.mean(), rel=1e-6, abs=1e-9)
+    assert metrics["units"]["strain_rmse"] == {"bend_z_1": "1/m", "bend_x_1": "1/m"}
+    assert 0 < metrics["tip_position_rmse_mm"] < 5.0  # exact data; the truth starts moving, the rollout at rest
+    assert (out / "rollout.png").is_file() and (out / "rollout_strains.png").is_file()
+
+
+def load_strains(path):
+    from pcs_sindy.io import read_strains
+
+    return read_strains(path)
+
+
+def test_rollout_of_a_spatial_model_refuses_planar_truths_with_the_fix(files, capsys, tmp_path):
+    model = files["dir"] / "model.json"
+    if not model.exists():
+        main(
+            [
+                "fit",
+                files["strains_0"],
+                files["strains_1"],
+                "--tau",
+                files["tau_0"],
+                files["tau_1"],
+                "--out",
+                str(model),
+            ]
+        )
+    t = np.arange(12) * 0.01
+    poses = write_poses(tmp_path / "poses.npz", t, np.zeros((12, 5, 3)))
+    capsys.readouterr()
+    code = main(["rollout", str(model), "--tau", files["tau_2"], "--truth", str(poses), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "planar poses" in err and "strain file" in err
+    csv = tmp_path / "capture.csv"
+    csv.write_text("t,x\n0,0\n")
+    code = main(["rollout", str(model), "--tau", files["tau_2"], "--truth", str(csv), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "strain file that 'fuse --markers-csv' wrote" in err
+    # a tau file of another width names the strain count per segment
+    bad = write_tau(tmp_path / "bad.npz", t, np.zeros((12, 3)))
+    code = main(["rollout", str(model), "--tau", str(bad), "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "1 segment(s) x 6" in err
