@@ -310,6 +310,7 @@ def _spatial_specimens() -> dict:
     """The spatial classes: a regressor fitted on exact inverse dynamics (bending of one segment), its parts."""
     from pcs_sindy.core.spatial import SpatialPCS, SpatialStrainTrajectory
     from pcs_sindy.identification.library.spatial_physical import SpatialPhysicalPCSLibrary
+    from pcs_sindy.models import SpatialTendonActuation
     from pcs_sindy.models.spatial_forward import SpatialPCSModel
 
     active = [True, True, False, False, False, False]
@@ -332,6 +333,7 @@ def _spatial_specimens() -> dict:
         "SpatialPCS": kin,
         "SpatialStrainTrajectory": tr,
         "SpatialPCSModel": SpatialPCSModel(kin, **lib.lumped_from_coef(coef)),
+        "SpatialTendonActuation": SpatialTendonActuation(end=[0.1, 0.05], angle=[0.0, 2.0]).fit(kin),
     }
 
 
