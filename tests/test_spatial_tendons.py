@@ -140,8 +140,7 @@ def _tensions(t, seed, p=4):
 
 @pytest.fixture(scope="module")
 def tendon_data():
-    # bending and twist modelled, the rest held rigid by the simulator's stiff robot? No: the simulator models
-    # all six strains; its shear and axial stiffness make them tiny, and the fit removes them.
+    # the simulator moves all six strains of both segments; its shear and axial stiffness keep those tiny
     rob = SpatialPCSRobot(LENGTHS, RHO, E, G, np.tile(DAMP, 2), actuation=SpatialTendons(END, OFFSET))
     t = np.arange(0.0, 1.5, 0.005)
     X, U = [], []
