@@ -147,3 +147,32 @@ def test_rollout_of_a_spatial_model_refuses_planar_truths_with_the_fix(files, ca
     code = main(["rollout", str(model), "--tau", str(bad), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
     assert code == 2 and "1 segment(s) x 6" in err
+
+
+def test_fit_and_rollout_from_tensions_of_tendons_routed_in_3d(tmp_path):
+    """``fit --inputs --actuation`` with the simulator's own layout, then ``rollout`` of the tendon-driven model."""
+    from pcs_sindy.simulation.spatial_dynamics import SpatialPCSRobot, SpatialTendons
+
+    tendons = SpatialTendons([0.1, 0.1], [[0.01, 0.0], [0.0, -0.01]])
+    rob = SpatialPCSRobot([0.1], RHO, E, G, DAMP, actuation=tendons)
+    rng = np.random.default_rng(0)
+    for k, duration in enumerate((1.5, 1.5, 0.08)):
+        t = np.arange(0.0, duration, 0.01)
+        f, ph = rng.uniform(0.5, 3.0, (3, 2)), rng.uniform(0, 2 * np.pi, (3, 2))
+        u = 1.0 + np.sin(2 * np.pi * f[None] * t[:, None, None] + ph[None]).mean(axis=1)  # tensions [N]
+        write_strains(tmp_path / f"strain_{k}.npz", rob.simulate(np.zeros(6), np.zeros(6), t, u))
+        write_tau(tmp_path / f"input_{k}.npz", t, u, key="u")
+    (tmp_path / "layout.json").write_text(json.dumps(tendons.layout()))
+    model = tmp_path / "model.json"
+    strains = [str(tmp_path / f"strain_{k}.npz") for k in (0, 1)]
+    inputs = [str(tmp_path / f"input_{k}.npz") for k in (0, 1)]
+    argv = ["fit", *strains, "--inputs", *inputs, "--actuation", str(tmp_path / "layout.json"), "--out", str(model)]
+    assert main([*argv, "--quiet"]) == 0
+    reg = load(model)
+    assert reg.actuation_.kind == "spatial_tendon" and reg.actuation_.design_layout() == tendons.layout()
+    np.testing.assert_allclose(reg.stiffness_[:2], rob.stiffness[:2], rtol=1e-2)
+    out = tmp_path / "rollout"
+    argv = ["rollout", str(model), "--tau", str(tmp_path / "input_2.npz"), "--truth", str(tmp_path / "strain_2.npz")]
+    assert main([*argv, "--initial", "truth", "--n-markers", "2", "--no-plot", "--quiet", "--out", str(out)]) == 0
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["tip_position_rmse_mm"] < 0.05  # starts at rest like the truth; 80 ms
