@@ -18,6 +18,7 @@ from pcs_sindy.core.spatial import SpatialPCS, SpatialStrainTrajectory
 from pcs_sindy.identification import EulerLagrangeRegressor
 from pcs_sindy.identification.library.spatial_physical import SpatialPhysicalPCSLibrary
 from pcs_sindy.io import load, save
+from pcs_sindy.models import SpatialTendonActuation
 from pcs_sindy.models.spatial_forward import SpatialPCSModel
 
 RHO, E, G, R = 1070.0, 1e4, 1e3, 0.02
@@ -126,8 +127,12 @@ def test_a_spatial_forward_model_of_given_parameters_round_trips(fitted, tmp_pat
     params = lib.lumped_from_coef(coef)
     params["rest_force"] = np.linspace(-1e-4, 1e-4, 7)
     params["n_quadrature"] = 9
-    model = SpatialPCSModel(kin, **params)
-    loaded = load(save(model, tmp_path / "fm"))
+    # tendons routed in 3-D, their magnitudes identified along given directions
+    act = SpatialTendonActuation(end=[0.08, 0.18], angle=[0.3, 2.0]).fit(kin)
+    act.set_identified([], act.signed_offsets([0.011, 0.007]))
+    model = SpatialPCSModel(kin, **params, actuation=act)
+    path = save(model, tmp_path / "fm")
+    loaded = load(path)
     assert type(loaded) is SpatialPCSModel and loaded.kinematics == kin
     for name in ("rhoA", "rhoI", "rhoAg", "stiffness", "damping", "rest_force"):
         np.testing.assert_array_equal(getattr(loaded, name), getattr(model, name))
@@ -135,6 +140,18 @@ def test_a_spatial_forward_model_of_given_parameters_round_trips(fitted, tmp_pat
     q = np.random.default_rng(2).uniform(-3, 3, (5, 7))
     for a, b in zip(loaded.mass_and_bias(q, q[::-1]), model.mass_and_bias(q, q[::-1]), strict=True):
         np.testing.assert_array_equal(a, b)
+    assert type(loaded.actuation) is SpatialTendonActuation
+    np.testing.assert_array_equal(loaded.actuation.offset_vectors_, act.offset_vectors_)
+    u = np.array([0.5, 1.5])
+    np.testing.assert_array_equal(loaded.input_forces(q[1], u), model.input_forces(q[1], u))
+    np.testing.assert_array_equal(loaded.equilibrium(u), model.equilibrium(u))
+    # the summary: every parameter by name with its unit
+    summary = json.loads(path.read_text(encoding="utf-8"))["summary"]
+    assert summary["rhoA"] == {"value": params["rhoA"].tolist(), "unit": "kg/m"}
+    assert summary["base_position"]["value"] == list(BASE_P)
+    assert summary["stiffness"]["twist_2"]["unit"] == "N·m³" and summary["rest_force"]["axial_1"]["unit"] == "N·m"
+    assert summary["rhoAg"]["segment_2"]["unit"] == "N/m"
+    assert summary["actuation"]["type"] == "spatial_tendon"
 
 
 def test_a_spatial_trajectory_round_trips_with_its_base(fitted, tmp_path):

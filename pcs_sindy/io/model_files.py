@@ -583,6 +583,26 @@ def _regressor_summary(model: Any) -> dict[str, Any]:
     return out
 
 
+def _spatial_model_summary(model: Any) -> dict[str, Any]:
+    """A spatial forward model's parameters by name, with units (per segment, then per modelled strain)."""
+    kin = model.kinematics
+    out: dict[str, Any] = {"about": _ABOUT, **_segmentation_summary(kin)}
+    out["rhoA"] = _quantity(model.rhoA, "kg/m")
+    out["rhoI"] = _quantity(model.rhoI, "kg·m")
+    out["rhoAg"] = {f"segment_{i + 1}": _quantity(g, "N/m") for i, g in enumerate(np.asarray(model.rhoAg))}
+    names = kin.strain_names(active_only=True)
+    for attr, unit_of in (
+        ("stiffness", lambda s: generalised_force_unit(s) / strain_unit(s)),
+        ("damping", lambda s: generalised_force_unit(s) / strain_rate_unit(s)),
+        ("rest_force", generalised_force_unit),
+    ):
+        out[attr] = {nm: _quantity(v, unit_of(nm)) for nm, v in zip(names, getattr(model, attr), strict=True)}
+    act = model.actuation
+    if act is not None:
+        out["actuation"] = _actuation_summary(act)
+    return out
+
+
 def _summary(obj: Any, name: str) -> dict[str, Any] | None:
     """The readable summary of a registered object (None when there is nothing to say)."""
     state = vars(obj) if hasattr(obj, "__dict__") else {}
@@ -609,6 +629,8 @@ def _summary(obj: Any, name: str) -> dict[str, Any] | None:
             out["n_frames"] = int(obj.n_frames)
             out["duration"] = _quantity(obj.t[-1] - obj.t[0] if obj.n_frames else 0.0, "s")
         return out
+    if name == "SpatialPCSModel":
+        return _spatial_model_summary(obj)
     if name in REGISTRY.members(loaded_only=True) and not getattr(obj, "is_identity", False):
         return _actuation_summary(obj)  # every actuation kind but the identity (which has nothing to say)
     return None
