@@ -176,3 +176,75 @@ def test_fit_and_rollout_from_tensions_of_tendons_routed_in_3d(tmp_path):
     assert main([*argv, "--initial", "truth", "--n-markers", "2", "--no-plot", "--quiet", "--out", str(out)]) == 0
     metrics = json.loads((out / "metrics.json").read_text())
     assert metrics["tip_position_rmse_mm"] < 0.05  # starts at rest like the truth; 80 ms
+
+
+def test_rollout_of_a_spatial_model_against_a_motion_capture_in_its_frame(tmp_path):
+    """``rollout --truth capture.csv --segmentation`` of a 3-D fusion: the prediction in the capture frame."""
+    from pcs_sindy.io import read_strains
+
+    # a capture of a robot hanging along -y from a base off the origin, bending both ways (positions in mm)
+    true_kin = SpatialPCS((0.06, 0.06), np.tile(ACTIVE, 2))
+    T, arcs = 40, [0.04, 0.08, 0.12]
+    t = np.arange(T) * 0.01
+    q = np.zeros((T, 12))
+    q[:, [0, 1, 6, 7]] = 6.0 * np.sin(2 * np.pi * np.array([0.9, 1.3, 1.1, 0.7]) * t[:, None] + [0.3, 1.0, 2.0, 0.5])
+    base_R = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+    base_p = np.array([0.1, 0.5, 0.2])
+    P = true_kin.forward_kinematics(q, arcs)[0] @ base_R.T + base_p
+    rows = ["frame," + ",".join(f"M{k}_{a}" for k in (1, 2, 3) for a in "XYZ")]
+    rows += [f"{i}," + ",".join(f"{v:.7f}" for v in 1e3 * P[i].ravel()) for i in range(T)]
+    csv = tmp_path / "capture.csv"
+    csv.write_text("\n".join(rows) + "\n")
+    fused = tmp_path / "fused"
+    args = ["fuse", "--markers-csv", str(csv), "--markers", "M1", "M2", "M3", "--rate", "100", "--units", "mm"]
+    assert main([*args, "--space", "3d", "--arc-lengths", *map(str, arcs), "--out", str(fused), "--quiet"]) == 0
+    segmentation = load(fused / "segmentation.json")
+    measured = read_strains(fused / "capture.npz")
+    # a model of the fused segmentation, fitted on exact data
+    kin = measured.kinematics
+    lib = SpatialPhysicalPCSLibrary(list(kin.segment_lengths), active_strains=kin.active_strains, rest_strain=False)
+    lib.fit(np.zeros((1, 2 * kin.n_active)))
+    coef = lib.coefficients_from_parameters(RHO, R, E, G, np.tile(DAMP, kin.n_segments))
+    strains, taus = [], []
+    for k in range(2):
+        tt = np.arange(0.0, 1.5, 0.01)
+        rng = np.random.default_rng(k)
+        f, ph = rng.uniform(0.5, 3.0, (3, kin.n_active)) * 2 * np.pi, rng.uniform(0, 6, (3, kin.n_active))
+        a = f[None] * tt[:, None, None] + ph[None]
+        qa, qda, qdda = 3 * np.sin(a).sum(1), 3 * (f * np.cos(a)).sum(1), -3 * (f**2 * np.sin(a)).sum(1)
+        tau = kin.to_full(lib.euler_lagrange_matrix(qa, qda, qdda) @ coef)
+        tr = SpatialStrainTrajectory(
+            kin.to_full(qa), tt, segment_lengths=kin.segment_lengths, active_strains=kin.active_strains
+        )
+        strains.append(str(write_strains(tmp_path / f"train_{k}.npz", tr)))
+        taus.append(str(write_tau(tmp_path / f"train_tau_{k}.npz", tt, tau)))
+    model = tmp_path / "model.json"
+    assert main(["fit", *strains, "--tau", *taus, "--out", str(model), "--quiet"]) == 0
+    zero = write_tau(tmp_path / "hold.npz", t, np.zeros((T, kin.n_q)))
+    out = tmp_path / "rollout"
+    argv = [
+        "rollout",
+        str(model),
+        "--tau",
+        str(zero),
+        "--truth",
+        str(csv),
+        "--segmentation",
+        str(fused / "segmentation.json"),
+    ]
+    assert main([*argv, "--initial", "truth", "--no-plot", "--quiet", "--out", str(out)]) == 0
+    with np.load(out / "rollout.npz") as npz:
+        got = {key: npz[key] for key in npz.files}
+    # the written positions are the 3-D fusion's markers of the rolled-out strains, in the capture frame
+    sim = SpatialStrainTrajectory(got["q"], t, segment_lengths=kin.segment_lengths, active_strains=kin.active_strains)
+    sim.metadata.update(
+        {key: measured.metadata[key] for key in ("base_pose", "marker_offsets") if key in measured.metadata}
+    )
+    (back,) = segmentation.inverse_transform([sim])
+    np.testing.assert_allclose(got["positions"], back.positions, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(got["positions_measured"], P, rtol=0, atol=1e-9)
+    tip = np.linalg.norm(got["positions"][:, -1] - P[:, -1], axis=1)
+    metrics = json.loads((out / "metrics.json").read_text())
+    assert metrics["truth_kind"] == "capture" and metrics["frame"] == "capture"
+    assert metrics["tip_position_rmse_mm"] == pytest.approx(1e3 * np.sqrt(np.mean(tip**2)), rel=1e-9)
+    assert tip[0] < 1e-3  # it starts where the capture starts (the fused first frame, mapped back)

@@ -1156,16 +1156,16 @@ def rollout(
     if truth is not None:
         if Path(truth).suffix.lower() in _CAPTURE_SUFFIXES:
             kind = "capture"
-            if spatial:
+            if spatial and segmentation is not None and getattr(segmentation, "space_", "plane") != "3d":
                 raise CLIError(
-                    f"--truth {str(truth)!r}: a motion-capture truth is compared in the capture frame, which "
-                    "rollout maps only for planar models so far; give the strain file that 'fuse --markers-csv' "
-                    "wrote for this recording as --truth (compared in the robot's base frame)"
+                    f"--truth {str(truth)!r} is a motion-capture CSV and the model is spatial (3-D): give the "
+                    "segmentation.json of a 3-D fusion ('fuse --markers-csv' of a recording that leaves its plane, "
+                    "or --space 3d); this segmentation is planar"
                 )
             if segmentation is None or not getattr(segmentation, "positions_only_", False):
                 raise CLIError(
                     f"--truth {str(truth)!r} is a motion-capture CSV: give --segmentation, the segmentation.json "
-                    "that 'fuse --markers-csv' wrote (it maps the model's plane to the capture frame)"
+                    "that 'fuse --markers-csv' wrote (it maps the model's frame to the capture frame)"
                 )
             settings = _capture_settings(segmentation_path)
             markers = markers or settings.get("markers")
@@ -1335,12 +1335,16 @@ def rollout(
         if kind is not None:
             outputs.write_text(folder / "metrics.json", json.dumps(metrics, indent=2) + "\n")
         if plot and spatial:
+            if positions is not None:  # the prediction against the capture, in the capture frame
+                shown, truth_shown = positions, capture["positions"]
+            else:
+                shown, truth_shown = poses[0], None if true_poses is None else true_poses[0]
             figure = spatial_rollout_figure(
                 folder / "rollout.png",
                 t,
                 sim.q,
-                poses[0],
-                None if true_poses is None else true_poses[0],
+                shown,
+                truth_shown,
                 names,
                 modelled,
                 into=outputs,
@@ -1406,12 +1410,14 @@ def rollout(
 def _read_capture_truth(
     path: str | Path, segmentation: Any, markers: Sequence[str], rate: float, units: str | None, n_samples: int
 ) -> dict[str, Any]:
-    """A motion-capture truth: its cleaned positions (T, N, 3) and its strains in the segmentation's plane."""
+    """A motion-capture truth: its cleaned positions (T, N, 3) and its strains in the segmentation's plane (or 3-D)."""
     from ..core.trajectory import PoseTrajectory
     from ..io.marker_csv import read_marker_csv
 
+    # a 3-D fusion fitted with the markers' orientations transforms captures read with them
+    orientations = getattr(segmentation, "marker_rotation_offsets_", None) is not None
     try:
-        data = read_marker_csv(path, list(markers), rate=float(rate), units=units)
+        data = read_marker_csv(path, list(markers), rate=float(rate), units=units, orientations=orientations)
     except ValueError as err:
         raise CLIError(str(err)) from None
     if data.positions.shape[0] != n_samples:
@@ -1426,7 +1432,9 @@ def _read_capture_truth(
         )
     try:
         # the fuse's own cleaning (frozen samples, jumps -> missing) and plane, so measured means the same
-        tr = PoseTrajectory.from_positions(data.positions, dt=data.dt, plane=segmentation.plane_)
+        tr = PoseTrajectory.from_positions(
+            data.positions, dt=data.dt, plane=segmentation.plane_, rotations=data.rotations if orientations else None
+        )
         (measured,) = segmentation.transform([tr])
     except ValueError as err:
         raise CLIError(f"truth file {str(path)!r}: {err}") from None
@@ -1438,7 +1446,10 @@ def _capture_prediction(sim: Any, segmentation: Any, capture: dict[str, Any]) ->
     import numpy as np
 
     measured = capture["strains"]
-    keys = ("plane", "marker_arc_lengths", "base_poses", "marker_offsets")
+    if getattr(segmentation, "space_", "plane") == "3d":  # the 3-D fusion's marker model (spatial_marker_positions)
+        keys: tuple[str, ...] = ("marker_arc_lengths", "base_pose", "marker_offsets", "rotation_offsets")
+    else:
+        keys = ("plane", "marker_arc_lengths", "base_poses", "marker_offsets")
     sim.metadata.update({k: measured.metadata[k] for k in keys if k in measured.metadata})
     try:
         (back,) = segmentation.inverse_transform([sim])
