@@ -141,7 +141,20 @@ def test_rollout_of_a_spatial_model_refuses_planar_truths_with_the_fix(files, ca
     csv.write_text("t,x\n0,0\n")
     code = main(["rollout", str(model), "--tau", files["tau_2"], "--truth", str(csv), "--out", str(tmp_path / "o")])
     err = capsys.readouterr().err
-    assert code == 2 and "strain file that 'fuse --markers-csv' wrote" in err
+    assert code == 2 and "give --segmentation" in err
+    # a planar segmentation cannot map a spatial model to the capture frame
+    from pcs_sindy.core import PoseTrajectory
+    from pcs_sindy.core.kinematics import forward_kinematics
+    from pcs_sindy.fusion import KinematicFusion
+    from pcs_sindy.io import save
+
+    q = np.outer(np.sin(np.linspace(0, 3, 30)), [8.0, 0.0, 0.0])
+    poses = forward_kinematics(q, [0.1], np.linspace(0.0, 0.1, 4))
+    seg = save(KinematicFusion().fit([PoseTrajectory(poses, np.arange(30) * 0.01)]), tmp_path / "segmentation")
+    argv = ["rollout", str(model), "--tau", files["tau_2"], "--truth", str(csv), "--segmentation", str(seg)]
+    code = main([*argv, "--out", str(tmp_path / "o")])
+    err = capsys.readouterr().err
+    assert code == 2 and "this segmentation is planar" in err
     # a tau file of another width names the strain count per segment
     bad = write_tau(tmp_path / "bad.npz", t, np.zeros((12, 3)))
     code = main(["rollout", str(model), "--tau", str(bad), "--out", str(tmp_path / "o")])
