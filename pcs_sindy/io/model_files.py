@@ -1128,8 +1128,10 @@ def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> P
     obj : object
         An instance of a registered class (:data:`REGISTRY`): ``KinematicFusion``,
         ``EulerLagrangeRegressor``, ``MarkerPoseExtractor`` (parameters only),
-        the libraries and optimizer, ``Camera``, ``PlanarPCS``, trajectories,
-        an sklearn ``Pipeline`` / ``PCSPipeline`` of such steps; fitted or not.
+        the libraries and optimizer, ``Camera``, ``PlanarPCS``, trajectories, the spatial (3-D)
+        ``SpatialPCS``, ``SpatialStrainTrajectory``, ``SpatialPhysicalPCSLibrary`` and
+        ``SpatialPCSModel``, every actuation kind, an sklearn ``Pipeline`` / ``PCSPipeline`` of
+        such steps; fitted or not.
     path : str or path-like
         ``model``, ``model.json`` or ``model.npz``: writes ``model.json`` and
         ``model.npz`` side by side (replacing existing files).
