@@ -62,6 +62,7 @@ EXAMPLES: dict[str, list[dict[str, Any]]] = {
     "spatial_tendon": [
         {"type": "spatial_tendon", "end": [0.07, 0.17], "offset": [[0.01, 0.0], [0.0, -0.01]]},
         {"type": "spatial_tendon", "end": [0.07, 0.17], "angle": [0.5, 2.5], "shared": True},
+        {"type": "spatial_tendon", "end": [0.12], "angle": [1.0], "drive": "displacement", "stiffness": [300.0]},
     ],
 }
 KIN = PlanarPCS((0.07, 0.1))
