@@ -163,12 +163,12 @@ def test_known_routing_identifies_the_simulated_robot(tendon_data):
     coef = dict(zip(reg.library_.coefficient_names(), reg.model_coef_, strict=True))
     assert coef["rhoA_2"] == pytest.approx(RHO * rob.area[1], rel=5e-2)
     # the identified model rolls out like the simulator (the actuation evaluated in Python)
-    t, u = X[1].t[:40], U[1][:40]
+    t, u = X[1].t[:20], U[1][:20]
     sim = reg.simulate(np.zeros(12), np.zeros(12), t, u)
-    tip_true = rob.kinematics.forward_kinematics(X[1].q[:40], [0.17])[0][:, 0]
+    tip_true = rob.kinematics.forward_kinematics(X[1].q[:20], [0.17])[0][:, 0]
     tip_sim = rob.kinematics.forward_kinematics(sim.q, [0.17])[0][:, 0]
     motion = np.abs(tip_true - tip_true[0]).max()
-    assert motion > 2e-3  # the tendons move the tip by millimetres
+    assert motion > 5e-4  # the tendons move the tip by a millimetre in 0.1 s
     assert np.abs(tip_sim - tip_true).max() < 0.02 * motion
 
 
@@ -180,79 +180,3 @@ def test_offset_magnitudes_are_identified_along_known_directions(tendon_data):
     reg.fit(X, U, qd=[x.qd for x in X])
     np.testing.assert_allclose(reg.actuation_.offset_vectors_, d, rtol=1e-2, atol=1e-5)
     np.testing.assert_allclose(reg.stiffness_[[0, 1, 6, 7]], rob.stiffness[[0, 1, 6, 7]], rtol=2e-2)
-
-
-# ----------------------------------------------------------------------
-# servo-wound elastic tendons (drive="displacement"), against the planar simulator's servo tendons
-# ----------------------------------------------------------------------
-PLANAR_BODY = dict(density=[1070.0, 1049.0], youngs_modulus=[1e4, 9e3], shear_modulus=[1e3, 3e3])
-PLANAR_DAMP = [3e-5, 5e-1, 5e-2, 3e-5, 2.5e-2, 5e-2]
-SERVO = dict(
-    end=[0.07, 0.07, 0.17, 0.17],
-    offset=[0.015, -0.015, 0.015, -0.015],
-    stiffness=[500.0, 500.0, 400.0, 400.0],
-    pulley_radius=[0.01, 0.01, 0.012, 0.012],
-    slack=[0.001, 0.002, -0.001, 0.0],
-)
-
-
-def _servo_in_3d(**kw) -> SpatialTendonActuation:
-    """The planar servo tendons as 3-D ones: offsets along body x (the planar cross-section axis)."""
-    offset = [[d, 0.0] for d in SERVO["offset"]]
-    return SpatialTendonActuation(SERVO["end"], offset=offset, drive="displacement", **kw)
-
-
-def test_servo_tendons_equal_the_planar_simulators_on_planar_motions():
-    from pcs_sindy.simulation import Tendons
-    from pcs_sindy.simulation.dynamics import PCSRobot
-
-    robot = PCSRobot(LENGTHS, **PLANAR_BODY, damping=PLANAR_DAMP, actuation=Tendons(**SERVO, drive="displacement"))
-    kin = SpatialPCS.from_planar(PlanarPCS(tuple(LENGTHS)))
-    act = _servo_in_3d(stiffness=SERVO["stiffness"], pulley_radius=SERVO["pulley_radius"], slack=SERVO["slack"]).fit(
-        kin
-    )
-    rng = np.random.default_rng(1)
-    q = rng.normal(size=(30, 6)) * [15, 0.05, 0.05, 15, 0.05, 0.05]
-    u = rng.uniform(-30, 90, (30, 4))  # servo angles [deg] of either sign
-    tensions = act.tensions(q, u)
-    np.testing.assert_allclose(tensions, robot.tendon_tensions(q, u), rtol=1e-12, atol=1e-15)
-    assert np.any(tensions == 0) and np.any(tensions > 0)  # slack and taut tendons
-    np.testing.assert_allclose(act.forces(q, u), robot.actuation_forces(q, u), rtol=1e-12, atol=1e-15)
-    assert act.input_bounds() is None and not act.linear_in_inputs
-    with pytest.raises(ValueError, match="drive='tension'"):
-        SpatialTendonActuation(END, offset=OFFSET, slack=[0.0] * 4).fit(SpatialPCS(tuple(LENGTHS)))
-
-
-def test_servo_pulley_radii_and_slacks_are_identified_from_planar_servo_data(tmp_path):
-    from pcs_sindy.core.spatial import SpatialStrainTrajectory, planar_to_spatial_strains
-    from pcs_sindy.simulation import Tendons
-    from pcs_sindy.simulation.dynamics import PCSRobot
-
-    robot = PCSRobot(LENGTHS, **PLANAR_BODY, damping=PLANAR_DAMP, actuation=Tendons(**SERVO, drive="displacement"))
-    kin = SpatialPCS.from_planar(PlanarPCS(tuple(LENGTHS)))
-    rng = np.random.default_rng(0)
-    t = np.arange(1500) * 1e-3
-    X, U = [], []
-    for _ in range(3):  # random servo steps: tendons go slack and taut
-        u = np.repeat(rng.uniform(-10, 90, (75, 4)) * (rng.uniform(size=(75, 4)) < 0.5), 20, axis=0)
-        tr = robot.simulate(np.zeros(6), np.zeros(6), t, u)
-        X.append(
-            SpatialStrainTrajectory(
-                planar_to_spatial_strains(tr.q), t, segment_lengths=LENGTHS, active_strains=kin.active_strains
-            )
-        )
-        U.append(u)
-    act = _servo_in_3d(stiffness=SERVO["stiffness"])  # known routing and stiffness; radii and slacks identified
-    reg = EulerLagrangeRegressor(actuation=act).fit(X, U)
-    p = 4
-    full = reg.actuation_.offsets_
-    np.testing.assert_allclose(full[2 * p : 3 * p], SERVO["pulley_radius"], rtol=0.01)
-    np.testing.assert_allclose(full[3 * p :], SERVO["slack"], atol=5e-5)
-    assert reg.actuation_.offset_names_ == [f"r_{k}" for k in range(1, 5)] + [f"s_{k}" for k in range(1, 5)]
-    np.testing.assert_allclose(reg.stiffness_[kin.active_mask], robot.stiffness, rtol=0.01)
-    loaded = load(save(reg, tmp_path / "servo"))
-    assert loaded.actuation_.design_layout()["drive"] == "displacement"
-    q, u = X[0].q[::50], U[0][::50]
-    np.testing.assert_array_equal(
-        loaded.actuation_.forces(q[:, kin.active_mask], u), reg.actuation_.forces(q[:, kin.active_mask], u)
-    )

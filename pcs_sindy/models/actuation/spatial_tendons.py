@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...core.spatial import SpatialPCS
 from ...core.validation import Check, Interval, InvalidParameterError, Options
-from ._common import END, check_inside, finite_vector, per_actuator, positive_vector, segment_cover
+from ._common import END, check_inside, finite_vector, per_actuator, positive_vector, segment_cover, sides
 from .base import Actuation
 
 __all__ = ["SpatialTendonActuation"]
@@ -37,6 +37,16 @@ _WEIGHTINGS = ("residual", "none")
 _DRIVES = ("tension", "displacement")
 #: the displacement-drive parameters, with the label of their identified values
 _SERVO = (("pulley_radius", "r"), ("slack", "s"))
+
+
+def _motor_ok(value: Any) -> bool:
+    arr = np.atleast_1d(np.asarray(value))
+    if arr.ndim != 1 or arr.size == 0 or arr.dtype.kind not in "iuf" or not np.all(np.isfinite(arr)):
+        return False
+    # every servo 0 .. M-1 winds at least one tendon
+    return bool(
+        np.all(arr == np.round(arr)) and arr.min() == 0 and np.array_equal(np.unique(arr), np.arange(arr.max() + 1))
+    )
 
 
 def _offsets_ok(value: Any) -> bool:
@@ -83,6 +93,12 @@ class SpatialTendonActuation(Actuation):
         identified within ``[-max_slack, max_slack]``.
     max_radius, max_slack : float, default 0.05
         Bounds [m] of identified pulley radii and slacks.
+    motor : array_like of int, shape (p,), optional
+        Displacement drive: the input (servo) that winds each tendon, numbered from 0; default one servo
+        per tendon.  Antagonistic tendons share a servo (``motor=[0, 0, 1, 1, ...]``).
+    winding : array_like of {-1, 1}, shape (p,), optional
+        With ``motor``: +1 where a positive angle takes the tendon up, -1 where it lets it out (the
+        antagonist of a pair); default all +1.
 
     Attributes
     ----------
@@ -92,6 +108,8 @@ class SpatialTendonActuation(Actuation):
         pulley radii and the slacks.
     gains_ : ndarray
         Displacement drive: the identified tendon stiffnesses (or the given ones).
+    n_tendons_ : int
+        Number of tendons ``p`` (the inputs ``n_inputs_`` are the servos with ``motor``).
 
     Notes
     -----
@@ -115,6 +133,8 @@ class SpatialTendonActuation(Actuation):
         "slack": [None, Check(finite_vector, "a non-empty 1-D array of finite slacks [m]")],
         "max_radius": [Interval(Real, 0, None, closed="neither")],
         "max_slack": [Interval(Real, 0, None, closed="neither")],
+        "motor": [None, Check(_motor_ok, "a non-empty 1-D array of input indices 0, 1, ... (one per tendon)")],
+        "winding": [None, Check(sides, "a non-empty 1-D array of -1 or 1 (one per tendon)")],
     }
 
     def __init__(
@@ -131,6 +151,8 @@ class SpatialTendonActuation(Actuation):
         slack: ArrayLike | None = None,
         max_radius: float = 0.05,
         max_slack: float = 0.05,
+        motor: ArrayLike | None = None,
+        winding: ArrayLike | None = None,
     ) -> None:
         self.end = end
         self.offset = offset
@@ -144,6 +166,13 @@ class SpatialTendonActuation(Actuation):
         self.slack = slack
         self.max_radius = max_radius
         self.max_slack = max_slack
+        self.motor = motor
+        self.winding = winding
+
+    @property
+    def n_tendons_(self) -> int:
+        """Number of tendons (the inputs are the servos when ``motor`` couples several tendons to one)."""
+        return int(self._arrays["cover"].shape[0])
 
     @property
     def is_displacement(self) -> bool:
@@ -179,13 +208,21 @@ class SpatialTendonActuation(Actuation):
                 f"offset={self.offset!r}, angle={self.angle!r}"
             )
         if not self.is_displacement:
-            for name in ("stiffness", "pulley_radius", "slack"):
+            for name in ("stiffness", "pulley_radius", "slack", "motor", "winding"):
                 if getattr(self, name) is not None:
                     raise InvalidParameterError.of(
                         self, name, "None with drive='tension' (a displacement-drive parameter)", getattr(self, name)
                     )
         cover = segment_cover(np.zeros(p), np.minimum(end, total), lengths)
         out: dict[str, Any] = {"cover": cover, "n_inputs": p, "gain_names": [], "gains": np.zeros(0)}
+        if self.winding is not None and self.motor is None:
+            raise InvalidParameterError.of(
+                self, "winding", "None without motor (it signs each tendon's servo)", self.winding
+            )
+        if self.motor is not None:  # servos winding several tendons: the inputs are the servos' angles
+            motor = per_actuator(self, "motor", p).astype(int)
+            winding = np.ones(p) if self.winding is None else per_actuator(self, "winding", p)
+            out.update(motor=motor, winding=winding, n_inputs=int(motor.max()) + 1)
         names: list[str] = []
         if self.offset is not None:
             offset = np.asarray(self.offset, dtype=float).reshape(-1, 2)
@@ -216,7 +253,7 @@ class SpatialTendonActuation(Actuation):
 
     def _free(self) -> list[tuple[slice, str, slice]]:
         """(slice of the parameter vector, what, slice of ``offsets_``) of every free nonlinear parameter block."""
-        p = self.n_inputs_
+        p = self.n_tendons_
         out, k = [], 0
         if self.offset is None:
             size = 1 if self.shared else p
@@ -269,7 +306,7 @@ class SpatialTendonActuation(Actuation):
         out = np.array(self.offsets_, dtype=float)
         for par, what, full in self._free():
             if what == "magnitude":  # one shared magnitude broadcasts
-                mags = np.broadcast_to(x[par], (self.n_inputs_,))
+                mags = np.broadcast_to(x[par], (self.n_tendons_,))
                 out[full] = (mags[:, None] * self._arrays["directions"]).reshape(-1)
             else:
                 out[full] = x[par]
@@ -278,7 +315,7 @@ class SpatialTendonActuation(Actuation):
     @property
     def offset_vectors_(self) -> NDArray[np.float64]:
         """The offsets ``(d_x, d_z)`` [m] of every tendon, shape (p, 2)."""
-        return np.asarray(self.offsets_, dtype=float)[: 2 * self.n_inputs_].reshape(-1, 2)
+        return np.asarray(self.offsets_, dtype=float)[: 2 * self.n_tendons_].reshape(-1, 2)
 
     # -- inputs -------------------------------------------------------------------------
     def check_inputs(self, u, name="u", t=None):
@@ -296,7 +333,7 @@ class SpatialTendonActuation(Actuation):
     def _tangents(self, q: ArrayLike, offsets: ArrayLike | None) -> tuple[NDArray, NDArray, NDArray]:
         """Body tangents ``v_i + ω_i × d_k`` (B, p, m, 3) of the offset curves, their lengths (B, p, m), d (p, 2)."""
         qf = self.kinematics_.to_full(np.atleast_2d(np.asarray(q, dtype=float)))
-        d = self.signed_offsets(offsets)[: 2 * self.n_inputs_].reshape(-1, 2)
+        d = self.signed_offsets(offsets)[: 2 * self.n_tendons_].reshape(-1, 2)
         B, m = qf.shape[0], self.kinematics_.n_segments
         s = qf.reshape(B, 1, m, 6)
         kz, kx, ky, sx, sz, ax = (s[..., c] for c in range(6))
@@ -330,14 +367,16 @@ class SpatialTendonActuation(Actuation):
                 "stretch needs drive='displacement' (the inputs of this SpatialTendonActuation are tensions)"
             )
         full = self.signed_offsets(offsets)
-        p = self.n_inputs_
+        p = self.n_tendons_
         r, s = full[2 * p : 3 * p], full[3 * p : 4 * p]
         u = np.atleast_2d(np.asarray(u, dtype=float))
+        if "motor" in self._arrays:  # each tendon's angle: its servo's, signed by the winding
+            u = u[:, self._arrays["motor"]] * self._arrays["winding"]
         return r * np.deg2rad(u) + self.lengths(q, offsets) - self._arrays["rest"] - s
 
     def _stiffness(self, gains: ArrayLike | None = None) -> NDArray[np.float64]:
         if self.stiffness is not None:
-            return per_actuator(self, "stiffness", self.n_inputs_)
+            return per_actuator(self, "stiffness", self.n_tendons_)
         return self._gains(gains)
 
     def tensions(
@@ -358,7 +397,7 @@ class SpatialTendonActuation(Actuation):
         per_unit = -jac * np.maximum(self.stretch(q, u, offsets), 0.0)[:, :, None]  # forces per unit stiffness
         if self.stiffness is None:
             return np.zeros((jac.shape[0], jac.shape[2])), np.transpose(per_unit, (0, 2, 1))
-        known = np.einsum("bkn,k->bn", per_unit, per_actuator(self, "stiffness", self.n_inputs_))
+        known = np.einsum("bkn,k->bn", per_unit, per_actuator(self, "stiffness", self.n_tendons_))
         return known, np.zeros(known.shape + (0,))
 
     def forces(self, q, u, gains=None, offsets=None):
@@ -383,6 +422,9 @@ class SpatialTendonActuation(Actuation):
             out["angle"] = np.asarray(self.angle, dtype=float).reshape(-1).tolist()
         if self.is_displacement:
             out["drive"] = "displacement"
+        if self.motor is not None:
+            out["motor"] = [int(v) for v in np.atleast_1d(self.motor)]
+            out["winding"] = [int(v) for v in (np.ones(len(out["motor"])) if self.winding is None else self.winding)]
         return out
 
     def describe(self, precision: int = 3) -> list[str]:
@@ -394,7 +436,7 @@ class SpatialTendonActuation(Actuation):
             f"tendon ends [m]: {ends}; offsets (d_x, d_z) [mm] ({how}): {offs}",
         ]
         if self.is_displacement:
-            p = self.n_inputs_
+            p = self.n_tendons_
 
             def fmt(vals, scale=1.0):
                 return ", ".join(f"{scale * v:.{precision}g}" for v in vals)
