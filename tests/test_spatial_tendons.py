@@ -17,7 +17,6 @@ from pcs_sindy.core.spatial import SpatialPCS
 from pcs_sindy.identification import EulerLagrangeRegressor
 from pcs_sindy.io import load, save
 from pcs_sindy.models import SpatialTendonActuation, TendonActuation, actuation_from_layout
-from pcs_sindy.simulation import _spatial_kernels
 from pcs_sindy.simulation.spatial_dynamics import SpatialPCSRobot, SpatialTendons
 
 LENGTHS = [0.07, 0.1]
@@ -81,10 +80,11 @@ def test_input_map_is_minus_the_gradient_of_the_length_and_matches_the_simulator
     np.testing.assert_allclose(act.forces(q, u), -np.einsum("bkn,bk->bn", jac, u), rtol=1e-14)
     np.testing.assert_allclose(act.matrix(q), -np.transpose(jac, (0, 2, 1)), rtol=1e-14)
     # the simulator's compiled tendons (its own code, in the simulator's layout)
-    _, off, span, _ = SpatialTendons(END, OFFSET).encode(LENGTHS)
-    lengths, dlength = _spatial_kernels.tendon_batch(q, off, span)
-    np.testing.assert_allclose(act.lengths(q), lengths, rtol=1e-14)
-    np.testing.assert_allclose(jac, dlength, rtol=0, atol=1e-14 * np.abs(dlength).max())
+    rob = SpatialPCSRobot(LENGTHS, 1070.0, 1e4, 1e3, np.zeros(12), actuation=SpatialTendons(END, OFFSET))
+    np.testing.assert_allclose(act.lengths(q), rob.tendon_lengths(q), rtol=1e-14)
+    A = rob.actuation_matrix(q)
+    np.testing.assert_allclose(act.matrix(q), A, rtol=0, atol=1e-14 * np.abs(A).max())
+    np.testing.assert_allclose(act.forces(q, u), rob.actuation_forces(q, u), rtol=0, atol=1e-14 * np.abs(A).max())
 
 
 def test_on_planar_motions_the_spatial_tendons_are_the_planar_ones():
