@@ -334,6 +334,9 @@ def _spatial_specimens() -> dict:
         "SpatialStrainTrajectory": tr,
         "SpatialPCSModel": SpatialPCSModel(kin, **lib.lumped_from_coef(coef)),
         "SpatialTendonActuation": SpatialTendonActuation(end=[0.1, 0.05], angle=[0.0, 2.0]).fit(kin),
+        "SpatialTendonActuation[servo]": SpatialTendonActuation(
+            end=[0.1, 0.1, 0.05], angle=[0.0, 3.0, 1.5], drive="displacement", motor=[0, 0, 1], winding=[1, -1, 1]
+        ).fit(kin),
     }
 
 

@@ -43,10 +43,10 @@ def _motor_ok(value: Any) -> bool:
     arr = np.atleast_1d(np.asarray(value))
     if arr.ndim != 1 or arr.size == 0 or arr.dtype.kind not in "iuf" or not np.all(np.isfinite(arr)):
         return False
-    # every servo 0 .. M-1 winds at least one tendon
-    return bool(
-        np.all(arr == np.round(arr)) and arr.min() == 0 and np.array_equal(np.unique(arr), np.arange(arr.max() + 1))
-    )
+    # every servo 0 .. M-1 winds at least one tendon (so M <= the tendons: no index beyond them)
+    if not (np.all(arr == np.round(arr)) and arr.min() == 0 and arr.max() < arr.size):
+        return False
+    return bool(np.unique(arr).size == int(arr.max()) + 1)
 
 
 def _offsets_ok(value: Any) -> bool:
