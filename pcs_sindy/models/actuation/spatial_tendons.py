@@ -9,11 +9,12 @@ tangent is y) from the base to its termination arc length.  Its path ``p + R d_k
 
 ``c_ki`` the rest length of segment i the tendon covers, ``v = (shear_x, 1 + axial, shear_z)`` and
 ``ω = (bend_x, twist, bend_z)`` the segment's body twist.  A tension ``f_k ≥ 0`` does the virtual
-work ``−f_k δl_k``: its column of ``A(q)`` is ``−∂l_k/∂q`` (closed form, NumPy; no compiled form, so
-forward models evaluate it in Python).  The offsets are given (known routing), or their magnitudes
-are identified along given directions in the cross-section (variable projection, like the planar
-tendons' magnitudes along their sides).  Servo-wound elastic tendons (``drive="displacement"``) pull
-with ``k max(0, r u π/180 + l(q) − l(0) − s)`` as the planar ones do.
+work ``−f_k δl_k``: its column of ``A(q)`` is ``−∂l_k/∂q`` (closed form, NumPy; the spatial models'
+compiled kernels evaluate the same map from :meth:`SpatialTendonActuation.compiled`).  The offsets are
+given (known routing), or their magnitudes are identified along given directions in the cross-section
+(variable projection, like the planar tendons' magnitudes along their sides).  Servo-wound elastic
+tendons (``drive="displacement"``) pull with ``k max(0, r u π/180 + l(q) − l(0) − s)`` as the planar
+ones do.
 
 Imports only :mod:`pcs_sindy.core` and its own package.
 """
@@ -118,6 +119,7 @@ class SpatialTendonActuation(Actuation):
 
     kind = "spatial_tendon"
     spatial = True
+    compiled_forms = ("spatial_tendon",)
     depends_on_q = True
     _design_keys = ("end",)
     _parameter_constraints: dict = {
@@ -413,6 +415,21 @@ class SpatialTendonActuation(Actuation):
         if not self.is_displacement:
             return super().matrix(q, gains, offsets)
         return -np.transpose(self.jacobian(q, offsets), (0, 2, 1))
+
+    def compiled(self, gains: ArrayLike | None = None, offsets: ArrayLike | None = None) -> tuple:
+        """``("spatial_tendon", offsets (p, 2), cover (p, m), drive)``: ``drive`` (0, p) for tensions, or the rows
+        ``[k, r, s, l(0), servo, winding]`` (6, p) of servo-wound elastic tendons (the inputs the servos' angles)."""
+        p = self.n_tendons_
+        full = self.signed_offsets(offsets)
+        if not self.is_displacement:
+            drive = np.zeros((0, p))
+        else:
+            motor = self._arrays.get("motor")
+            servo = np.arange(p, dtype=float) if motor is None else np.asarray(motor, dtype=float)
+            winding = np.ones(p) if motor is None else np.asarray(self._arrays["winding"], dtype=float)
+            r, s = full[2 * p : 3 * p], full[3 * p : 4 * p]
+            drive = np.stack([self._stiffness(gains), r, s, self._arrays["rest"], servo, winding])
+        return "spatial_tendon", full[: 2 * p].reshape(p, 2), self._arrays["cover"], drive
 
     def design_layout(self) -> dict[str, Any]:
         out = super().design_layout()
