@@ -49,6 +49,7 @@ ORDER = [
     "spatial_accuracy",
     "spatial_fusion",
     "spatial_identification",
+    "spatial_tendons_statics",
 ]
 # arguments of the benchmarks that write docs/results.md only when asked to
 ARGS = {
@@ -57,6 +58,7 @@ ARGS = {
     "spatial_rollout_speed": ["--write"],
     "spatial_accuracy": ["--write"],
     "spatial_identification": ["--write"],
+    "spatial_tendons_statics": ["--write"],
 }
 # benchmarks outside make bench (run on their own)
 SEPARATE = ["lowest_versions"]
