@@ -34,7 +34,7 @@ __all__ = ["ForwardModel", "LumpedPCSModel", "CallableModel", "reduce_strains"]
 
 
 def reduce_strains(kinematics: PlanarPCS, value: ArrayLike, name: str = "q") -> NDArray[np.float64]:
-    """Modelled strains of full (..., 3m) or already reduced (..., n) input, checked for NaN."""
+    """Modelled strains of full (..., n_q) or already reduced (..., n) input, checked for NaN."""
     v = np.asarray(value, dtype=float)
     mask = kinematics.active_mask
     n = int(mask.sum())
@@ -101,7 +101,7 @@ class ForwardModel(ABC):
 
     @property
     def n_inputs(self) -> int:
-        """Columns of the input ``u``: the actuators', or one generalised force per strain (3m)."""
+        """Columns of the input ``u``: the actuators', or one generalised force per strain (n_q = 3m or 6m)."""
         return int(self.kinematics.n_q) if self.actuation is None else int(self.actuation.n_inputs_)
 
     @property
@@ -218,13 +218,13 @@ class ForwardModel(ABC):
 
         Parameters
         ----------
-        q0, qd0 : array_like, shape (3m,) or (n,)
+        q0, qd0 : array_like, shape (n_q,) or (n,)
             Initial strains and rates (all strains, unmodelled ones ignored, or the modelled ones).
         t : array_like, shape (T,)
             Output times (strictly increasing, at least 2).
         u : array_like, shape (T, p), or callable
             Inputs held constant on ``[t[k], t[k+1])``, or ``u(time)``: the
-            generalised forces (p = 3m, or the n modelled ones) or, for a model
+            generalised forces (p = n_q, or the n modelled ones) or, for a model
             with an :attr:`actuation`, the actuator inputs.
         method : str, optional
             One of :attr:`methods`; default :attr:`default_method`.
@@ -245,7 +245,7 @@ class ForwardModel(ABC):
         Returns
         -------
         StrainTrajectory
-            Full strains and rates (T, 3m); strains that are not modelled stay 0.
+            Full strains and rates (T, n_q); strains that are not modelled stay 0.
 
         Raises
         ------
@@ -362,10 +362,10 @@ class ForwardModel(ABC):
         ----------
         u : array_like, shape (p,) or (B, p)
             Constant inputs (actuator inputs, or generalised forces on all
-            3m or the n modelled strains for a model without actuation).
+            n_q or the n modelled strains for a model without actuation).
             Several rows: one equilibrium each, each solve starting from the
             previous row's equilibrium (order a load sweep by load).
-        q0 : array_like, shape (3m,) or (n,), optional
+        q0 : array_like, shape (n_q,) or (n,), optional
             Starting guess (default: the straight robot).
         tol : float, default 1e-10
             Tolerance of the root finder; an equilibrium whose residual force
@@ -401,7 +401,7 @@ class ForwardModel(ABC):
             raise ValueError(f"n_continuation must be a positive integer; got {n_continuation!r}")
         q = np.zeros(self.n) if q0 is None else np.array(self._reduce(q0, "q0"), dtype=float).reshape(-1)
         if q.size != self.n:
-            raise ValueError(f"q0 must hold {self.n} modelled strains (or all 3m); got {q.size}")
+            raise ValueError(f"q0 must hold {self.n} modelled strains (or all {self.kinematics.n_q}); got {q.size}")
 
         def solve(target: NDArray[np.float64], start: NDArray[np.float64]) -> tuple[NDArray[np.float64], bool]:
             sol = root(lambda x: self.static_residual(x, target), start, method="hybr", tol=tol)
