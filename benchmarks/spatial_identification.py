@@ -115,7 +115,10 @@ benchmark: every strain equation's weak rows scaled by 1 / the RMS residual of a
 feasible generalised least squares; the shear and axial strains of segment 2 carry per-frame noise larger than
 their motion and pull the shared line densities): the 1 mm target is met on all 6 draws with w30 (0.53-0.91 mm),
 w45 (0.43-0.84 mm, median 0.61) and w60 (0.56-0.90 mm); noise-free 0.005-0.007 mm.  At the default window it
-does not help (the window is the problem there).
+does not help (the window is the problem there).  On the planar noise study's scenarios (probe with
+`benchmarks/noise_robustness.py`'s data and rollouts at the defaults, 0.5 mm / 1°, noise seeds 0-2):
+two_segment 0.80 / 0.26 / 0.48 -> 0.31 / 0.42 / 0.38 mm, one_segment 0.037 / 0.014 / 0.016 -> 0.038 / 0.016 /
+0.016 mm, noise-free unchanged (0.032 / 0.005 mm).
 5. The tip error grows about linearly with the marker noise (w45, three other draws, medians 0.15 / 0.33 /
 0.78 mm at 0.125 / 0.25 / 0.5 mm): mostly variance, not errors-in-variables bias.
 6. The inputs are generalised forces on every strain, not the tendons the done-when names: a tendon row needs
