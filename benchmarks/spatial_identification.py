@@ -84,9 +84,9 @@ CONFIGS = {
     "default+oe": ({"refine": "output_error"}, False),
     "w45+oe": ({"weak_window": 45, "refine": "output_error"}, False),
 }
-NOTES = """Findings (issue 26 done-when, generalised forces: noise-free ≤ 0.1 mm met by every configuration; 0.5 mm
-marker noise ≤ 1 mm met on all 6 noise draws by `weak_window` 30-60 with equation weighting, on 5 of 6 by
-`weak_window=45` alone, not at the defaults).
+NOTES = """Findings (issue 26 done-when, generalised forces: noise-free ≤ 0.1 mm met by every configuration but
+the output-error ones; 0.5 mm marker noise ≤ 1 mm met on all 6 noise draws by `weak_window` 30-60 with
+equation weighting, on 5 of 6 by `weak_window=45` alone, not at the defaults).
 
 1. **The default weak window is what fails under noise.** `EulerLagrangeRegressor()` uses `WEAK_WINDOW` (160
 samples) or half the shortest recording: here 150 samples, 1.5 s at 100 Hz (160 samples was chosen at 1 kHz:
