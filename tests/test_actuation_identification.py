@@ -134,6 +134,10 @@ def test_per_tendon_offsets_from_noisy_poses(tendon_data):
     assert np.all(w[0::3] > 10 * w[1::3])
     text = model.identifiability_report()
     assert "actuation offsets" in text and "d_4" in text and "do not determine" not in text
+    # every offset line carries its unit (a length from the backbone)
+    after = text.split("actuation offsets")[1].splitlines()[1:]
+    offset_lines = [ln for ln in after if ln.startswith("d_")]
+    assert offset_lines and all(ln.split()[4] == "m" for ln in offset_lines), offset_lines
     # weighting="none": one plain least-squares solve over all equations, the shear and axial noise then sets
     # the offsets (measured 11-12 % off on these recordings)
     act = {**scenario.actuation, "weighting": "none"}  # the layout as a JSON file gives it

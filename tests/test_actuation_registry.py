@@ -23,6 +23,7 @@ import numpy as np
 import pytest
 
 from pcs_sindy.core import PlanarPCS, StrainTrajectory
+from pcs_sindy.core.spatial import SpatialPCS
 from pcs_sindy.core.validation import Interval
 from pcs_sindy.identification import EulerLagrangeRegressor
 from pcs_sindy.io import REGISTRY, load, save
@@ -45,7 +46,9 @@ OLD_REGISTRY_PATHS = {
     "linear": ("pcs_sindy.models.actuation", "LinearActuation"),
     "learned": ("pcs_sindy.models.actuation", "LearnedActuation"),
 }
-#: a layout of every built-in kind on KIN (a new built-in kind adds its own)
+#: the kinds added since, by module path (each registered by its class like the five above)
+NEW_KINDS = {"spatial_tendon": ("pcs_sindy.models.actuation", "SpatialTendonActuation")}
+#: a layout of every built-in kind on KIN, or KIN3 for the spatial-only kinds (a new built-in kind adds its own)
 EXAMPLES: dict[str, list[dict[str, Any]]] = {
     "identity": [{"type": "identity"}],
     "tendon": [
@@ -56,8 +59,19 @@ EXAMPLES: dict[str, list[dict[str, Any]]] = {
     "pressure": [{"type": "pressure", "start": [0.0, 0.05], "end": [0.1, 0.17], "side": [1, -1]}],
     "linear": [{"type": "linear", "pattern": np.eye(6, 2, dtype=bool).tolist()}],
     "learned": [{"type": "learned", "n_inputs": 2, "terms": ["u", "u*q", "pull"], "strains": "all"}],
+    "spatial_tendon": [
+        {"type": "spatial_tendon", "end": [0.07, 0.17], "offset": [[0.01, 0.0], [0.0, -0.01]]},
+        {"type": "spatial_tendon", "end": [0.07, 0.17], "angle": [0.5, 2.5], "shared": True},
+        {"type": "spatial_tendon", "end": [0.12], "angle": [1.0], "drive": "displacement", "stiffness": [300.0]},
+    ],
 }
 KIN = PlanarPCS((0.07, 0.1))
+KIN3 = SpatialPCS((0.07, 0.1))
+SPATIAL_ONLY = {"spatial_tendon"}
+
+
+def _kin(layout: dict) -> Any:
+    return KIN3 if layout["type"] in SPATIAL_ONLY else KIN
 
 
 def _package_kinds() -> dict[str, type]:
@@ -72,7 +86,7 @@ def _subclasses(cls: type) -> list[type]:
 
 
 def _fitted(layout: dict, seed: int = 0) -> Actuation:
-    act = actuation_from_layout(layout).fit(KIN)
+    act = actuation_from_layout(layout).fit(_kin(layout))
     rng = np.random.default_rng(seed)
     # nonzero gains and offsets, so a round trip that dropped them would show
     act.set_identified(rng.uniform(0.5, 2.0, act.n_gains) * 1e-3, act.offsets_ * rng.uniform(0.8, 1.2))
@@ -91,7 +105,7 @@ def test_every_concrete_subclass_of_the_package_is_registered_under_its_kind():
     kinds = actuation_kinds()  # imports every module of pcs_sindy.models.actuation
     ours = [c for c in _subclasses(Actuation) if c.__module__.startswith("pcs_sindy.")]
     concrete = [c for c in ours if not inspect.isabstract(c)]
-    assert {c.__name__ for c in concrete} == {attr for _, attr in OLD_REGISTRY_PATHS.values()}
+    assert {c.__name__ for c in concrete} == {attr for _, attr in (*OLD_REGISTRY_PATHS.values(), *NEW_KINDS.values())}
     for cls in concrete:
         assert kinds[cls.kind] is cls, cls
         assert "kind" in vars(cls), f"{cls.__name__} inherits its kind"
@@ -119,6 +133,10 @@ def test_the_compiled_forms_are_the_kernels_input_maps():
     for layouts in EXAMPLES.values():
         for layout in layouts:
             act = _fitted(layout)
+            if not type(act).compiled_forms:  # a kind without a compiled form says so
+                with pytest.raises(NotImplementedError, match="no compiled form"):
+                    act.compiled()
+                continue
             assert act.compiled()[0] in type(act).compiled_forms, layout
 
 
@@ -133,7 +151,9 @@ def test_every_kind_round_trips_through_model_files(layout, tmp_path):
     np.testing.assert_array_equal(loaded.gains_, act.gains_)
     np.testing.assert_array_equal(loaded.offsets_, act.offsets_)
     assert loaded.gain_names_ == act.gain_names_ and loaded.offset_names_ == act.offset_names_
-    q = np.random.default_rng(2).uniform(-1, 1, (5, KIN.n_q)) * np.tile([20.0, 0.1, 0.1], 2)
+    kin = _kin(layout)
+    scale = [20.0, 0.1, 0.1] if kin is KIN else [20.0, 20.0, 20.0, 0.1, 0.1, 0.1]
+    q = np.random.default_rng(2).uniform(-1, 1, (5, kin.n_q)) * np.tile(scale, 2)
     u = _inputs(act)
     np.testing.assert_array_equal(loaded.forces(q, u), act.forces(q, u))
     # and through its JSON layout: the same parameters

@@ -302,7 +302,42 @@ def specimens(regressors, data):
         "PCSPipeline": make_pcs_pipeline(),
         "FiniteDifference": FiniteDifference(order=2),
     }
+    out.update(_spatial_specimens())
     return out
+
+
+def _spatial_specimens() -> dict:
+    """The spatial classes: a regressor fitted on exact inverse dynamics (bending of one segment), its parts."""
+    from pcs_sindy.core.spatial import SpatialPCS, SpatialStrainTrajectory
+    from pcs_sindy.identification.library.spatial_physical import SpatialPhysicalPCSLibrary
+    from pcs_sindy.models import SpatialTendonActuation
+    from pcs_sindy.models.spatial_forward import SpatialPCSModel
+
+    active = [True, True, False, False, False, False]
+    lib = SpatialPhysicalPCSLibrary([0.1], active_strains=active, rest_strain=False, n_quadrature=4)
+    lib.fit(np.zeros((1, 4)))
+    coef = lib.coefficients_from_parameters(1070.0, 0.02, 1e4, 1e3, [3e-5, 3e-5, 2e-5, 0.15, 0.15, 0.15])
+    t = np.arange(0.0, 0.5, 0.01)
+    w = 2 * np.pi * np.array([1.0, 1.7])
+    q, qd, qdd = np.sin(w * t[:, None]), w * np.cos(w * t[:, None]), -(w**2) * np.sin(w * t[:, None])
+    kin = SpatialPCS((0.1,), active, (0.0, 0.1, 0.0), np.eye(3)[[1, 0, 2]] * [[1], [-1], [1]])
+    tr = SpatialStrainTrajectory(
+        kin.to_full(q), t, segment_lengths=[0.1], active_strains=active, base_position=(0.0, 0.1, 0.0)
+    )
+    tau = kin.to_full(lib.euler_lagrange_matrix(q, qd, qdd) @ coef)
+    reg = EulerLagrangeRegressor(formulation="strong", feature_library=SpatialPhysicalPCSLibrary(n_quadrature=4))
+    reg.fit([tr], [tau], qd=[kin.to_full(qd)], qdd=[kin.to_full(qdd)])
+    return {
+        "EulerLagrangeRegressor[spatial]": reg,
+        "SpatialPhysicalPCSLibrary": reg.library_,
+        "SpatialPCS": kin,
+        "SpatialStrainTrajectory": tr,
+        "SpatialPCSModel": SpatialPCSModel(kin, **lib.lumped_from_coef(coef)),
+        "SpatialTendonActuation": SpatialTendonActuation(end=[0.1, 0.05], angle=[0.0, 2.0]).fit(kin),
+        "SpatialTendonActuation[servo]": SpatialTendonActuation(
+            end=[0.1, 0.1, 0.05], angle=[0.0, 3.0, 1.5], drive="displacement", motor=[0, 0, 1], winding=[1, -1, 1]
+        ).fit(kin),
+    }
 
 
 def _leaves(node, path=()):

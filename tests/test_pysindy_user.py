@@ -11,6 +11,7 @@ import pickle
 import warnings
 
 import numpy as np
+import pysindy as ps
 import pytest
 from sklearn.base import clone
 from sklearn.model_selection import GridSearchCV
@@ -187,6 +188,16 @@ def test_default_optimizer_parameters_are_settable_and_never_shared():
     assert both.optimizer.max_iter == 5
     given = StiffnessThresholdOptimizer(threshold=0.5)
     assert EulerLagrangeRegressor(optimizer=given).set_params(optimizer__threshold=0.2).optimizer is given
+
+
+def test_weak_sindy_default_optimizer_is_searchable_too():
+    """``WeakEulerLagrangeSINDy(optimizer=None)`` stands for ``STLSQ()``: its parameters are nested ones."""
+    est = WeakEulerLagrangeSINDy()
+    assert est.optimizer is None
+    assert est.get_params(deep=True)["optimizer__threshold"] == ps.STLSQ().threshold
+    assert est.set_params(optimizer__threshold=0.05) is est
+    assert isinstance(est.optimizer, ps.STLSQ) and est.optimizer.threshold == 0.05
+    assert WeakEulerLagrangeSINDy().optimizer is None and clone(est).optimizer is not est.optimizer
 
 
 def test_default_optimizer_gives_todays_numbers_and_fit_mutates_nothing(one_segment):

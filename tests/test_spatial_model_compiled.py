@@ -9,13 +9,15 @@ its own integrator; itself held to an mpmath reference), and the planar model
 
 from __future__ import annotations
 
+import copy
+
 import numpy as np
 import pytest
 
 from pcs_sindy.core.kinematics import PlanarPCS
 from pcs_sindy.core.simulate_contract import DivergenceError
 from pcs_sindy.core.spatial import SpatialPCS
-from pcs_sindy.models import LearnedActuation, LumpedPCSModel
+from pcs_sindy.models import LearnedActuation, LumpedPCSModel, SpatialTendonActuation
 from pcs_sindy.models.spatial_forward import SpatialPCSModel, node_terms, spatial_quadrature
 from pcs_sindy.simulation import SpatialPCSRobot
 
@@ -146,9 +148,10 @@ def test_planar_restriction_equals_the_planar_model():
     t = np.arange(0.0, 0.2, 1e-3)
     u = rng.normal(size=(t.size, 6)) * np.tile([1e-3, 1e-2, 1e-2], 2)
     q0 = np.array([3.0, 0.01, 0.0, -2.0, 0.0, 0.01])
-    a = spatial.simulate(q0, np.zeros(6), t, u, rtol=1e-9, atol=1e-12)
-    b = planar.simulate(q0, np.zeros(6), t, u, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(a.q[:, kin.active_mask], b.q[:, planar_kin.active_mask], rtol=0, atol=1e-8)
+    # the same fixed steps of the same scheme: the rollouts differ by the round-off of the terms only
+    a = spatial.simulate(q0, np.zeros(6), t, u, step=2.5e-4)
+    b = planar.simulate(q0, np.zeros(6), t, u, step=2.5e-4)
+    np.testing.assert_allclose(a.q[:, kin.active_mask], b.q[:, planar_kin.active_mask], rtol=0, atol=1e-10)
     assert np.all(a.q[:, ~kin.active_mask] == 0.0)
 
 
@@ -165,21 +168,75 @@ def test_divergence_raises_the_planar_models_error():
         q0[0] = 1e-3
         with pytest.raises(DivergenceError, match="diverged at t"):
             model.simulate(q0, np.zeros(n), t, np.zeros((t.size, n)), max_abs_state=100.0)
+    # no inertia (an identified rhoA = rhoI = 0): a singular mass matrix, the same error
+    massless = SpatialPCSModel(kin, [0.0], [0.0], [[0.0, 0.0, 0.0]], np.ones(6), np.ones(6))
+    with pytest.raises(DivergenceError, match="singular mass matrix"):
+        massless.simulate(np.zeros(6), np.zeros(6), t[:3], np.zeros((3, 6)))
 
 
 def test_learned_actuation_runs_compiled_and_equals_its_python_map():
+    """The affine map inside the compiled rhs equals the actuation's own forces; a kind without a compiled
+    form is evaluated in Python (solve_ivp methods only) and rolls out the same."""
     rng = np.random.default_rng(7)
     kin = SpatialPCS(L)
     act = LearnedActuation(2, terms=("u", "u*q", "pull")).fit(kin)
     act.gains_ = rng.normal(size=act.gains_.size) * 1e-3
-    model = SpatialPCSModel(kin, [1.3, 0.9], [2e-4, 7e-5], np.zeros((2, 3)), np.ones(12), np.ones(12), actuation=act)
+    params = ([1.3, 0.9], [2e-4, 7e-5], np.zeros((2, 3)), np.ones(12), np.ones(12))
+    model = SpatialPCSModel(kin, *params, actuation=act)
     assert model.default_method in model.compiled_methods and not model.python_inputs
     q, u = rng.normal(size=(5, 12)), rng.normal(size=(5, 2))
     for qi, ui in zip(q, u, strict=True):
         np.testing.assert_allclose(model.input_forces(qi, ui), act.forces(qi[None], ui[None])[0], rtol=1e-14, atol=0)
-    t = np.arange(0.0, 0.05, 1e-3)
+    python_map = copy.deepcopy(act)
+    python_map.compiled_forms = ()
+    fallback = SpatialPCSModel(kin, *params, actuation=python_map)
+    assert fallback.python_inputs and fallback.default_method not in fallback.compiled_methods
+    for qi, ui in zip(q, u, strict=True):
+        y = np.concatenate([qi, qi[::-1]])
+        np.testing.assert_allclose(fallback._state_derivative(y, ui), model._state_derivative(y, ui), rtol=1e-12)
+    t = np.arange(0.0, 0.005, 1e-3)
     u = rng.normal(size=(t.size, 2))
     a = model.simulate(np.zeros(12), np.zeros(12), t, u, rtol=1e-9, atol=1e-12)
-    b = model.simulate(np.zeros(12), np.zeros(12), t, u, method="radau", rtol=1e-9, atol=1e-12)
+    b = fallback.simulate(np.zeros(12), np.zeros(12), t, u, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-7 * np.abs(b.q).max())
+    assert np.abs(a.q).max() > 0
+
+
+@pytest.mark.parametrize("drive", ["tension", "displacement"])
+def test_spatial_tendons_run_compiled_and_equal_their_python_map(drive):
+    """SpatialTendonActuation inside the compiled rhs: tensions, and servo-wound elastic tendons on antagonistic
+    pairs (inputs the servos' angles, going slack), against the actuation's own NumPy forces."""
+    rng = np.random.default_rng(11)
+    kin = SpatialPCS(L)
+    end, offset = [0.07, 0.17, 0.17, 0.12], [[0.01, 0.0], [-0.008, 0.004], [0.0, -0.012], [0.005, 0.006]]
+    if drive == "tension":
+        act = SpatialTendonActuation(end, offset=offset).fit(kin)
+        u = rng.uniform(0.0, 0.05, (6, 4))
+    else:
+        act = SpatialTendonActuation(
+            end,
+            offset=offset,
+            drive="displacement",
+            stiffness=[500.0, 500.0, 400.0, 400.0],
+            pulley_radius=[0.01, 0.01, 0.012, 0.012],
+            slack=[0.001, 0.002, -0.001, 0.0],
+            motor=[0, 0, 1, 1],
+            winding=[1, -1, 1, -1],
+        ).fit(kin)
+        u = rng.uniform(-20.0, 20.0, (6, 2))  # degrees: one tendon of each pair slack
+    params = ([1.3, 0.9], [2e-4, 7e-5], np.zeros((2, 3)), np.ones(12), np.ones(12))
+    model = SpatialPCSModel(kin, *params, actuation=act)
+    assert not model.python_inputs and model.default_method == "rosenbrock"
+    q = rng.normal(size=(6, 12)) * np.tile([3.0, 3.0, 3.0, 0.05, 0.05, 0.05], 2)
+    for qi, ui in zip(q, u, strict=True):
+        want = act.forces(qi[None], ui[None])[0]
+        np.testing.assert_allclose(model.input_forces(qi, ui), want, rtol=0, atol=1e-13 * np.abs(want).max())
+    python_map = copy.deepcopy(act)
+    python_map.compiled_forms = ()
+    fallback = SpatialPCSModel(kin, *params, actuation=python_map)
+    t = np.arange(0.0, 0.005, 1e-3)
+    U = np.repeat(u[:1], t.size, axis=0)
+    a = model.simulate(np.zeros(12), np.zeros(12), t, U, rtol=1e-9, atol=1e-12)
+    b = fallback.simulate(np.zeros(12), np.zeros(12), t, U, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(a.q, b.q, rtol=0, atol=1e-7 * np.abs(b.q).max())
     assert np.abs(a.q).max() > 0

@@ -1025,6 +1025,23 @@ def _capture_settings(segmentation_path: str | Path | None) -> dict[str, Any]:
     return doc if isinstance(doc, dict) else {}
 
 
+def _strain_units(names: Sequence[str]) -> dict[str, str]:
+    """The unit of each strain as metrics.json writes it: ``1/m`` for curvatures and twist, ``-`` otherwise."""
+    from ..core.units import strain_unit
+
+    return {nm: "-" if strain_unit(nm).dimensionless else str(strain_unit(nm)) for nm in names}
+
+
+def _rotation_angles(R_a: Any, R_b: Any) -> Any:
+    """The angle [rad] of the relative rotation of two stacks of rotations (..., 3, 3)."""
+    import numpy as np
+
+    # sin and cos of the angle from the skew and symmetric parts: accurate at small angles (arccos is not)
+    rel = np.einsum("...ji,...jk->...ik", R_a, R_b)
+    skew = np.stack([rel[..., 2, 1] - rel[..., 1, 2], rel[..., 0, 2] - rel[..., 2, 0], rel[..., 1, 0] - rel[..., 0, 1]])
+    return np.arctan2(0.5 * np.linalg.norm(skew, axis=0), 0.5 * (np.trace(rel, axis1=-2, axis2=-1) - 1.0))
+
+
 def _strain_rmse(names: Sequence[str], q_pred: Any, q_true: Any, keep: Any) -> dict[str, float]:
     """RMS difference of each modelled strain (``keep``) over the frames where the truth is finite."""
     import numpy as np
@@ -1102,10 +1119,11 @@ def rollout(
 
     from ..core.atomic import FileSet
     from ..core.metrics import distributed_errors, end_effector_errors
+    from ..core.spatial import SpatialPCS
     from ..fusion.kinematic_fusion import KinematicFusion
     from ..identification.regressor import EulerLagrangeRegressor
     from ..io import data_files as files
-    from .report import rollout_figure, strains_figure
+    from .report import rollout_figure, spatial_rollout_figure, strains_figure
 
     if plot:  # before the rollout: a missing matplotlib is said at once
         from ..core.optional import MissingDependencyError, require_installed
@@ -1125,10 +1143,11 @@ def rollout(
     t, u = files.read_tau(tau, "u" if actuated else "tau")
     kin = model.kinematics_
     n = kin.n_q
+    spatial = isinstance(kin, SpatialPCS)  # a 3-D model: positions and rotations, not planar poses
     if not actuated and u.shape[1] != n:
         raise CLIError(
             f"tau file {str(tau)!r} has {u.shape[1]} force columns; the model has {n} strains "
-            f"({kin.n_segments} segment(s) x 3)"
+            f"({kin.n_segments} segment(s) x {n // kin.n_segments})"
         )
     forward = model.forward_model()
     if method is not None and method not in forward.methods:
@@ -1137,10 +1156,16 @@ def rollout(
     if truth is not None:
         if Path(truth).suffix.lower() in _CAPTURE_SUFFIXES:
             kind = "capture"
+            if spatial and segmentation is not None and getattr(segmentation, "space_", "plane") != "3d":
+                raise CLIError(
+                    f"--truth {str(truth)!r} is a motion-capture CSV and the model is spatial (3-D): give the "
+                    "segmentation.json of a 3-D fusion ('fuse --markers-csv' of a recording that leaves its plane, "
+                    "or --space 3d); this segmentation is planar"
+                )
             if segmentation is None or not getattr(segmentation, "positions_only_", False):
                 raise CLIError(
                     f"--truth {str(truth)!r} is a motion-capture CSV: give --segmentation, the segmentation.json "
-                    "that 'fuse --markers-csv' wrote (it maps the model's plane to the capture frame)"
+                    "that 'fuse --markers-csv' wrote (it maps the model's frame to the capture frame)"
                 )
             settings = _capture_settings(segmentation_path)
             markers = markers or settings.get("markers")
@@ -1156,7 +1181,16 @@ def rollout(
             capture = _read_capture_truth(truth, segmentation, markers, rate, units or settings.get("units"), t.size)
         else:
             keys = files.read_arrays(truth, [], "truth file", optional=["poses_true", "poses", "q", "segment_lengths"])
-            if "poses_true" in keys or "poses" in keys:
+            if (
+                spatial
+                and ("poses_true" in keys or "poses" in keys)
+                and not ("q" in keys and "segment_lengths" in keys)
+            ):
+                raise CLIError(
+                    f"truth file {str(truth)!r} holds planar poses; a spatial model is compared with a strain "
+                    "file (q and segment_lengths) of the same segmentation"
+                )
+            if not spatial and ("poses_true" in keys or "poses" in keys):
                 kind = "poses"
                 true_poses = files.read_poses(truth, "poses_true" if "poses_true" in keys else "poses")[1]
                 frames = true_poses.shape[0]
@@ -1208,7 +1242,7 @@ def rollout(
     start = time.perf_counter()
     sim = model.simulate(q0, qd0, t, u, method=method, rtol=rtol, atol=atol, progress=not quiet)
     seconds = time.perf_counter() - start
-    poses = sim.poses(s)
+    poses = sim.poses(s)  # planar (T, K, 3) poses, or spatial (positions (T, K, 3), rotations (T, K, 3, 3))
     names = sim.kinematics.strain_names(active_only=False)
     removed = set(getattr(model, "removed_strains_", None) or ())
     modelled = np.asarray(sim.kinematics.active_mask) & np.array([nm not in removed for nm in names])
@@ -1223,7 +1257,28 @@ def rollout(
     positions = None
     if kind == "strains":  # the measured strains' own poses, in the prediction's frame
         true_poses = sim.kinematics.forward_kinematics(true_q, s)
-    if true_poses is not None:
+    if true_poses is not None and spatial:
+        # the seed's errors in 3-D: position distances, and the angles of the relative rotations
+        dist = np.linalg.norm(poses[0][:, 1:] - true_poses[0][:, 1:], axis=-1)
+        angle = _rotation_angles(poses[1][:, 1:], true_poses[1][:, 1:])
+        e_p, e_th, d_p, d_th = (
+            float(dist[:, -1].mean()),
+            float(angle[:, -1].mean()),
+            float(dist.mean()),
+            float(angle.mean()),
+        )
+        tip_err = dist[:, -1]
+        metrics.update(
+            truth=str(truth),
+            truth_kind=kind,
+            e_p_ee_mm=1e3 * e_p,
+            e_theta_ee_rad=e_th,
+            e_p_dist_mm=1e3 * d_p,
+            e_theta_dist_rad=d_th,
+            tip_position_rmse_mm=1e3 * float(np.sqrt(np.mean(tip_err**2))),
+            tip_position_max_mm=1e3 * float(tip_err.max()),
+        )
+    elif true_poses is not None:
         e_p, e_th = end_effector_errors(poses[:, 1:], true_poses[:, 1:])
         d_p, d_th = distributed_errors(poses[:, 1:], true_poses[:, 1:])
         tip_err = np.linalg.norm(poses[:, -1, :2] - true_poses[:, -1, :2], axis=1)
@@ -1243,7 +1298,7 @@ def rollout(
     if kind == "strains":
         rmse = _strain_rmse(names, sim.q, true_q, modelled)
         metrics["strain_rmse"] = rmse
-        metrics.setdefault("units_of", {})["strain_rmse"] = {nm: "1/m" if nm.startswith("be") else "-" for nm in rmse}
+        metrics.setdefault("units_of", {})["strain_rmse"] = _strain_units(rmse)
     if kind == "capture":
         positions, rmse = _capture_prediction(sim, segmentation, capture)
         measured_pos = capture["positions"]
@@ -1262,26 +1317,40 @@ def rollout(
             marker_position_mean_mm=1e3 * float(np.nanmean(every)),
             strain_rmse=rmse,
         )
-        metrics.setdefault("units_of", {})["strain_rmse"] = {nm: "1/m" if nm.startswith("be") else "-" for nm in rmse}
+        metrics.setdefault("units_of", {})["strain_rmse"] = _strain_units(rmse)
     if kind is not None:
         metrics["units"] = {k: v for k, v in _METRIC_UNITS.items() if k in metrics}
         metrics["units"].update(metrics.pop("units_of", {}))
     title = f"rollout of {Path(model_name).name} under {Path(str(tau)).name}"
     with FileSet(folder) as outputs:  # rollout.npz, metrics.json and the plots: all new or all old
-        arrays = dict(
-            t=t,
-            q=sim.q,
-            qd=sim.qd,
-            poses=poses,
-            marker_arc_lengths=s,
-            segment_lengths=np.asarray(kin.segment_lengths, dtype=float),
-        )
+        arrays = dict(t=t, q=sim.q, qd=sim.qd)
+        if spatial:  # 3-D: the markers' positions and rotations in the base frame
+            arrays.update(marker_positions=poses[0], marker_rotations=poses[1])
+        else:
+            arrays.update(poses=poses)
+        arrays.update(marker_arc_lengths=s, segment_lengths=np.asarray(kin.segment_lengths, dtype=float))
         if positions is not None:  # the prediction and the measurement in the capture frame
             arrays.update(positions=positions, positions_measured=capture["positions"])
         outputs.savez(folder / "rollout.npz", **arrays)
         if kind is not None:
             outputs.write_text(folder / "metrics.json", json.dumps(metrics, indent=2) + "\n")
-        if plot:
+        if plot and spatial:
+            if positions is not None:  # the prediction against the capture, in the capture frame
+                shown, truth_shown = positions, capture["positions"]
+            else:
+                shown, truth_shown = poses[0], None if true_poses is None else true_poses[0]
+            figure = spatial_rollout_figure(
+                folder / "rollout.png",
+                t,
+                sim.q,
+                shown,
+                truth_shown,
+                names,
+                modelled,
+                into=outputs,
+                title=title + (f" vs {Path(str(truth)).name}" if truth is not None else " (no truth given)"),
+            )
+        if plot and not spatial:
             tip = None if positions is None else (capture["positions"][:, -1], positions[:, -1])
             figure = rollout_figure(
                 folder / "rollout.png",
@@ -1295,17 +1364,17 @@ def rollout(
                 modelled=modelled,
                 tip=tip,
             )
-            if kind == "strains":
-                strains_figure(
-                    folder / "rollout_strains.png",
-                    t,
-                    sim.q,
-                    true_q,
-                    names,
-                    modelled,
-                    title=f"strains: model vs {Path(str(truth)).name}",
-                    into=outputs,
-                )
+        if plot and kind == "strains":
+            strains_figure(
+                folder / "rollout_strains.png",
+                t,
+                sim.q,
+                true_q,
+                names,
+                modelled,
+                title=f"strains: model vs {Path(str(truth)).name}",
+                into=outputs,
+            )
     say(quiet, f"rolled out {t[-1] - t[0]:.3g} s in {seconds:.1f} s -> {folder / 'rollout.npz'}")
     if true_poses is not None:
         say(
@@ -1319,7 +1388,10 @@ def rollout(
             quiet,
             f"strain RMSE against the {what} strains: "
             + ", ".join(
-                f"{nm} {v:.4g} {'1/m' if nm.startswith('be') else '(-)'}" for nm, v in metrics["strain_rmse"].items()
+                f"{nm} {v:.4g} {'(-)' if unit == '-' else unit}"
+                for (nm, v), unit in zip(
+                    metrics["strain_rmse"].items(), _strain_units(metrics["strain_rmse"]).values(), strict=True
+                )
             ),
         )
     if kind == "capture":
@@ -1338,12 +1410,14 @@ def rollout(
 def _read_capture_truth(
     path: str | Path, segmentation: Any, markers: Sequence[str], rate: float, units: str | None, n_samples: int
 ) -> dict[str, Any]:
-    """A motion-capture truth: its cleaned positions (T, N, 3) and its strains in the segmentation's plane."""
+    """A motion-capture truth: its cleaned positions (T, N, 3) and its strains in the segmentation's plane (or 3-D)."""
     from ..core.trajectory import PoseTrajectory
     from ..io.marker_csv import read_marker_csv
 
+    # a 3-D fusion fitted with the markers' orientations transforms captures read with them
+    orientations = getattr(segmentation, "marker_rotation_offsets_", None) is not None
     try:
-        data = read_marker_csv(path, list(markers), rate=float(rate), units=units)
+        data = read_marker_csv(path, list(markers), rate=float(rate), units=units, orientations=orientations)
     except ValueError as err:
         raise CLIError(str(err)) from None
     if data.positions.shape[0] != n_samples:
@@ -1358,7 +1432,9 @@ def _read_capture_truth(
         )
     try:
         # the fuse's own cleaning (frozen samples, jumps -> missing) and plane, so measured means the same
-        tr = PoseTrajectory.from_positions(data.positions, dt=data.dt, plane=segmentation.plane_)
+        tr = PoseTrajectory.from_positions(
+            data.positions, dt=data.dt, plane=segmentation.plane_, rotations=data.rotations if orientations else None
+        )
         (measured,) = segmentation.transform([tr])
     except ValueError as err:
         raise CLIError(f"truth file {str(path)!r}: {err}") from None
@@ -1370,7 +1446,10 @@ def _capture_prediction(sim: Any, segmentation: Any, capture: dict[str, Any]) ->
     import numpy as np
 
     measured = capture["strains"]
-    keys = ("plane", "marker_arc_lengths", "base_poses", "marker_offsets")
+    if getattr(segmentation, "space_", "plane") == "3d":  # the 3-D fusion's marker model (spatial_marker_positions)
+        keys: tuple[str, ...] = ("marker_arc_lengths", "base_pose", "marker_offsets", "rotation_offsets")
+    else:
+        keys = ("plane", "marker_arc_lengths", "base_poses", "marker_offsets")
     sim.metadata.update({k: measured.metadata[k] for k in keys if k in measured.metadata})
     try:
         (back,) = segmentation.inverse_transform([sim])

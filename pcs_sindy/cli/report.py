@@ -5,7 +5,8 @@ profile, error against the number of segments, rollout against the truth,
 stills with detections, an animation) and writes ``metrics.json`` with the
 seed's two_segment numbers beside this run's; :func:`write_report_md` writes
 ``report.md`` from them.  :func:`rollout_figure` draws ``rollout.png`` (and :func:`strains_figure`
-``rollout_strains.png`` against a strain file).
+``rollout_strains.png`` against a strain file); :func:`spatial_rollout_figure` draws ``rollout.png``
+of a spatial (3-D) model.
 """
 
 from __future__ import annotations
@@ -28,6 +29,7 @@ __all__ = [
     "DEMO_SIZE",
     "DEMO_MARKER_SIZE",
     "rollout_figure",
+    "spatial_rollout_figure",
     "strains_figure",
     "demo_report",
     "stored_metrics",
@@ -136,6 +138,66 @@ def rollout_figure(
         axes[-1, 0].set_xlabel("time t [s]")
         axes[0, 0].set_title(title or "rollout: predicted strains")
         fig.tight_layout()
+    return _save(fig, path, into)
+
+
+def spatial_rollout_figure(
+    path: str | Path,
+    t: NDArray,
+    q: NDArray,
+    positions: NDArray,
+    truth: NDArray | None,
+    strain_names: Sequence[str],
+    modelled: Sequence[bool],
+    into: Any = None,
+    *,
+    title: str | None = None,
+) -> Path:
+    """Draw the rollout of a spatial model: the tip in 3-D against a truth, else the modelled strains by kind.
+
+    Parameters
+    ----------
+    path : str or Path
+    t : ndarray, shape (T,)
+    q : ndarray, shape (T, 6m)
+        Predicted strains.
+    positions : ndarray, shape (T, N + 1, 3)
+        Predicted positions of the base and the markers (base frame).
+    truth : ndarray, shape (T, N + 1, 3), or None
+        True positions: the tip against them (:func:`pcs_sindy.plotting.plot_positions_3d`).
+    strain_names : sequence of str
+    modelled : sequence of bool
+        Which strains the model has (the panels without a truth).
+    into : FileSet, optional
+    title : str, optional
+
+    Returns
+    -------
+    Path
+    """
+    plt = _pyplot()
+    if truth is not None:
+        from ..plotting.spatial import plot_positions_3d
+
+        fig = plot_positions_3d(t, truth[:, -1], positions[:, -1], labels=["model"], title=title)
+        return _save(fig, path, into)
+    keep = np.asarray(modelled, dtype=bool)
+    # the spatial strain order per segment: bend_z, bend_x, twist, shear_x, shear_z, axial
+    kinds = [((0, 1), "bending [1/m]"), ((2,), "twist [1/m]"), ((3, 4), "shear [-]"), ((5,), "axial [-]")]
+    column = np.arange(len(strain_names)) % 6
+    rows = [(cols, label) for cols, label in kinds if np.any(keep & np.isin(column, cols))]
+    if not rows:
+        rows, keep = kinds[:1], np.isin(column, (0, 1))
+    fig, axes = plt.subplots(len(rows), 1, figsize=(8, 1.2 + 2.0 * len(rows)), sharex=True, squeeze=False)
+    for ax, (cols, label) in zip(axes[:, 0], rows, strict=True):
+        for j in np.flatnonzero(keep & np.isin(column, cols)):
+            ax.plot(t, q[:, j], label=strain_names[j])
+        ax.set_ylabel(label)
+        ax.grid(alpha=0.3)
+        ax.legend(loc="upper right", fontsize="small")
+    axes[-1, 0].set_xlabel("time t [s]")
+    axes[0, 0].set_title(title or "rollout: predicted strains")
+    fig.tight_layout()
     return _save(fig, path, into)
 
 

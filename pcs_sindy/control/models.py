@@ -20,6 +20,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.kinematics import SEED_Q_MAX, PlanarPCS
+from ..core.spatial import SPATIAL_Q_MAX, SpatialPCS
 
 __all__ = [
     "as_forward_model",
@@ -63,9 +64,13 @@ def as_forward_model(model: Any) -> Any:
     return fm
 
 
-def strain_scales(kinematics: PlanarPCS) -> NDArray[np.float64]:
-    """Typical magnitude of each modelled strain (the seed's data ranges: 60 1/m, 0.3, 0.3), shape (n,)."""
-    return np.tile(np.asarray(SEED_Q_MAX, dtype=float), kinematics.n_segments)[kinematics.active_mask]
+def strain_scales(kinematics: PlanarPCS | SpatialPCS) -> NDArray[np.float64]:
+    """Typical magnitude of each modelled strain (the seed's data ranges: 60 1/m, 0.3, 0.3), shape (n,).
+
+    A spatial segmentation takes :data:`~pcs_sindy.core.spatial.SPATIAL_Q_MAX` (its six strains per segment).
+    """
+    per_segment = SPATIAL_Q_MAX if isinstance(kinematics, SpatialPCS) else SEED_Q_MAX
+    return np.tile(np.asarray(per_segment, dtype=float), kinematics.n_segments)[kinematics.active_mask]
 
 
 def strain_limits(model: Any, fm: Any, limits: ArrayLike | None = None) -> NDArray[np.float64]:

@@ -22,6 +22,7 @@ from numpy.typing import ArrayLike, NDArray
 from scipy.optimize import minimize
 from tqdm.auto import tqdm
 
+from ..core.spatial import SpatialPCS
 from .gains import force_scales
 from .models import linearise, static_forces, strain_scales
 
@@ -32,20 +33,31 @@ __all__ = [
     "tip_inverse_kinematics",
     "model_tip",
     "tip_jacobian",
+    "tip_dimension",
     "check_input_bounds",
     "input_scales",
 ]
 
 
+def tip_dimension(fm: Any) -> int:
+    """Coordinates of a tip position: 2 in the plane (x, y), 3 for a spatial (3-D) model."""
+    return 3 if isinstance(fm.kinematics, SpatialPCS) else 2
+
+
 def model_tip(fm: Any, q: ArrayLike) -> NDArray[np.float64]:
-    """Tip positions (..., 2) of the model's segmentation at modelled strains ``q`` (..., n)."""
+    """Tip positions (..., 2) of the model's segmentation at modelled strains ``q`` (..., n); (..., 3) in 3-D."""
     kin = fm.kinematics
-    return kin.forward_kinematics(kin.to_full(np.asarray(q, dtype=float)), [kin.total_length])[..., 0, :2]
+    full = kin.to_full(np.asarray(q, dtype=float))
+    if isinstance(kin, SpatialPCS):
+        return kin.forward_kinematics(full, [kin.total_length])[0][..., 0, :]
+    return kin.forward_kinematics(full, [kin.total_length])[..., 0, :2]
 
 
 def tip_jacobian(fm: Any, q: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``d tip / d q`` (2, n) on the modelled strains."""
+    """``d tip / d q`` (2, n) on the modelled strains; (3, n) for a spatial model."""
     kin = fm.kinematics
+    if isinstance(kin, SpatialPCS):
+        return kin.jacobian(kin.to_full(q), [kin.total_length])[2][0][:, kin.active_mask]
     _, jac = kin.jacobian(kin.to_full(q), [kin.total_length])
     return jac[0, :2][:, kin.active_mask]
 
@@ -116,9 +128,9 @@ class EquilibriumResult:
         Inputs (within the bounds).
     q : ndarray (n,)
         The model's equilibrium under ``u``.
-    tip : ndarray (2,)
+    tip : ndarray (2,) or (3,)
         Its tip: the target when reachable, else the nearest reachable tip.
-    target : ndarray (2,)
+    target : ndarray (2,) or (3,)
     error : float
         ``|tip - target|`` [m].
     reachable : bool
@@ -169,7 +181,7 @@ class _Problem:
     def tip_error(self, x: NDArray, target: NDArray) -> tuple[NDArray, NDArray]:
         q, _ = self.split(x)
         r = (model_tip(self.fm, q) - target) / self.length
-        J = np.zeros((2, x.size))
+        J = np.zeros((r.size, x.size))
         J[:, : self.n] = tip_jacobian(self.fm, q) * self.qs[None, :] / self.length
         return r, J
 
@@ -220,10 +232,11 @@ def _result(prob: _Problem, x: NDArray, target: NDArray, tol: float) -> Equilibr
     return EquilibriumResult(u, q, tip, target.copy(), err, err <= tol, stable)
 
 
-def _check_target(target: ArrayLike, name: str) -> NDArray[np.float64]:
+def _check_target(target: ArrayLike, name: str, dim: int = 2) -> NDArray[np.float64]:
     p = np.asarray(target, dtype=float)
-    if p.shape != (2,) or not np.all(np.isfinite(p)):
-        raise ValueError(f"{name} must be a finite tip position [x, y] (2,); got {np.asarray(target).tolist()}")
+    if p.shape != (dim,) or not np.all(np.isfinite(p)):
+        coords = "[x, y]" if dim == 2 else "[x, y, z] (a spatial model)"
+        raise ValueError(f"{name} must be a finite tip position {coords} ({dim},); got {np.asarray(target).tolist()}")
     return p
 
 
@@ -253,7 +266,7 @@ def equilibrium_inputs(
     ----------
     fm : ForwardModel
     target : array_like, shape (2,)
-        Tip position [m] in the base frame.
+        Tip position [m] in the base frame; (3,) for a spatial (3-D) model.
     input_bounds : None or (lower, upper)
         Scalars or (p,) arrays (e.g. ``(0, 16)`` for tendon tensions in N).
     strain_limits : ndarray (2, n), optional
@@ -270,7 +283,7 @@ def equilibrium_inputs(
     -------
     EquilibriumResult
     """
-    p_target = _check_target(target, "target")
+    p_target = _check_target(target, "target", tip_dimension(fm))
     kin = fm.kinematics
     bounds = check_input_bounds(input_bounds, int(fm.n_inputs))
     limits = np.stack([-strain_scales(kin), strain_scales(kin)]) if strain_limits is None else strain_limits
@@ -327,6 +340,8 @@ def tip_inverse_kinematics(
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Least-effort equilibria ``q`` (T, n) and inputs ``u`` (T, p) that put the model's tip on ``path`` (T, 2).
 
+    A spatial model's path is (T, 3).
+
     Each point is solved by :func:`equilibrium_inputs` from the previous
     solution, so the strains vary continuously along a continuous path.
 
@@ -337,8 +352,9 @@ def tip_inverse_kinematics(
         input bounds and strain range, with the nearest reachable tip.
     """
     pts = np.asarray(path, dtype=float)
-    if pts.ndim != 2 or pts.shape[1] != 2 or not np.all(np.isfinite(pts)):
-        raise ValueError(f"path must be finite tip positions of shape (T, 2); got shape {pts.shape}")
+    dim = tip_dimension(fm)
+    if pts.ndim != 2 or pts.shape[1] != dim or not np.all(np.isfinite(pts)):
+        raise ValueError(f"path must be finite tip positions of shape (T, {dim}); got shape {pts.shape}")
     Q, U = [], []
     q_prev = None if q0 is None else np.asarray(q0, dtype=float)
     u_prev = None

@@ -415,7 +415,8 @@ class PoseTrajectory:
         if plane.dim == 3 and oop > WOBBLE_WARNING * motion and oop > MIN_JUMP:
             warnings.warn(
                 f"positions: out-of-plane RMS {1e3 * oop:.3g} mm is {oop / max(motion, 1e-300):.2f} of the in-plane "
-                f"motion RMS {1e3 * motion:.3g} mm; a planar model will miss that part of the motion",
+                f"motion RMS {1e3 * motion:.3g} mm; a planar model will miss that part of the motion "
+                "(KinematicFusion(space='3d'), or the default space='auto', fits a spatial model instead)",
                 UserWarning,
                 stacklevel=2,
             )

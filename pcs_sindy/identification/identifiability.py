@@ -160,9 +160,10 @@ def _offset_lines(info: dict, tol: float) -> list[str]:
     rel = np.asarray(info["offset_relative_standard_errors"])
     how = "unweighted" if info.get("offset_weighting") == "none" else "each strain's equation weighted by its residual"
     lines = [f"actuation offsets (variable projection, {how}):"]
-    for nm, v, s, r in zip(names, values, se, rel):
+    units = info.get("offset_units") or ["?"] * len(names)
+    for nm, v, s, r, unit in zip(names, values, se, rel, units, strict=True):
         flag = "" if r <= tol else "  <- poorly determined"
-        lines.append(f"{nm:<14} {v:>12.4g} {s:>12.3g} {r:>11.2%}{flag}")
+        lines.append(f"{nm:<14} {v:>12.4g} {s:>12.3g} {r:>11.2%}  {unit}{flag}")
     corr = np.asarray(info.get("offset_correlation", np.eye(len(names))))
     if len(names) > 1 and np.all(np.isfinite(corr)):
         off = np.abs(corr - np.diag(np.diag(corr)))

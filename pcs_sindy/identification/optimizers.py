@@ -40,7 +40,13 @@ from sklearn.utils.validation import check_is_fitted, validate_data
 
 from ..core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 
-__all__ = ["StiffnessThresholdOptimizer", "stiffness_bounds", "scaled_lstsq", "fit_normalized"]
+__all__ = [
+    "StiffnessThresholdOptimizer",
+    "stiffness_bounds",
+    "scaled_lstsq",
+    "fit_normalized",
+    "DefaultOptimizerParams",
+]
 
 from .least_squares import scaled_lstsq, stiffness_bounds  # noqa: E402 - re-exported: the optimizer's solvers
 
@@ -576,3 +582,28 @@ def fit_normalized(optimizer: Any, x: ArrayLike, y: ArrayLike) -> NDArray[np.flo
             f"expected ({x.shape[-1]},) finite values"
         )
     return np.where(col > 0, coef / safe, 0.0)
+
+
+class DefaultOptimizerParams:
+    """Mixin: an estimator whose ``optimizer=None`` means a default optimizer that can still be searched.
+
+    ``get_params(deep=True)`` lists the default optimizer's parameters as ``optimizer__<name>`` and
+    ``set_params(optimizer__<name>=...)`` creates that default (a new object per estimator) and sets
+    them, so ``GridSearchCV(est, {"optimizer__threshold": [...]})`` works without naming the optimizer.
+    The class says which optimizer ``None`` stands for by defining :meth:`_default_optimizer`.
+    """
+
+    def _default_optimizer(self) -> BaseEstimator:
+        raise NotImplementedError
+
+    def get_params(self, deep: bool = True) -> dict[str, Any]:
+        params = super().get_params(deep=deep)  # type: ignore[misc]
+        if deep and getattr(self, "optimizer", None) is None:
+            params.update({f"optimizer__{k}": v for k, v in self._default_optimizer().get_params().items()})
+        return params
+
+    def set_params(self, **params: Any) -> Any:
+        nested = any(k.startswith("optimizer__") for k in params)
+        if nested and params.get("optimizer", getattr(self, "optimizer", None)) is None:
+            params = {**params, "optimizer": self._default_optimizer()}
+        return super().set_params(**params)  # type: ignore[misc]

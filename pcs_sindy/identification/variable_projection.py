@@ -157,6 +157,8 @@ def fit_offsets(
         corr = cov / np.outer(se, se)
     info = {
         "offset_names": list(actuation.offset_names_),
+        # the nonlinear parameters of every input map are lengths: tendon offsets from the backbone
+        "offset_units": ["m"] * d.size,
         "offsets": d.copy(),
         "offset_standard_errors": se,
         "offset_relative_standard_errors": se / np.maximum(np.abs(d), floor),

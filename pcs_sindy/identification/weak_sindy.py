@@ -47,12 +47,13 @@ from sklearn.utils.validation import check_is_fitted
 from ..core.trajectory import StrainTrajectory
 from ..core.validation import InstanceOf, Interval, validate_parameters
 from .library.base import LagrangianLibrary
+from .optimizers import DefaultOptimizerParams
 from .regressor import EulerLagrangeRegressor
 
 __all__ = ["WeakEulerLagrangeSINDy"]
 
 
-class WeakEulerLagrangeSINDy(SINDy):
+class WeakEulerLagrangeSINDy(DefaultOptimizerParams, SINDy):
     """``pysindy.SINDy`` of the weak Euler–Lagrange form: strains in, forces as ``u``, no accelerations.
 
     Parameters
@@ -62,7 +63,8 @@ class WeakEulerLagrangeSINDy(SINDy):
         ``PCSLagrangianLibrary(...)``); the states are its modelled strains.
     optimizer : pysindy optimizer, optional
         Default ``pysindy.STLSQ()`` (its defaults: the columns are scaled to unit
-        norm first, see :func:`~pcs_sindy.identification.optimizers.fit_normalized`).
+        norm first, see :func:`~pcs_sindy.identification.optimizers.fit_normalized`);
+        its parameters are searchable as ``optimizer__<name>`` without naming it.
     differentiation_method : callable, optional
         ``method(x, t)`` giving the strain rates (a pysindy differentiation
         object); default Savitzky–Golay (``window_length``, ``polyorder``).
@@ -169,11 +171,14 @@ class WeakEulerLagrangeSINDy(SINDy):
             raise ValueError(f"u must give one force array per trajectory of x ({len(X)}); got {len(us)}")
         return [self._full(ui, "u", k, rec.n_frames) for k, (ui, rec) in enumerate(zip(us, X, strict=True))]
 
+    def _default_optimizer(self) -> STLSQ:
+        return STLSQ()
+
     def _regressor(self) -> EulerLagrangeRegressor:
         return EulerLagrangeRegressor(
             feature_library=self.feature_library,
             formulation="weak",
-            optimizer=STLSQ() if self.optimizer is None else self.optimizer,
+            optimizer=self._default_optimizer() if self.optimizer is None else self.optimizer,
             differentiation_method=self.differentiation_method,
             window_length=self.window_length,
             polyorder=self.polyorder,

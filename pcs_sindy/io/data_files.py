@@ -534,7 +534,8 @@ def read_training_files(
         if key == "tau" and tau.shape[1] != n:
             raise DataFileError(
                 f"tau file {str(tfile)!r} has {tau.shape[1]} force columns but strain file {str(sfile)!r} has {n} "
-                f"strains ({st.kinematics.n_segments} segment(s) x 3): tau must act on the same segmentation"
+                f"strains ({st.kinematics.n_segments} segment(s) x {n // st.kinematics.n_segments}): tau must act "
+                "on the same segmentation"
             )
         if t.shape[0] != st.n_frames:
             raise DataFileError(

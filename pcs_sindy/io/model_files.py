@@ -241,6 +241,9 @@ _FIXED: dict[str, ClassSpec] = {
     ),
     "PCSLagrangianLibrary": ClassSpec("pcs_sindy.identification.library.pcs_lagrangian", "PCSLagrangianLibrary"),
     "PhysicalPCSLibrary": ClassSpec("pcs_sindy.identification.library.physical", "PhysicalPCSLibrary"),
+    "SpatialPhysicalPCSLibrary": ClassSpec(
+        "pcs_sindy.identification.library.spatial_physical", "SpatialPhysicalPCSLibrary"
+    ),
     # the optimizer's column layout when actuator gains are identified with the Lagrangian
     "WithGains": ClassSpec(
         "pcs_sindy.identification.library.with_gains",
@@ -251,6 +254,7 @@ _FIXED: dict[str, ClassSpec] = {
     "MarkerPoseExtractor": ClassSpec("pcs_sindy.vision.extractor", "MarkerPoseExtractor", params_only=True),
     "Camera": ClassSpec("pcs_sindy.core.camera", "Camera", kind="dataclass"),
     "PlanarPCS": ClassSpec("pcs_sindy.core.kinematics", "PlanarPCS", kind="dataclass"),
+    "SpatialPCS": ClassSpec("pcs_sindy.core.spatial", "SpatialPCS", kind="dataclass"),
     "PoseTrajectory": ClassSpec(
         "pcs_sindy.core.trajectory", "PoseTrajectory", kind="init", fields=("poses", "t", "metadata")
     ),
@@ -259,6 +263,29 @@ _FIXED: dict[str, ClassSpec] = {
         "StrainTrajectory",
         kind="init",
         fields=("q", "t", "segment_lengths", "active_strains", "qd", "base_pose", "metadata"),
+    ),
+    "SpatialStrainTrajectory": ClassSpec(
+        "pcs_sindy.core.spatial",
+        "SpatialStrainTrajectory",
+        kind="init",
+        fields=("q", "t", "segment_lengths", "active_strains", "qd", "base_position", "base_rotation", "metadata"),
+    ),
+    # a spatial forward model of given parameters (e.g. a simulator robot's): its constructor arguments
+    "SpatialPCSModel": ClassSpec(
+        "pcs_sindy.models.spatial_forward",
+        "SpatialPCSModel",
+        kind="init",
+        fields=(
+            "kinematics",
+            "rhoA",
+            "rhoI",
+            "rhoAg",
+            "stiffness",
+            "damping",
+            "rest_force",
+            "n_quadrature",
+            "actuation",
+        ),
     ),
     "Pipeline": ClassSpec("sklearn.pipeline", "Pipeline"),
     "PCSPipeline": ClassSpec("pcs_sindy.pipeline.pcs_pipeline", "PCSPipeline"),
@@ -273,7 +300,13 @@ REGISTRY: _Registry = _Registry(_FIXED, families=(("pcs_sindy.models.actuation",
 
 
 #: constructor fields of an ``"init"`` class that are not attributes of the same name
-_FIELD_GETTERS = {("StrainTrajectory", "base_pose"): lambda obj: tuple(float(v) for v in obj.kinematics.base_pose)}
+_FIELD_GETTERS = {
+    ("StrainTrajectory", "base_pose"): lambda obj: tuple(float(v) for v in obj.kinematics.base_pose),
+    ("SpatialStrainTrajectory", "base_position"): lambda obj: obj.kinematics.base_position,
+    ("SpatialStrainTrajectory", "base_rotation"): lambda obj: np.array(obj.kinematics.base_rotation),
+    # the nodes per segment (the model keeps the quadrature they give)
+    ("SpatialPCSModel", "n_quadrature"): lambda obj: int(obj.quadrature[0].size // obj.kinematics.n_segments),
+}
 
 
 def _resolve(name: str) -> type:
@@ -478,11 +511,15 @@ def _quantity(value: Any, unit: Any) -> dict[str, Any]:
     return {"value": out, "unit": None if unit is None else str(unit)}
 
 
-def _segmentation_summary(kin: Any) -> dict[str, Any]:
-    return {
+def _segmentation_summary(kin: Any, base: bool = True) -> dict[str, Any]:
+    out = {
         "segment_lengths": _quantity(kin.segment_lengths, "m"),
         "strains": kin.strain_names(active_only=True),
     }
+    if base and type(kin).__name__ == "SpatialPCS":  # a 3-D robot: its base frame in the frame of the data
+        out["base_position"] = _quantity(kin.base_position, "m")
+        out["base_rotation"] = [[_number(v) for v in row] for row in np.asarray(kin.base_rotation)]
+    return out
 
 
 def _library_summary(lib: Any) -> dict[str, Any] | None:
@@ -490,7 +527,8 @@ def _library_summary(lib: Any) -> dict[str, Any] | None:
     # refuse (saved as given, refused at load): then there is nothing to describe
     try:
         out = _segmentation_summary(lib.kinematics)
-        if type(lib).__name__ == "PhysicalPCSLibrary":  # the monomial basis would need its symbolic derivation
+        # the monomial basis would need its symbolic derivation
+        if type(lib).__name__ in ("PhysicalPCSLibrary", "SpatialPhysicalPCSLibrary"):
             units = (str(u) for u in lib.coefficient_units())
             out["coefficient_units"] = dict(zip(lib.coefficient_names(), units, strict=True))
     except (ValueError, TypeError):
@@ -515,7 +553,11 @@ def _actuation_summary(act: Any) -> dict[str, Any]:
 
 def _regressor_summary(model: Any) -> dict[str, Any]:
     kin, lib = model.kinematics_, model.library_
-    out: dict[str, Any] = {"about": _ABOUT, **_segmentation_summary(kin)}
+    # an identified model lives in its base frame (no base pose): gravity is given in that frame
+    out: dict[str, Any] = {"about": _ABOUT, **_segmentation_summary(kin, base=False)}
+    gravity = lib.get_params().get("gravity")
+    if gravity is not None and np.ndim(gravity) == 1 and not lib.get_params().get("identify_gravity", False):
+        out["gravity"] = _quantity(gravity, "m/s^2")
     out["removed_strains"] = list(getattr(model, "removed_strains_", []))
     units = lib.coefficient_units()
     out["coefficients"] = {
@@ -541,12 +583,32 @@ def _regressor_summary(model: Any) -> dict[str, Any]:
     return out
 
 
+def _spatial_model_summary(model: Any) -> dict[str, Any]:
+    """A spatial forward model's parameters by name, with units (per segment, then per modelled strain)."""
+    kin = model.kinematics
+    out: dict[str, Any] = {"about": _ABOUT, **_segmentation_summary(kin)}
+    out["rhoA"] = _quantity(model.rhoA, "kg/m")
+    out["rhoI"] = _quantity(model.rhoI, "kg·m")
+    out["rhoAg"] = {f"segment_{i + 1}": _quantity(g, "N/m") for i, g in enumerate(np.asarray(model.rhoAg))}
+    names = kin.strain_names(active_only=True)
+    for attr, unit_of in (
+        ("stiffness", lambda s: generalised_force_unit(s) / strain_unit(s)),
+        ("damping", lambda s: generalised_force_unit(s) / strain_rate_unit(s)),
+        ("rest_force", generalised_force_unit),
+    ):
+        out[attr] = {nm: _quantity(v, unit_of(nm)) for nm, v in zip(names, getattr(model, attr), strict=True)}
+    act = model.actuation
+    if act is not None:
+        out["actuation"] = _actuation_summary(act)
+    return out
+
+
 def _summary(obj: Any, name: str) -> dict[str, Any] | None:
     """The readable summary of a registered object (None when there is nothing to say)."""
     state = vars(obj) if hasattr(obj, "__dict__") else {}
     if name == "EulerLagrangeRegressor":
         return _regressor_summary(obj) if "coef_" in state else None
-    if name in ("PhysicalPCSLibrary", "PCSLagrangianLibrary"):
+    if name in ("PhysicalPCSLibrary", "PCSLagrangianLibrary", "SpatialPhysicalPCSLibrary"):
         return _library_summary(obj)
     if name in _PIPELINES:
         steps = {str(k): _summary(est, _name_of(est) or "") for k, est in obj.steps}
@@ -560,15 +622,17 @@ def _summary(obj: Any, name: str) -> dict[str, Any] | None:
         if state.get("threshold_") is not None:
             out["threshold"] = _number(state["threshold_"])
         return out
-    if name in ("PlanarPCS", "StrainTrajectory"):
-        kin = obj if name == "PlanarPCS" else obj.kinematics
+    if name in ("PlanarPCS", "StrainTrajectory", "SpatialPCS", "SpatialStrainTrajectory"):
+        kin = obj if name in ("PlanarPCS", "SpatialPCS") else obj.kinematics
         out = _segmentation_summary(kin)
-        if name == "StrainTrajectory":
+        if name.endswith("StrainTrajectory"):
             out["n_frames"] = int(obj.n_frames)
             out["duration"] = _quantity(obj.t[-1] - obj.t[0] if obj.n_frames else 0.0, "s")
         return out
-    if name in ("TendonActuation", "PressureActuation", "LinearActuation", "LearnedActuation"):
-        return _actuation_summary(obj)
+    if name == "SpatialPCSModel":
+        return _spatial_model_summary(obj)
+    if name in REGISTRY.members(loaded_only=True) and not getattr(obj, "is_identity", False):
+        return _actuation_summary(obj)  # every actuation kind but the identity (which has nothing to say)
     return None
 
 
@@ -591,6 +655,8 @@ PARAMETER_RANGES: dict[str, dict[str, tuple[int, int]]] = {
     },
     "StiffnessThresholdOptimizer": {"max_iter": (1, 100_000)},
     "PhysicalPCSLibrary": {"n_quadrature": (1, 256)},
+    "SpatialPhysicalPCSLibrary": {"n_quadrature": (1, 256)},
+    "SpatialPCSModel": {"n_quadrature": (1, 256)},
     "MarkerPoseExtractor": {
         "n_markers": (1, 1000),
         "blur": (0, 1001),
@@ -670,9 +736,10 @@ def _check_regressor(obj: Any, fail: Any) -> None:
     if missing:
         fail(f"a fitted regressor (it has coef_) lacks {missing}")
     kin = obj.kinematics_
-    if type(kin).__name__ != "PlanarPCS":
-        fail(f"kinematics_ must be a PlanarPCS; got {type(kin).__name__}")
+    if type(kin).__name__ not in ("PlanarPCS", "SpatialPCS"):
+        fail(f"kinematics_ must be a PlanarPCS or a SpatialPCS; got {type(kin).__name__}")
     lengths, m = _segments(kin), kin.n_segments
+    per = kin.n_q // m  # strains per segment: 3 in the plane, 6 in 3-D
     columns = {}
     for label in ("library_", "full_library_"):
         lib = state[label]
@@ -685,6 +752,8 @@ def _check_regressor(obj: Any, fail: Any) -> None:
             fail(f"{label} has no segmentation: {err}")
         if _segments(seg) != lengths:
             fail(f"{label} has segments {_segments(seg)}, kinematics_ {lengths}")
+        if type(seg) is not type(kin):
+            fail(f"{label} describes a {type(seg).__name__}, kinematics_ is a {type(kin).__name__}")
         columns[label] = _columns(lib, seg)
     for label, other in (("actuation_", state.get("actuation_")), ("optimizer_", state.get("optimizer_"))):
         kin_other = vars(other).get("kinematics_") if other is not None and hasattr(other, "__dict__") else None
@@ -709,16 +778,16 @@ def _check_regressor(obj: Any, fail: Any) -> None:
     if not np.array_equal(coef[cmap], model_coef, equal_nan=True):
         fail("model_coef_ differs from coef_[column_map_]: the coefficients were altered")
     active = obj.active_strains_
-    if not (isinstance(active, np.ndarray) and active.shape == (m, 3) and np.array_equal(active, kin.active_strains)):
-        fail(f"active_strains_ must be the ({m}, 3) active strains of kinematics_")
+    if not (isinstance(active, np.ndarray) and active.shape == (m, per) and np.array_equal(active, kin.active_strains)):
+        fail(f"active_strains_ must be the ({m}, {per}) active strains of kinematics_")
     if not np.array_equal(obj.library_.kinematics.active_strains, kin.active_strains):
         fail("library_'s active strains differ from kinematics_'s")
     for name_ in ("stiffness_", "damping_", "rest_strain_"):
         arr = state.get(name_)
-        if arr is not None and np.shape(arr) != (3 * m,):
-            fail(f"{name_} must have shape ({3 * m},); got {np.shape(arr)}")
-    if state.get("n_features_in_", 3 * m) != 3 * m:
-        fail(f"n_features_in_ = {state['n_features_in_']!r}; kinematics_ has {3 * m} strains")
+        if arr is not None and np.shape(arr) != (per * m,):
+            fail(f"{name_} must have shape ({per * m},); got {np.shape(arr)}")
+    if state.get("n_features_in_", per * m) != per * m:
+        fail(f"n_features_in_ = {state['n_features_in_']!r}; kinematics_ has {per * m} strains")
 
 
 #: per-class checks run on a rebuilt object (after its learned state is set)
@@ -726,6 +795,7 @@ _CONSISTENCY = {
     "EulerLagrangeRegressor": _check_regressor,
     "PCSLagrangianLibrary": _check_library,
     "PhysicalPCSLibrary": _check_library,
+    "SpatialPhysicalPCSLibrary": _check_library,
 }
 
 
@@ -1058,8 +1128,10 @@ def save(obj: Any, path: str | os.PathLike, *, into: FileSet | None = None) -> P
     obj : object
         An instance of a registered class (:data:`REGISTRY`): ``KinematicFusion``,
         ``EulerLagrangeRegressor``, ``MarkerPoseExtractor`` (parameters only),
-        the libraries and optimizer, ``Camera``, ``PlanarPCS``, trajectories,
-        an sklearn ``Pipeline`` / ``PCSPipeline`` of such steps; fitted or not.
+        the libraries and optimizer, ``Camera``, ``PlanarPCS``, trajectories, the spatial (3-D)
+        ``SpatialPCS``, ``SpatialStrainTrajectory``, ``SpatialPhysicalPCSLibrary`` and
+        ``SpatialPCSModel``, every actuation kind, an sklearn ``Pipeline`` / ``PCSPipeline`` of
+        such steps; fitted or not.
     path : str or path-like
         ``model``, ``model.json`` or ``model.npz``: writes ``model.json`` and
         ``model.npz`` side by side (replacing existing files).

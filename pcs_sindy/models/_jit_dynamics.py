@@ -50,10 +50,18 @@ __all__ = [
     "INPUT_MAPS",
 ]
 
-#: codes of the input maps in ``P[10]`` (module globals: numba compiles them in as constants)
-FORCES, TENDON, MATRIX, SERVO, AFFINE = 0, 1, 2, 3, 4
+#: codes of the input maps in ``P[10]`` (module globals: numba compiles them in as constants); ``SPATIAL_TENDON``
+#: is evaluated by the spatial models' kernels only (:mod:`pcs_sindy.models._jit_spatial`)
+FORCES, TENDON, MATRIX, SERVO, AFFINE, SPATIAL_TENDON = 0, 1, 2, 3, 4, 5
 #: the code of each input map by the form name an actuation's ``compiled()`` gives
-INPUT_MAPS = {"forces": FORCES, "tendon": TENDON, "matrix": MATRIX, "servo": SERVO, "affine": AFFINE}
+INPUT_MAPS = {
+    "forces": FORCES,
+    "tendon": TENDON,
+    "matrix": MATRIX,
+    "servo": SERVO,
+    "affine": AFFINE,
+    "spatial_tendon": SPATIAL_TENDON,
+}
 
 _SERIES_RADIUS = 1.0
 _N_SERIES = 20  # 1 / 20! < 1e-18

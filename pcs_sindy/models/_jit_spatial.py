@@ -24,16 +24,16 @@ import numba
 import numpy as np
 
 from ..core.linalg import lu_factor, lu_solve
-from ..core.spatial_kernels import cholesky, cholesky_solve, coriolis, geometry, gravity_forces, mass
+from ..core.spatial_kernels import cholesky, cholesky_solve, coriolis, geometry, gravity_forces, mass, tendon_terms
 from ..core.spatial_kernels import workspace as body_workspace
-from ._jit_dynamics import strain_layout_free_forces
+from ._jit_dynamics import SPATIAL_TENDON, strain_layout_free_forces
 
 __all__ = ["dynamics", "input_forces", "rhs", "mass_bias_batch", "workspace", "P_SIZE", "INPUT_FORMS"]
 
 #: entries of the parameter tuple ``P``
 P_SIZE = 9
 #: the compiled input maps of a spatial model (names of :data:`pcs_sindy.models.actuation.COMPILED_FORMS`)
-INPUT_FORMS = ("forces", "matrix", "affine")
+INPUT_FORMS = ("forces", "matrix", "affine", "spatial_tendon")
 
 
 def workspace(P: tuple) -> tuple:
@@ -55,8 +55,9 @@ def workspace(P: tuple) -> tuple:
     )
 
 
-# inlined into rhs: one call less per evaluation (each passes the ~40 arrays of P and W, reference counted)
-@numba.njit(cache=True, inline="always")
+# called, not inlined, by rhs and the batch: the kernels compile once (~9 s CPU cold; inlined into rhs as well
+# they measured 4 % faster evaluations for one more cold compile)
+@numba.njit(cache=True)
 def dynamics(q, qd, P, W):
     """Fill ``W[0] = M`` (n, n) and ``W[1] = bias`` (n,) at the modelled strains ``q``, ``qd`` (n,)."""
     act, body, f0, stiff, damp = P[0], P[1], P[2], P[7], P[8]
@@ -83,9 +84,33 @@ def dynamics(q, qd, P, W):
 @numba.njit(cache=True, inline="always")
 def input_forces(q, u, P, tau):
     """``tau = A(q) u`` on the modelled strains ``q`` (n,) for the input map of ``P``."""
-    if not strain_layout_free_forces(P[3][0], P[6], q, u, tau):
+    kind = P[3][0]
+    if strain_layout_free_forces(kind, P[6], q, u, tau):
+        return
+    if kind != SPATIAL_TENDON:
         for a in range(tau.size):
             tau[a] = np.nan  # a map this module does not evaluate (the model refuses it when built)
+        return
+    # tendons routed in 3-D: tensions u, or k max(0, r angle pi/180 + l(q) - l(0) - s) of servo angles
+    act, offset, span, drive = P[0], P[4], P[5], P[6]
+    p = offset.shape[0]
+    N = 6 * span.shape[1]
+    qf = np.zeros(N)
+    for a in range(act.size):
+        qf[act[a]] = q[a]
+    length = np.empty(p)
+    dlength = np.empty((p, N))
+    tendon_terms(qf, offset, span, length, dlength)
+    for a in range(tau.size):
+        tau[a] = 0.0
+    for k in range(p):
+        f = u[k]
+        if drive.shape[0] > 0:
+            angle = u[int(drive[4, k])] * drive[5, k]
+            e = drive[1, k] * angle * (np.pi / 180.0) + length[k] - drive[3, k] - drive[2, k]
+            f = drive[0, k] * e if e > 0.0 else 0.0
+        for a in range(tau.size):
+            tau[a] -= dlength[k, act[a]] * f  # a tension does the virtual work -f dl
 
 
 @numba.njit(cache=True)

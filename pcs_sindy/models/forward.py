@@ -28,7 +28,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.kinematics import PlanarPCS
 from ..core.simulate_contract import SCIPY_METHODS, SimulationError, canonical_method
 from ..core.trajectory import StrainTrajectory, check_time
-from .integrators import COMPILED_METHODS, DOPRI5, ROS34PW2, describe_state, solve_held
+from .integrators import COMPILED_METHODS, solve_held
 
 __all__ = ["ForwardModel", "LumpedPCSModel", "CallableModel", "reduce_strains"]
 
@@ -668,40 +668,20 @@ class LumpedPCSModel(ForwardModel):
         return self._loop(self._params, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats)
 
     def _loop(self, P, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats):
-        from . import _jit_rollout as loops
+        from . import _jit_rollout
 
-        W = self._jit.workspace(P)
-        common = (
-            np.ascontiguousarray(y0),
-            np.ascontiguousarray(t),
+        return _jit_rollout.rollout(
+            P,
+            self._jit.workspace(P),
+            y0,
+            t,
             u,
-            -1.0 if step is None else float(step),
-            float(rtol),
-            float(atol),
-            -1.0 if max_step is None else float(max_step),
-            1e-12,
-            float(max_abs_state),
+            method,
+            step=step,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            state_names=state_names,
+            stats=stats,
         )
-        if method == "rosenbrock":
-            res = loops.ros_loop(*common, ROS34PW2.at, ROS34PW2.ct, ROS34PW2.mt, ROS34PW2.et, ROS34PW2.gamma, P, W)
-        else:
-            res = loops.dopri_loop(
-                *common,
-                np.ascontiguousarray(DOPRI5.a),
-                np.ascontiguousarray(DOPRI5.c),
-                np.ascontiguousarray(DOPRI5.e),
-                P,
-                W,
-            )
-        out, status, _k, t_fail, y_fail, n_steps, n_rej, n_eval = res
-        if stats is not None:
-            stats.update({"n_steps": int(n_steps), "n_rejected": int(n_rej), "n_evaluations": int(n_eval)})
-        if status != loops.OK:
-            msg = loops.STATUS_MESSAGES[int(status)].format(max_abs=max_abs_state, min_step=1e-12)
-            y_fail = np.array(y_fail)
-            raise SimulationError(
-                f"rollout diverged at t = {t_fail:.6g} s ({msg}); state: {describe_state(y_fail, state_names)}",
-                t_fail,
-                y_fail,
-            )
-        return out

@@ -134,8 +134,9 @@ class SpatialPCSModel(ForwardModel):
         (:data:`pcs_sindy.core.spatial_kernels.QUADRATURE_TIERS`; measured within 1e-15 relative of it).
     actuation : Actuation, optional
         Fitted input map (default: the inputs are generalised forces).  A kind whose map is not one
-        the compiled kernels evaluate (``"forces"``, ``"matrix"``, ``"affine"``) is evaluated in
-        Python: the model then rolls out with the ``solve_ivp`` methods only (:attr:`methods`).
+        the compiled kernels evaluate (``"forces"``, ``"matrix"``, ``"affine"``, ``"spatial_tendon"``)
+        is evaluated in Python: the model then rolls out with the ``solve_ivp`` methods only
+        (:attr:`methods`).
     """
 
     methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
@@ -210,7 +211,7 @@ class SpatialPCSModel(ForwardModel):
             body,
             self.rest_force,
             np.array([_jit_dynamics.INPUT_MAPS[form]], dtype=np.int64),
-            np.ascontiguousarray(aoff, dtype=float),
+            np.ascontiguousarray(np.reshape(aoff, (-1, 2)), dtype=float),  # (p, 2): one compiled signature
             np.ascontiguousarray(acover, dtype=float),
             np.ascontiguousarray(amat, dtype=float),
             self.stiffness,

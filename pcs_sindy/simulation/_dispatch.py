@@ -2,9 +2,10 @@
 
 :mod:`pcs_sindy.simulation._radau` and :mod:`pcs_sindy.simulation.integrate` integrate the planar
 robot (:mod:`._kernels`, a 13-entry geometry tuple) and the spatial one (:mod:`._spatial_kernels`,
-``GEO_SIZE`` entries) with the same code.  The functions here are resolved at compile time by
-numba from the type of ``geo`` (:func:`numba.extending.overload`), so the compiled integrator
-calls the robot's kernels directly and stays cacheable.
+``GEO_SIZE`` entries, on the shared terms of :mod:`pcs_sindy.core.spatial_kernels`) with the same
+code.  The functions here are resolved at compile time by numba from the type of ``geo``
+(:func:`numba.extending.overload`), so the compiled integrator calls the robot's kernels directly
+and stays cacheable.
 """
 
 from __future__ import annotations

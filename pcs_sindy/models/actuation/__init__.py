@@ -16,6 +16,8 @@ One kind per module, each registered by its class attribute ``kind``:
 * :class:`IdentityActuation` (:mod:`.identity`) — the inputs are the generalised forces (3m columns).
 * :class:`TendonActuation` (:mod:`.tendons`) — tendons from the base to termination arc lengths
   at offsets from the backbone along the cross-section axis; ``A = -dl/dq``.
+* :class:`SpatialTendonActuation` (:mod:`.spatial_tendons`) — tendons of a spatial (3-D) robot at
+  offsets ``(d_x, d_z)`` in the cross-section, known or identified along known directions; ``A = -dl/dq``.
 * :class:`PressureActuation` (:mod:`.pressure`) — pressure chambers spanning arc-length intervals
   on either side of the backbone; constant columns with unknown gains.
 * :class:`LinearActuation` (:mod:`.linear`) — any constant ``A`` with a sparsity pattern over
@@ -51,6 +53,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
         "base": ["Actuation", "COMPILED_FORMS", "registered_kinds"],
         "identity": ["IdentityActuation"],
         "tendons": ["TendonActuation"],
+        "spatial_tendons": ["SpatialTendonActuation"],
         "pressure": ["PressureActuation"],
         "linear": ["LinearActuation"],
         "learned": ["LearnedActuation"],

@@ -37,6 +37,8 @@ COMPILED_FORMS: dict[str, str] = {
     "servo": "servo-wound elastic tendons (tension k max(0, r u pi/180 + l(q) - l(0) - s)); matrix rows [k, r, s]",
     "matrix": "a constant A = matrix (n, p)",
     "affine": "A affine in the strains and in the inputs' positive parts: matrix [B0 | B1 | C0 | C1] (n, 2 p (1 + n))",
+    "spatial_tendon": "tendons routed in 3-D (spatial models): offsets (p, 2) (d_x, d_z), A = -dl/dq; matrix (0, p) "
+    "for tensions, or rows [k, r, s, l(0), servo, winding] (6, p) for servo-wound elastic tendons",
 }
 
 #: kind -> class of every concrete subclass defined so far (weak: a class defined and dropped leaves)
