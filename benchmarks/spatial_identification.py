@@ -10,7 +10,9 @@ from rest; score: RMS tip error against the truth.
 Cases: ``clean`` (the simulator's strains) and ``noisy`` (0.5 mm Gaussian noise on 3-D marker
 positions - two markers per disc at ±r on the body x and z axes, four discs per segment - and the
 strains fitted back per frame by the package's :func:`~pcs_sindy.fusion.fit_spatial_strains` on the
-known segmentation; several noise draws).  Configurations (``CONFIGS``): the regressor's defaults, the
+known segmentation; several noise draws); ``tendons-clean`` and ``tendons-noisy`` the same with the robot driven
+by 8 tendons (``SpatialTendons``; random smooth tensions) and identified with the known routing (the
+``spatial_tendon`` actuation).  Configurations (``CONFIGS``): the regressor's defaults, the
 weak-form window, option (a) - a temporal low-pass of the strains at a cut-off chosen from the measured
 noise level - and the output-error refinement.  Every identified model is rolled out by ``reg.simulate``
 (the compiled spatial model).  Beside them the simplest black boxes (ARX, lagged linear and quadratic
@@ -20,7 +22,10 @@ Rows are cached (``$PCS_SINDY_CACHE/spatial_identification_rows.json``) so parts
 
 Usage::
 
-    .venv/bin/python benchmarks/spatial_identification.py [--cases clean noisy] [--configs default w45 ...] [--write]
+    .venv/bin/python benchmarks/spatial_identification.py [--cases clean noisy tendons-clean tendons-noisy]
+        [--configs default w45 ...] [--write]
+
+(about 15 minutes on a loaded 2-core machine: the output-error configurations take a minute per fit)
 """
 
 from __future__ import annotations
@@ -48,7 +53,7 @@ from pcs_sindy.identification import (  # noqa: E402
     LaggedPolynomialMap,
     StiffnessThresholdOptimizer,
 )
-from pcs_sindy.simulation.spatial_dynamics import SpatialPCSRobot  # noqa: E402
+from pcs_sindy.simulation.spatial_dynamics import SpatialPCSRobot, SpatialTendons  # noqa: E402
 
 from _results import write_section  # noqa: E402
 
@@ -64,6 +69,14 @@ CACHE = (
 )
 #: rollout tolerances of the identified model (the truth uses its own defaults)
 RTOL, ATOL = 1e-4, 1e-7
+#: the tendon cases: 8 tendons, 4 per segment end at ±r along body x and z (the simulator's SpatialTendons; the
+#: identification is given the routing: the "spatial_tendon" actuation), tensions in [0, TENSION] N
+TENDON_END = [0.1] * 4 + [0.2] * 4
+TENDON_OFFSET = [[R, 0.0], [-R, 0.0], [0.0, R], [0.0, -R]] * 2
+TENSION = 0.8
+#: the configurations run on the tendon cases
+TENDON_CONFIGS = ("default", "w45", "w30+weighted", "w45+weighted", "w60+weighted")
+CASES = ("clean", "noisy", "tendons-clean", "tendons-noisy")
 #: noise draws of the noisy case (draw 0 continues the data's generator)
 N_DRAWS = 6
 #: noise draws of the configurations with the output-error refinement (a minute or two each)
@@ -84,9 +97,10 @@ CONFIGS = {
     "default+oe": ({"refine": "output_error"}, False),
     "w45+oe": ({"weak_window": 45, "refine": "output_error"}, False),
 }
-NOTES = """Findings (issue 26 done-when, generalised forces: noise-free ≤ 0.1 mm met by every configuration but
-the output-error ones; 0.5 mm marker noise ≤ 1 mm met on all 6 noise draws by `weak_window` 30-60 with
-equation weighting, on 5 of 6 by `weak_window=45` alone, not at the defaults).
+NOTES = """Findings (issue 26 done-when).  Generalised forces: noise-free ≤ 0.1 mm met by every configuration
+but the output-error ones; 0.5 mm marker noise ≤ 1 mm met on all 6 noise draws by `weak_window` 30-60 with
+equation weighting, on 5 of 6 by `weak_window=45` alone, not at the defaults.  Random tendon inputs (the
+done-when's wording): noise-free met (0.004-0.014 mm); with 0.5 mm marker noise missed (best 1.5-2.1 mm).
 
 1. **The default weak window is what fails under noise.** `EulerLagrangeRegressor()` uses `WEAK_WINDOW` (160
 samples) or half the shortest recording: here 150 samples, 1.5 s at 100 Hz (160 samples was chosen at 1 kHz:
@@ -121,10 +135,14 @@ two_segment 0.80 / 0.26 / 0.48 -> 0.31 / 0.42 / 0.38 mm, one_segment 0.037 / 0.0
 0.016 mm, noise-free unchanged (0.032 / 0.005 mm).
 5. The tip error grows about linearly with the marker noise (w45, three other draws, medians 0.15 / 0.33 /
 0.78 mm at 0.125 / 0.25 / 0.5 mm): mostly variance, not errors-in-variables bias.
-6. The inputs are generalised forces on every strain, not the tendons the done-when names: a tendon row needs
-a spatial input map on the identification side (known routing, or `LearnedActuation` with the output-error
-refinement); not done here.  Black boxes: ARX(2,2) beats the lagged maps; the quadratic map (91 terms of 12
-inputs) over-fits the 9 s of training.
+6. **Tendons** (`tendons-*`: 8 tendons, the known routing, tensions in N): noise-free 0.004-0.014 mm (met); with
+0.5 mm marker noise 1.3-2.3 mm with w45 and 1.5-2.1 mm with w45 and weighting (missed by 1.5-2 ×; the defaults fail
+on every draw, w30 with weighting 3.4-5.0 mm).  Tendons hardly excite twist and shear (strain std 0.06 1/m and
+0.005 against per-frame noise of 0.2 and 0.01-0.025), whose parameters then come from the noise.  A probe with
+the model restricted to the bending and axial strains (w45 and weighting, one other draw, not in the table):
+0.62 mm noisy, but 0.55 mm noise-free (the neglected shear).
+7. Black boxes: ARX(2,2) beats the lagged maps (2.5-4.0 mm noise-free, 15-16 mm noisy: one-step fits on noisy
+tips); the quadratic map (91 terms of 12 inputs) over-fits the 9 s of training.
 """
 
 
@@ -196,20 +214,30 @@ def rmse_mm(p, truth):
     return 1e3 * float(np.sqrt(np.mean(np.sum((p - truth) ** 2, axis=1))))
 
 
-def make_data():
-    rng = np.random.default_rng(2026)
-    robot = SpatialPCSRobot(LENGTHS, RHO, E, G, DAMP, radius=R)
+def tensions(rng: np.random.Generator, t: np.ndarray) -> np.ndarray:
+    """Random smooth tendon tensions in [0, TENSION] N: per tendon three sinusoids of random frequency in 0.3-3 Hz."""
+    f = rng.uniform(0.3, 3.0, (3, len(TENDON_END)))
+    ph = rng.uniform(0.0, 2 * np.pi, (3, len(TENDON_END)))
+    return TENSION * (1.5 + np.sin(2 * np.pi * f[None] * t[:, None, None] + ph[None]).sum(axis=1) / 2) / 3
+
+
+def make_data(tendons: bool = False):
+    # the tendon data have their own generator: the force cases' data stay those of the rows before them
+    rng = np.random.default_rng(2027 if tendons else 2026)
+    act = SpatialTendons(TENDON_END, TENDON_OFFSET) if tendons else None
+    robot = SpatialPCSRobot(LENGTHS, RHO, E, G, DAMP, radius=R, actuation=act)
+    drive = tensions if tendons else inputs
     t_train = np.arange(0.0, 3.0, DT)
     t_val = np.arange(0.0, 5.0, DT)
-    u_train = [inputs(rng, t_train) for _ in range(3)]
+    u_train = [drive(rng, t_train) for _ in range(3)]
     train = [robot.simulate(np.zeros(12), np.zeros(12), t_train, u).q for u in u_train]
-    u_val = inputs(rng, t_val)
+    u_val = drive(rng, t_val)
     val = robot.simulate(np.zeros(12), np.zeros(12), t_val, u_val).q
     s, offsets = marker_geometry(robot.kinematics)
     noisy = []
     for draw in range(N_DRAWS):
         # draw 0 continues the data's generator (the rows before this revision); the others have their own
-        r = rng if draw == 0 else np.random.default_rng(2026 + draw)
+        r = rng if draw == 0 else np.random.default_rng((2126 if tendons else 2026) + draw)
         noisy.append(np.stack([measured_strains(robot.kinematics, q, r, s, offsets) for q in train]))
     return {
         "robot": robot,
@@ -221,6 +249,7 @@ def make_data():
         "noisy": noisy,
         "val": val,
         "arcs": s,
+        "actuation": {"type": "spatial_tendon", "end": TENDON_END, "offset": TENDON_OFFSET} if tendons else None,
     }
 
 
@@ -236,13 +265,13 @@ def identify(Q, data, config):
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        reg = EulerLagrangeRegressor(**params).fit(X, data["u"])
+        reg = EulerLagrangeRegressor(**params, actuation=data["actuation"]).fit(X, data["u"])
     return reg, time.perf_counter() - t0, cut, sorted({str(w.message)[:80] for w in caught})
 
 
 def pcs_row(case: str, config: str, data: dict, draw: int = 0) -> dict:
     kin = data["robot"].kinematics
-    Q = data["clean"] if case == "clean" else data["noisy"][draw]
+    Q = data["clean"] if case.endswith("clean") else data["noisy"][draw]
     reg, fit_time, cut, caught = identify(Q, data, config)
     truth = reg.full_library_.coefficients_from_parameters(RHO, R, E, G, DAMP)
     p_true = tip(kin, data["val"])
@@ -284,21 +313,21 @@ def pcs_row(case: str, config: str, data: dict, draw: int = 0) -> dict:
 
 
 def black_box_rows(case: str, data: dict) -> list[dict]:
-    """The simplest black boxes on the same split: inputs (the 12 generalised forces) -> tip position, fitted on
+    """The simplest black boxes on the same split: inputs (generalised forces or tensions) -> tip position, fitted on
     the training tips (of the clean strains, or of the per-frame fits of the noisy markers, draw 0) and run open
     loop on the held-out inputs."""
     kin = data["robot"].kinematics
-    Q = data["clean"] if case == "clean" else data["noisy"][0]
+    Q = data["clean"] if case.endswith("clean") else data["noisy"][0]
     tips = [tip(kin, q) for q in Q]
     p_true = tip(kin, data["val"])
     rows = []
     arx = ARX(2, 2)
     # recordings joined with NaN rows between them: no regression row spans two recordings
-    gap_u, gap_y = np.zeros((2, 12)), np.full((2, 3), np.nan)
+    gap_u, gap_y = np.zeros((2, data["u"][0].shape[1])), np.full((2, 3), np.nan)
     u_cat = np.concatenate([x for u in data["u"] for x in (u, gap_u)][:-1])
     y_cat = np.concatenate([x for y in tips for x in (y, gap_y)][:-1])
     arx.fit(u_cat, y_cat)
-    start = p_true[:2] if case == "clean" else tip(kin, data["noisy"][0][0][:2])  # a measured start
+    start = p_true[:2] if case.endswith("clean") else tip(kin, data["noisy"][0][0][:2])  # a measured start
     rows.append(
         {"case": case, "model": "ARX(2,2), u -> tip", "tip_mm": rmse_mm(arx.predict(data["u_val"], start), p_true)}
     )
@@ -318,11 +347,15 @@ def render(rows: dict) -> str:
     lines = [
         "2-segment spatial PCS robot (0.1 m + 0.1 m, ρ 1070 kg/m³, E 10 kPa, G 1 kPa, r 2 cm, all 6 strains per "
         "segment) driven by random smooth **generalised forces on every strain** (a sum of three sinusoids of random "
-        "frequency in 0.3–3 Hz per strain; not tendons: see below); training 3 × 3 s at 100 Hz, validation a "
+        "frequency in 0.3–3 Hz per strain); training 3 × 3 s at 100 Hz, validation a "
         "held-out 5-s recording rolled out open loop from rest; score: RMS tip-position error against the "
         "noise-free truth. `noisy`: 0.5 mm Gaussian noise on 3-D marker positions (2 markers per disc at ±r on body "
         "x and z, 4 discs per segment), strains fitted back per frame by the package's spatial fusion fit "
         f"(`fit_spatial_strains`, all six strains, known segmentation), {N_DRAWS} noise draws. "
+        "`tendons-clean`, `tendons-noisy`: the same robot driven by 8 tendons (4 ending at each segment's end, at "
+        f"±r along body x and z; `SpatialTendons`), random smooth tensions in [0, {TENSION:g}] N (three sinusoids of "
+        '0.3–3 Hz per tendon), identified with the known routing (`actuation={"type": "spatial_tendon", ...}`, '
+        "tensions in N: the scale is known). "
         "Targets (issue 26): ≤ 0.1 mm noise-free, ≤ 1 mm with 0.5 mm marker noise.",
         "",
         "Configurations (all `EulerLagrangeRegressor` with the spatial physical library chosen from the data, "
@@ -343,7 +376,7 @@ def render(rows: dict) -> str:
     for key, r in rows.items():
         if key.startswith("pcs|"):
             by.setdefault((r["case"], r["config"]), []).append(r)
-    for (case, config), rs in sorted(by.items(), key=lambda kv: (kv[0][0] != "clean", list(CONFIGS).index(kv[0][1]))):
+    for (case, config), rs in sorted(by.items(), key=lambda kv: (CASES.index(kv[0][0]), list(CONFIGS).index(kv[0][1]))):
         rs = sorted(rs, key=lambda r: r["draw"])
         r0 = rs[0]
         vals = [np.inf if r["tip_mm"] is None else r["tip_mm"] for r in rs]
@@ -374,7 +407,7 @@ def render(rows: dict) -> str:
 def main(argv=None) -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--configs", nargs="+", default=list(CONFIGS), choices=list(CONFIGS))
-    parser.add_argument("--cases", nargs="+", default=["clean", "noisy"], choices=["clean", "noisy"])
+    parser.add_argument("--cases", nargs="+", default=list(CASES), choices=list(CASES))
     parser.add_argument("--write", action="store_true", help="write the table (every cached row) into docs/results.md")
     parser.add_argument("--from-cache", action="store_true", help="run nothing: render the cached rows")
     args = parser.parse_args(argv)
@@ -388,13 +421,16 @@ def main(argv=None) -> None:
 
     if not args.from_cache:
         start = time.perf_counter()
-        data = make_data()
+        datasets = {kind: make_data(kind) for kind in {c.startswith("tendons") for c in args.cases}}
         print(f"data: {time.perf_counter() - start:.0f} s", flush=True)
         for case in args.cases:
+            data = datasets[case.startswith("tendons")]
             for row in black_box_rows(case, data):
                 save(f"bb|{case}|{row['model'].split(',')[0].split(' (')[0]}", row)
             for config in args.configs:
-                n = 1 if case == "clean" else (N_DRAWS_REFINED if "oe" in config else N_DRAWS)
+                if case.startswith("tendons") and config not in TENDON_CONFIGS:
+                    continue
+                n = 1 if case.endswith("clean") else (N_DRAWS_REFINED if "oe" in config else N_DRAWS)
                 for draw in range(n):
                     save(f"pcs|{case}|{config}|{draw}", pcs_row(case, config, data, draw))
     text = render(cached)
