@@ -121,14 +121,18 @@ class _Layout:
         self.coef0 = np.asarray(coef, dtype=float).copy()
         lengths = np.asarray(lib.kinematics.segment_lengths, dtype=float)
         rho = [j for j, nm in enumerate(names) if nm.startswith("rhoA_")]
-        if len(rho) == lengths.size:
+        if "rhoA" in names:  # one line density for the whole robot (a uniform library): already what is wanted
+            rho = [names.index("rhoA")]
+            if not self.coef0[rho[0]] > 0:
+                self.coef0[rho[0]] = 1.0 / lengths.sum()
+        elif len(rho) == lengths.size:
             # uniform line density at the fit's total mass: positive, and what the convention states
             total = float(np.sum(self.coef0[rho] * lengths))
             if not total > 0:
                 total = 1.0
             self.coef0[rho] = total / lengths.sum()
         self.rho = float(self.coef0[rho].mean()) if rho else 1.0
-        self.free = [j for j, nm in enumerate(names) if not nm.startswith(("rhoA_", "rhoAg"))]
+        self.free = [j for j, nm in enumerate(names) if not (nm == "rhoA" or nm.startswith(("rhoA_", "rhoAg")))]
         lower = [0.0 if names[j].startswith(("rhoI_", "k_", "d_")) else -np.inf for j in self.free]
         self.stiff = np.asarray(lib.stiffness_index_, dtype=int)
         self.damp = np.asarray(lib.damping_index_, dtype=int)

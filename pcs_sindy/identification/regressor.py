@@ -605,6 +605,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
         lib = self.make_library(kin).fit(X)
         self.scale_convention_ = None
+        spatial_default = isinstance(kin, SpatialPCS) and self._library_choice() in (None, "physical")
+        if spatial_default and all(x.metadata.get("shape_fit") == "positions" for x in X):
+            # strains fused from positions alone hang from a fitted base: gravity's direction in it is not known
+            # (the planar path tries both models; in 3-D the one consistent model of a uniform robot is identified:
+            # one weight vector rhoA g shared by all segments)
+            lib.set_params(density="uniform", identify_gravity="shared").fit(X)
         if (
             act.n_gains
             and "mass" in lib.get_params()
@@ -614,6 +620,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             # nothing absolute is known (every force is a gain times a known function): the motion is the same
             # for every common scale of densities, stiffness, damping and gains, so fix one and say so
             lib.set_params(mass=SCALE_CONVENTION_MASS)
+            if spatial_default:  # the convention's uniform line density, imposed: M is positive definite by construction
+                lib.set_params(density="uniform").fit(X)
             self.scale_convention_ = (
                 f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
                 "units was given; the motion does not depend on this scale, the parameters are relative to it)"
