@@ -132,12 +132,34 @@ class _Layout:
                 total = 1.0
             self.coef0[rho] = total / lengths.sum()
         self.rho = float(self.coef0[rho].mean()) if rho else 1.0
+        g0 = np.asarray(gains, dtype=float).copy()
+        # one weight vector rhoA g shared by all segments (a spatial fit from positions alone): its direction is
+        # refined (two angles about the equation-error direction), its magnitude is the line density times the
+        # library's |g|.  The equation-error fit leaves the magnitude loose; all its static forces are scaled with it
+        # (stiffness, rest forces, gains; damping by the square root: the same motion, only faster or slower), so
+        # the start keeps the fit's equilibria
+        self.gcols = [names.index(f"rhoAg{a}") for a in "xyz"] if all(f"rhoAg{a}" in names for a in "xyz") else []
+        if self.gcols:
+            g_fit = self.coef0[self.gcols]
+            g_lib = np.asarray(getattr(lib, "gravity", (0.0, 9.81, 0.0)), dtype=float)
+            weight = self.rho * float(np.linalg.norm(g_lib))
+            norm = float(np.linalg.norm(g_fit))
+            self.n0 = g_fit / norm if norm > 0 else g_lib / np.linalg.norm(g_lib)
+            scale = weight / norm if norm > 0 else 1.0
+            rest = np.asarray(getattr(lib, "rest_force_index_", []), dtype=int)
+            self.coef0[np.r_[lib.stiffness_index_, rest].astype(int)] *= scale
+            self.coef0[np.asarray(lib.damping_index_, dtype=int)] *= np.sqrt(scale)
+            g0 *= scale
+            self.coef0[self.gcols] = weight * self.n0
+            self.weight = weight
+            # an orthonormal pair perpendicular to the start direction
+            e = np.linalg.svd(self.n0[None, :])[2][1:]
+            self.e1, self.e2 = e[0], e[1]
         self.free = [j for j, nm in enumerate(names) if not (nm == "rhoA" or nm.startswith(("rhoA_", "rhoAg")))]
         lower = [0.0 if names[j].startswith(("rhoI_", "k_", "d_")) else -np.inf for j in self.free]
         self.stiff = np.asarray(lib.stiffness_index_, dtype=int)
         self.damp = np.asarray(lib.damping_index_, dtype=int)
         self.n_coef = len(self.free)
-        g0 = np.asarray(gains, dtype=float).copy()
         idx = getattr(act, "_arrays", {}).get("index") if act.kind == "learned" else None
         p = int(act.n_inputs_)
         # types: per (row kind) one vector over the inputs of index lists; symmetric u*q entries share one
@@ -162,7 +184,10 @@ class _Layout:
             z0.append(z)
         self.gains0 = g0
         self.n_dirs = self.dirs.shape[1]
-        self.x0 = np.r_[self.coef0[self.free], g0[own], np.concatenate(z0) if z0 else np.zeros(0)]
+        self.n_angles = 2 if self.gcols else 0
+        self.x0 = np.r_[
+            self.coef0[self.free], g0[own], np.concatenate(z0) if z0 else np.zeros(0), np.zeros(self.n_angles)
+        ]
         self.lower = np.r_[lower, np.full(self.x0.size - self.n_coef, -np.inf)]
 
     def unpack(self, x: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -177,11 +202,19 @@ class _Layout:
             pos += self.n_dirs
             for k, lst in enumerate(lists):
                 gains[lst] = vec[k]
+        if self.n_angles:
+            n = self.n0 + x[pos] * self.e1 + x[pos + 1] * self.e2
+            coef[self.gcols] = self.weight * n / np.linalg.norm(n)
         return coef, gains
 
     def pack(self, coef: NDArray[np.float64], gains: NDArray[np.float64]) -> NDArray[np.float64]:
         z = [self.dirs.T @ np.array([gains[lst].mean() if lst else 0.0 for lst in lists]) for lists in self.types]
-        return np.r_[coef[self.free], gains[self.own], np.concatenate(z) if z else np.zeros(0)]
+        angles = np.zeros(self.n_angles)
+        if self.n_angles:
+            n = coef[self.gcols] / np.linalg.norm(coef[self.gcols])
+            n = n / (n @ self.n0)
+            angles = np.array([n @ self.e1, n @ self.e2])
+        return np.r_[coef[self.free], gains[self.own], np.concatenate(z) if z else np.zeros(0), angles]
 
 
 def input_directions(u: NDArray[np.float64], tol: float | None = None) -> NDArray[np.float64]:
