@@ -40,6 +40,7 @@ from numpy.typing import NDArray
 from scipy.optimize import least_squares
 
 from ..core.simulate_contract import DivergenceError
+from ..core.spatial import SpatialPCS
 
 __all__ = [
     "refine_output_error",
@@ -56,6 +57,10 @@ STIFFNESS_MARGIN = 0.1
 #: input directions with a singular value below this fraction of the largest are not excited: their gains
 #: keep the equation-error value (steps of all servos together excite one direction and the servos' noise)
 INPUT_RANK_TOL = 0.02
+#: a spatial model's learned ``u*q`` gains (21 symmetric pairs of strains on 3 bending segments, against 6 in the
+#: plane) are refined along this many leading input directions; the constant gains along all excited ones.  Each
+#: refined parameter costs one rollout of every training recording per step of the fit
+SPATIAL_SLOPE_DIRECTIONS = 1
 #: above this many inputs the box's vertices (2^p) are replaced by its training samples' extremes
 MAX_VERTICES = 256
 #: a stiffness margin missed by the whole smallest stiffness costs like this marker RMS [m] over the recordings
@@ -175,15 +180,18 @@ class _Layout:
         self.own = own
         self.types = list(types.values())
         self.dirs = np.eye(p) if directions is None else np.asarray(directions, dtype=float)
-        # start: symmetric pairs averaged; the part outside the excited directions is kept as it is
+        spatial = isinstance(lib.kinematics, SpatialPCS)
+        self.type_dirs = [
+            self.dirs[:, :SPATIAL_SLOPE_DIRECTIONS] if spatial and key[0] == "s" else self.dirs for key in types
+        ]
+        # start: symmetric pairs averaged; the part outside the refined directions is kept as it is
         self.base, z0 = [], []
-        for lists in self.types:
+        for lists, dirs in zip(self.types, self.type_dirs, strict=True):
             vec = np.array([g0[lst].mean() if lst else 0.0 for lst in lists])
-            z = self.dirs.T @ vec
-            self.base.append(vec - self.dirs @ z)
+            z = dirs.T @ vec
+            self.base.append(vec - dirs @ z)
             z0.append(z)
         self.gains0 = g0
-        self.n_dirs = self.dirs.shape[1]
         self.n_angles = 2 if self.gcols else 0
         self.x0 = np.r_[
             self.coef0[self.free], g0[own], np.concatenate(z0) if z0 else np.zeros(0), np.zeros(self.n_angles)
@@ -197,9 +205,9 @@ class _Layout:
         pos = self.n_coef
         gains[self.own] = x[pos : pos + len(self.own)]
         pos += len(self.own)
-        for lists, base in zip(self.types, self.base, strict=True):
-            vec = base + self.dirs @ x[pos : pos + self.n_dirs]
-            pos += self.n_dirs
+        for lists, base, dirs in zip(self.types, self.base, self.type_dirs, strict=True):
+            vec = base + dirs @ x[pos : pos + dirs.shape[1]]
+            pos += dirs.shape[1]
             for k, lst in enumerate(lists):
                 gains[lst] = vec[k]
         if self.n_angles:
@@ -208,7 +216,10 @@ class _Layout:
         return coef, gains
 
     def pack(self, coef: NDArray[np.float64], gains: NDArray[np.float64]) -> NDArray[np.float64]:
-        z = [self.dirs.T @ np.array([gains[lst].mean() if lst else 0.0 for lst in lists]) for lists in self.types]
+        z = [
+            dirs.T @ np.array([gains[lst].mean() if lst else 0.0 for lst in lists])
+            for lists, dirs in zip(self.types, self.type_dirs, strict=True)
+        ]
         angles = np.zeros(self.n_angles)
         if self.n_angles:
             n = coef[self.gcols] / np.linalg.norm(coef[self.gcols])
