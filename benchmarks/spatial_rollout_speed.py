@@ -1,4 +1,4 @@
-"""Speed of the spatial (3-D) ground-truth simulator: a 2-segment SpatialPCSRobot, 5 s rollout.
+"""Speed of the spatial (3-D) ground-truth simulator and of the identified spatial model's rollouts.
 
 The two_segment robot's parameters (benchmarks/simulation_speed.py) with six strains per
 segment (the out-of-plane bending and the twist damped like the bending, the second shear like
@@ -10,6 +10,15 @@ timed for comparison.  Reported: wall and CPU time of the second call (the first
 real-time factor (simulated seconds per wall second, and per CPU second: the machine may be shared),
 the integrator's counts and the largest distance of the tip from the reference's over the samples.
 The one-time compilation of the spatial kernels (cold numba cache) is not measured here.
+
+The identified spatial model (``SpatialPCSModel``, compiled kernels and the compiled ROS34PW2 loop,
+its default tolerances rtol 3e-5, atol 3e-8) with the robot's parameters (ρA = ρ π r², ρI = ρ π r⁴/4,
+ρA g, its stiffness and damping) on the same inputs: all six strains (tip error against the
+simulator's reference) and bending only (bend_z, bend_x of each segment; its tip error against its own
+rollout at rtol 1e-10, the unmodelled strains being a different model).  And the size of the real
+Trunk problem: three 105-mm segments, bending only, a ``LearnedActuation(6)`` (gains fixed at random
+values of a plausible size) driven by six smooth random inputs sampled at 100 Hz for 75 s: seconds
+per rollout (what one output-error Jacobian column costs).
 
 Run: ``.venv/bin/python benchmarks/spatial_rollout_speed.py [--write]`` (``--write`` records the
 numbers in docs/results.md).
@@ -24,6 +33,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
+from pcs_sindy.core.spatial import SpatialPCS  # noqa: E402
+from pcs_sindy.models import LearnedActuation, SpatialPCSModel  # noqa: E402
 from pcs_sindy.simulation import PCSRobot, SpatialPCSRobot  # noqa: E402
 
 from _results import write_section  # noqa: E402
@@ -46,6 +57,81 @@ def timed(fn):
     w0, c0 = time.perf_counter(), time.process_time()
     out = fn()
     return out, time.perf_counter() - w0, time.process_time() - c0
+
+
+def physical_model(robot: SpatialPCSRobot, kin: SpatialPCS, actuation=None) -> SpatialPCSModel:
+    """The identified-parameters model of the robot on the active strains of ``kin``."""
+    rhoA = robot.density * robot.area
+    mask = kin.active_mask
+    return SpatialPCSModel(
+        kin,
+        rhoA,
+        robot.density * robot.second_moment,
+        rhoA[:, None] * robot.gravity[None],
+        robot.stiffness[mask],
+        robot.damping[mask],
+        actuation=actuation,
+    )
+
+
+def model_rows(robot: SpatialPCSRobot, t: np.ndarray, u: np.ndarray, reference: np.ndarray, tip_arc) -> list[str]:
+    """Rows of the identified model (default tolerances): two segments, all strains and bending only."""
+    rows = []
+    m = robot.n_segments
+    for name, active in (("all 6 strains", None), ("bending only", [[1, 1, 0, 0, 0, 0]] * m)):
+        kin = SpatialPCS(tuple(robot.segment_lengths), active_strains=active)
+        model = physical_model(robot, kin)
+        n = 12
+        model.simulate(np.zeros(n), np.zeros(n), t[:3], u[:3])  # load (or compile) the kernels
+        stats: dict = {}
+        traj, wall, cpu = timed(
+            lambda model=model, stats=stats: model.simulate(np.zeros(n), np.zeros(n), t, u, stats=stats)
+        )
+        tip = kin.forward_kinematics(traj.q, tip_arc)[0][:, 0]
+        if active is None:
+            ref, against = reference, "simulator reference"
+        else:
+            tight = model.simulate(np.zeros(n), np.zeros(n), t, u, rtol=1e-10, atol=1e-12)
+            ref, against = kin.forward_kinematics(tight.q, tip_arc)[0][:, 0], "own rtol 1e-10 rollout"
+        err = np.linalg.norm(tip - ref, axis=1).max()
+        rows.append(
+            f"| SpatialPCSModel, {name} | compiled ROS34PW2, rtol 3e-5, atol 3e-8 | {wall:.2f} | {cpu:.2f} | "
+            f"{DURATION / wall:.1f} | {DURATION / cpu:.1f} | {stats['n_steps']} | {stats['n_rejected']} | "
+            f"{np.abs(traj.q).max():.3g} | {err:.2g} ({against}) |"
+        )
+        print(rows[-1], flush=True)
+    return rows
+
+
+def trunk_sized() -> str:
+    """Seconds per rollout of a 3-segment bending-only model with LearnedActuation(6), 75 s at 100 Hz."""
+    rng = np.random.default_rng(1)
+    lengths = [0.105] * 3
+    robot = SpatialPCSRobot(lengths, 1070.0, 1e4, 1e3, np.tile([3e-5, 3e-5, 3e-5, 0.5, 0.5, 0.05], 3))
+    kin = SpatialPCS(tuple(lengths), active_strains=[[1, 1, 0, 0, 0, 0]] * 3)
+    act = LearnedActuation(6).fit(kin)
+    # gains: ~1e-3 N m per unit input on the bending equations, its strain-dependent part a tenth of that
+    act.gains_ = rng.normal(size=act.gains_.size) * np.where(
+        [g.count("_") > 4 for g in act.gain_names_], 1e-4, 1e-3
+    )
+    model = physical_model(robot, kin, act)
+    t = np.arange(0.0, 75.0, 0.01)
+    f = rng.uniform(0.05, 0.5, (3, 6))
+    ph = rng.uniform(0, 2 * np.pi, (3, 6))
+    u = np.sin(2 * np.pi * f[None] * t[:, None, None] + ph[None]).sum(axis=1) / 2
+    model.simulate(np.zeros(18), np.zeros(18), t[:3], u[:3])
+    times, stats = [], {}
+    for _ in range(3):
+        traj, wall, cpu = timed(lambda: model.simulate(np.zeros(18), np.zeros(18), t, u, stats=stats))
+        times.append((wall, cpu))
+    wall, cpu = min(times, key=lambda x: x[1])
+    line = (
+        f"Trunk-sized model (3 × 105 mm, bending only: 6 strains, LearnedActuation(6), 75 s at 100 Hz, "
+        f"default tolerances): {wall:.2f} s wall, {cpu:.2f} s CPU per rollout (best of 3; {75 / cpu:.0f}x real "
+        f"time), {stats['n_steps']} steps, {stats['n_rejected']} rejected, max |q| {np.abs(traj.q).max():.3g}."
+    )
+    print(line, flush=True)
+    return line
 
 
 def main(write: bool) -> None:
@@ -82,6 +168,7 @@ def main(write: bool) -> None:
     rows = [
         row + (f" {np.linalg.norm(tips[key] - reference, axis=1).max():.2g} |" if key else " — |") for row, key in rows
     ]
+    rows += model_rows(spatial, t, u6, reference, tip_arc)
     body = "\n".join(
         [
             f"Two segments (L = {L} m, the two_segment parameters), {DURATION:g} s from rest under random",
@@ -95,13 +182,18 @@ def main(write: bool) -> None:
             "| rejected | max abs q | tip error vs reference [m] |",
             "|---|---|---|---|---|---|---|---|---|---|",
             *rows,
+            "",
+            "Before the compiled spatial model (main at bc46459, the NumPy Rosenbrock loop of SpatialPCSModel): a 5-s",
+            "six-strain rollout ~10 min (the spatial identification benchmark's 5-s rollouts 557-624 s).",
+            "",
+            trunk_sized(),
         ]
     )
     print(body)
     if write:
         write_section(
             "spatial_rollout_speed",
-            "Spatial simulator speed (issue 26)",
+            "Spatial simulator and identified spatial model speed (issue 26)",
             body,
             ".venv/bin/python benchmarks/spatial_rollout_speed.py --write",
         )

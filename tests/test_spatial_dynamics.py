@@ -366,11 +366,11 @@ def test_nodes_chosen_by_bend_agree_with_a_48_node_rule(bend, monkeypatch):
 
     Truth: the same robot with 48 Gauss-Legendre nodes on every segment (the node table switched off).
     """
-    from pcs_sindy.simulation import _spatial_kernels
+    from pcs_sindy.core import spatial_kernels
 
     lengths, params = (0.07, 0.1), dict(density=1070.0, youngs_modulus=1e4, shear_modulus=1e3, damping=np.ones(12))
     fast = SpatialPCSRobot(lengths, **params)
-    monkeypatch.setattr(_spatial_kernels, "QUADRATURE_TIERS", ())
+    monkeypatch.setattr(spatial_kernels, "QUADRATURE_TIERS", ())
     dense = SpatialPCSRobot(lengths, n_quadrature=48, **params)
     rng = np.random.default_rng(int(10 * bend))
     q, qd = np.zeros((20, 12)), rng.normal(0.0, 3.0, (20, 12))

@@ -43,6 +43,7 @@ __all__ = [
     "moments_array",
     "dynamics",
     "input_forces",
+    "strain_layout_free_forces",
     "rhs",
     "mass_bias_batch",
     "workspace",
@@ -232,27 +233,26 @@ def workspace(P):
 
 
 @numba.njit(cache=True)
-def input_forces(q, u, P, tau):
-    """``tau = A(q) u`` on the modelled strains ``q`` (n,) for the input map of ``P``."""
-    act, L = P[0], P[1]
-    kind = P[10][0]
-    n = act.size
+def strain_layout_free_forces(kind, amat, q, u, tau):
+    """``tau = A(q) u`` for the maps that need no strain layout (``FORCES``, ``MATRIX``, ``AFFINE``); False otherwise.
+
+    Shared with the spatial models (:mod:`pcs_sindy.models._jit_spatial`): ``q`` (n,) the modelled strains.
+    """
+    n = tau.size
     if kind == FORCES:
         for a in range(n):
             tau[a] = u[a]
-        return
+        return True
     if kind == MATRIX:
-        amat = P[13]
         for a in range(n):
             s = 0.0
             for k in range(u.size):
                 s += amat[a, k] * u[k]
             tau[a] = s
-        return
+        return True
     if kind == AFFINE:
         # affine in the strains, in the inputs and in their positive parts:
         # tau_a = sum_k (B0[a, k] + sum_b B1[a, k, b] q_b) u_k + (C0 + C1 q) max(0, u_k), amat = [B0 | B1 | C0 | C1]
-        amat = P[13]
         p = u.size
         block = p * (1 + n)
         for a in range(n):
@@ -266,6 +266,17 @@ def input_forces(q, u, P, tau):
                     uk = u[k] if part == 0 else max(u[k], 0.0)
                     s += coef * uk
             tau[a] = s
+        return True
+    return False
+
+
+@numba.njit(cache=True)
+def input_forces(q, u, P, tau):
+    """``tau = A(q) u`` on the modelled strains ``q`` (n,) for the input map of ``P``."""
+    act, L = P[0], P[1]
+    kind = P[10][0]
+    n = act.size
+    if strain_layout_free_forces(kind, P[13], q, u, tau):
         return
     # tendons: l_k = sum_i c_ki sqrt(sh_i^2 + (1 + ax_i + d_k be_i)^2), a tension does -dl/dq
     aoff, acover = P[11], P[12]

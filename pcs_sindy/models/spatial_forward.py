@@ -12,9 +12,13 @@ with the position Jacobian ``J_p`` (base frame) and the body angular Jacobian ``
 ``ω = J_w q̇`` the body angular velocity.  :func:`node_terms` evaluates the per-segment integrals
 once per state (the identification library builds its regression columns from the same
 integrals); :class:`SpatialPCSModel` is the :class:`~pcs_sindy.models.forward.ForwardModel` of given
-parameters, rolled out by the L-stable Rosenbrock-W scheme :data:`~pcs_sindy.models.integrators.ROS34PW2`
-(a NumPy loop with the structural Jacobian ``[[0, I], [−M⁻¹K, −M⁻¹D]]``, steps never straddling a
-sample of the held input; the default) or any ``solve_ivp`` scheme.
+parameters: its terms are evaluated by compiled kernels (:mod:`pcs_sindy.models._jit_spatial` on
+the shared :mod:`pcs_sindy.core.spatial_kernels`, also the simulator's), and it is rolled out by the
+compiled loops of the planar models (:mod:`pcs_sindy.models._jit_rollout`: the L-stable Rosenbrock-W
+scheme :data:`~pcs_sindy.models.integrators.ROS34PW2` with the structural Jacobian
+``[[0, I], [−M⁻¹K, −M⁻¹D]]``, steps never straddling a sample of the held input, the default; or
+Dormand–Prince 5(4)) or any ``solve_ivp`` scheme.  :func:`node_terms` (NumPy) stays the independent
+evaluation the tests hold the kernels to.
 
 This module imports only :mod:`pcs_sindy.core` and its own stage; never the simulator.
 """
@@ -26,10 +30,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..core.simulate_contract import SCIPY_METHODS, SimulationError
+from ..core.simulate_contract import SCIPY_METHODS
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
+from ..core.spatial_kernels import body_tuple
 from .forward import ForwardModel
-from .integrators import ROS34PW2, describe_state
+from .integrators import COMPILED_METHODS
 
 __all__ = ["SpatialPCSModel", "spatial_quadrature", "node_terms", "BODY_INERTIA"]
 
@@ -108,12 +113,12 @@ def node_terms(
 
 
 class SpatialPCSModel(ForwardModel):
-    """Spatial PCS dynamics from lumped per-segment parameters (rollouts, controllers).
+    """Spatial PCS dynamics from lumped per-segment parameters, evaluated by compiled kernels (rollouts, controllers).
 
     Parameters
     ----------
     kinematics : SpatialPCS
-        Segmentation; its active strains are the modelled ones (``n``).
+        Segmentation; its active strains are the modelled ones (``n``), the others held at 0.
     rhoA, rhoI : array_like, shape (m,)
         Line density [kg/m] and rotary line inertia [kg m] of every segment (body inertia
         ``diag(1, 2, 1) ρI``).
@@ -124,16 +129,18 @@ class SpatialPCSModel(ForwardModel):
     rest_force : array_like, shape (n,), optional
         Constant generalised force ``f0`` (``... + K q − f0 = A(q) u``); default 0.
     n_quadrature : int, default 16
-        Gauss–Legendre nodes per segment.
+        Gauss–Legendre nodes per segment, at most: as in the spatial simulator, a segment that bends
+        little gets fewer nodes, as many as keep ``M`` and ``bias`` as accurate as this rule
+        (:data:`pcs_sindy.core.spatial_kernels.QUADRATURE_TIERS`; measured within 1e-15 relative of it).
     actuation : Actuation, optional
-        Fitted input map (default: the inputs are generalised forces).
+        Fitted input map (default: the inputs are generalised forces).  A kind whose map is not one
+        the compiled kernels evaluate (``"forces"``, ``"matrix"``, ``"affine"``) is evaluated in
+        Python: the model then rolls out with the ``solve_ivp`` methods only (:attr:`methods`).
     """
 
-    methods = ("rosenbrock",) + tuple(SCIPY_METHODS)
-    compiled_methods = ("rosenbrock",)
+    methods = COMPILED_METHODS + tuple(m for m in SCIPY_METHODS if m not in COMPILED_METHODS)
+    compiled_methods = COMPILED_METHODS
     default_method = "rosenbrock"
-    #: the Rosenbrock loop is NumPy, not compiled: a 5-s rollout of six strains takes minutes
-    compiled_rollouts = False
 
     def __init__(
         self,
@@ -150,13 +157,15 @@ class SpatialPCSModel(ForwardModel):
         if not isinstance(kinematics, SpatialPCS):
             raise ValueError(f"kinematics must be a SpatialPCS; got {type(kinematics).__name__}")
         super().__init__(kinematics, actuation)
+        from . import _jit_dynamics, _jit_spatial  # numba kernels load only when a model is built
+
         m, n = kinematics.n_segments, self.n
 
         def arr(name: str, val: Any, shape: tuple) -> NDArray[np.float64]:
             a = np.asarray(val, dtype=float)
             if a.shape != shape or not np.all(np.isfinite(a)):
                 raise ValueError(f"{name} must be finite with shape {shape}; got {np.shape(val)}")
-            return a
+            return np.ascontiguousarray(a)
 
         self.rhoA = arr("rhoA", rhoA, (m,))
         self.rhoI = arr("rhoI", rhoI, (m,))
@@ -164,40 +173,87 @@ class SpatialPCSModel(ForwardModel):
         self.stiffness = arr("stiffness", stiffness, (n,))
         self.damping = arr("damping", damping, (n,))
         self.rest_force = np.zeros(n) if rest_force is None else arr("rest_force", rest_force, (n,))
+        if isinstance(n_quadrature, bool) or not isinstance(n_quadrature, (int, np.integer)) or n_quadrature < 1:
+            raise ValueError(f"n_quadrature must be a positive integer; got {n_quadrature!r}")
+        self.n_quadrature = int(n_quadrature)
         self.quadrature = spatial_quadrature(kinematics.segment_lengths, n_quadrature)
+        self._jit = _jit_spatial
 
-    def _batch_terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-        kin = self.kinematics
-        mask = kin.active_mask
-        qf = np.zeros((q.shape[0], kin.n_q))
-        qdf = np.zeros_like(qf)
-        qf[:, mask], qdf[:, mask] = q, qd
-        f = node_terms(kin, self.quadrature, qf, qdf, None, mass=True)
-        M = np.einsum("j,bjac->bac", self.rhoA, f["M_trans"]) + np.einsum("j,bjac->bac", self.rhoI, f["M_rot"])
-        bias = (
-            np.einsum("j,bjn->bn", self.rhoA, f["trans"])
-            - np.einsum("bjnx,jx->bn", f["grav"], self.rhoAg)
-            + np.einsum("j,bjn->bn", self.rhoI, f["rot"])
+        #: True when the actuation has no compiled form the spatial kernels evaluate: its forces are computed
+        #: in Python (``actuation.forces``) and rollouts take the solve_ivp methods only
+        self.python_inputs = self.actuation is not None and not (
+            set(self.actuation.compiled_forms) & set(_jit_spatial.INPUT_FORMS)
         )
-        M = M[:, mask][:, :, mask]
-        bias = bias[:, mask] + q * self.stiffness + qd * self.damping - self.rest_force
-        return M, bias
+        if self.actuation is None or self.python_inputs:
+            form, aoff, acover, amat = "forces", np.zeros(0), np.zeros((0, m)), np.zeros((n, 0))
+        else:
+            form, aoff, acover, amat = self.actuation.compiled()
+            if form not in _jit_spatial.INPUT_FORMS:
+                self.python_inputs = True
+                form, aoff, acover, amat = "forces", np.zeros(0), np.zeros((0, m)), np.zeros((n, 0))
+        if self.python_inputs:
+            self.methods = tuple(SCIPY_METHODS)
+            self.compiled_methods = ()
+            self.default_method = ForwardModel.default_method
+        base_position, base_rotation = kinematics.base_pose
+        body = body_tuple(
+            kinematics.segment_lengths,
+            self.n_quadrature,
+            self.rhoA,
+            self.rhoI[:, None] * BODY_INERTIA[None, :],
+            self.rhoAg,
+            base_position,
+            base_rotation,
+        )
+        self._params = (
+            np.flatnonzero(kinematics.active_mask).astype(np.int64),
+            body,
+            self.rest_force,
+            np.array([_jit_dynamics.INPUT_MAPS[form]], dtype=np.int64),
+            np.ascontiguousarray(aoff, dtype=float),
+            np.ascontiguousarray(acover, dtype=float),
+            np.ascontiguousarray(amat, dtype=float),
+            self.stiffness,
+            self.damping,
+        )
+        self._work = _jit_spatial.workspace(self._params)
+
+    @classmethod
+    def from_lumped(cls, kinematics: SpatialPCS, lumped: dict, actuation: Any = None) -> SpatialPCSModel:
+        """The model of a library's ``lumped_from_coef`` dictionary (``rest_force``, ``n_quadrature`` optional)."""
+        keys = ("rhoA", "rhoI", "rhoAg", "stiffness", "damping", "rest_force", "n_quadrature")
+        return cls(kinematics, **{k: lumped[k] for k in keys if k in lumped}, actuation=actuation)
 
     def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        q = np.atleast_2d(self._reduce(q, "q"))
-        qd = np.atleast_2d(self._reduce(qd, "qd"))
+        q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")), dtype=float)
+        qd = np.ascontiguousarray(np.atleast_2d(self._reduce(qd, "qd")), dtype=float)
         if q.shape != qd.shape:
             raise ValueError(f"q and qd must have the same shape; got {q.shape} and {qd.shape}")
-        return self._batch_terms(q, qd)
+        return self._jit.mass_bias_batch(q, qd, self._params, self._work)
 
     def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        M, bias = self._batch_terms(q[None], qd[None])
-        return M[0], bias[0]
+        W = self._work
+        self._jit.dynamics(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qd, dtype=float), self._params, W)
+        return W[0].copy(), W[1].copy()
+
+    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self.python_inputs:
+            return super().input_forces(q, u)
+        tau = np.empty(self.n)
+        self._jit.input_forces(
+            np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
+        )
+        return tau
 
     def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-        n = self.n
-        M, bias = self.terms(y[:n], y[n:])
-        return np.concatenate([y[n:], np.linalg.solve(M, self.input_forces(y[:n], u) - bias)])
+        out = np.empty(y.size)
+        if self.python_inputs:  # the kernels' input map is "forces": hand them A(q) u
+            u = self.input_forces(y[: self.n], np.asarray(u, dtype=float))
+        if not self._jit.rhs(
+            np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
+        ):
+            raise np.linalg.LinAlgError("singular mass matrix")
+        return out
 
     def _trajectory(self, q_full: NDArray, qd_full: NDArray, t: NDArray, metadata: dict) -> Any:
         kin = self.kinematics
@@ -212,92 +268,23 @@ class SpatialPCSModel(ForwardModel):
             metadata=metadata,
         )
 
-    # ------------------------------------------------------------------ rollout (NumPy Rosenbrock-W loop)
     def _rollout_compiled(
-        self,
-        y0: NDArray[np.float64],
-        t: NDArray[np.float64],
-        u: NDArray[np.float64],
-        method: str,
-        *,
-        step: float | None,
-        rtol: float,
-        atol: float,
-        max_step: float | None,
-        max_abs_state: float,
-        state_names: list[str],
-        stats: dict | None,
+        self, y0, t, u, method, *, step, rtol, atol, max_step, max_abs_state, state_names, stats
     ) -> NDArray[np.float64]:
-        """ROS34PW2 over held inputs: adaptive (or fixed ``step``) steps inside every sample interval."""
-        tab = ROS34PW2
-        n = self.n
-        eye = np.eye(2 * n)
-        y = np.array(y0, dtype=float)
-        out = np.empty((t.size, 2 * n))
-        out[0] = y
-        h = float(np.min(np.diff(t))) if step is None else float(step)
-        if max_step is not None:
-            h = min(h, float(max_step))
-        n_steps = n_rej = n_eval = 0
+        from . import _jit_rollout
 
-        def rhs(state: NDArray[np.float64], uk: NDArray[np.float64]) -> tuple[NDArray, NDArray]:
-            M, bias = self.terms(state[:n], state[n:])
-            acc = np.linalg.solve(M, self.input_forces(state[:n], uk) - bias)
-            return np.concatenate([state[n:], acc]), M
-
-        for k in range(t.size - 1):
-            tk, t_end, uk = float(t[k]), float(t[k + 1]), u[k]
-            while t_end - tk > 1e-12 * max(1.0, abs(t_end)):
-                hh = min(h, t_end - tk)
-                try:
-                    f0, M = rhs(y, uk)
-                    n_eval += 1
-                    Minv = np.linalg.inv(M)
-                    J = np.zeros((2 * n, 2 * n))
-                    J[:n, n:] = np.eye(n)
-                    J[n:, :n] = -Minv * self.stiffness[None, :]
-                    J[n:, n:] = -Minv * self.damping[None, :]
-                    W = eye / (hh * tab.gamma) - J
-                    stages = []
-                    for i in range(tab.stages):
-                        if i == 0:
-                            fi = f0
-                        else:
-                            yi = y + sum(tab.at[i, j] * stages[j] for j in range(i))
-                            fi = rhs(yi, uk)[0]
-                            n_eval += 1
-                        rhs_i = fi + sum(tab.ct[i, j] * stages[j] for j in range(i)) / hh
-                        stages.append(np.linalg.solve(W, rhs_i))
-                except np.linalg.LinAlgError as err:
-                    raise SimulationError(
-                        f"singular mass matrix at t = {tk:.6g} s ({describe_state(y, state_names)})", tk, y
-                    ) from err
-                y_new = y + sum(tab.mt[i] * stages[i] for i in range(tab.stages))
-                if step is None:
-                    err_v = sum(tab.et[i] * stages[i] for i in range(tab.stages))
-                    scale = atol + rtol * np.maximum(np.abs(y), np.abs(y_new))
-                    e = float(np.sqrt(np.mean((err_v / scale) ** 2)))
-                    if not np.isfinite(e):
-                        e = np.inf
-                    factor = 5.0 if e == 0 else min(5.0, max(0.2, 0.9 * e ** (-1.0 / 3.0)))
-                    if e > 1.0:
-                        n_rej += 1
-                        h = hh * factor
-                        if h < 1e-12 * max(1.0, abs(t_end)):
-                            raise SimulationError(f"step size collapsed at t = {tk:.6g} s", tk, y)
-                        continue
-                    if hh == h:  # a step cut short by the sample does not change h
-                        h = hh * factor
-                    if max_step is not None:
-                        h = min(h, float(max_step))
-                tk += hh
-                y = y_new
-                n_steps += 1
-                if not np.all(np.isfinite(y)) or np.abs(y).max() > max_abs_state:
-                    raise SimulationError(
-                        f"the state diverged at t = {tk:.6g} s ({describe_state(y, state_names)})", tk, y
-                    )
-            out[k + 1] = y
-        if stats is not None:
-            stats.update(n_steps=n_steps, n_rejected=n_rej, n_evaluations=n_eval)
-        return out
+        return _jit_rollout.rollout(
+            self._params,
+            self._jit.workspace(self._params),
+            y0,
+            t,
+            u,
+            method,
+            step=step,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            state_names=state_names,
+            stats=stats,
+        )

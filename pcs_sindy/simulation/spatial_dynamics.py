@@ -10,8 +10,9 @@ with ``M = Σ_i ∫ (ρA J_pᵀ J_p + J_wᵀ I_b J_w) ds``, ``I_b = diag(ρI, 2�
 ``C q̇ = Σ_i ∫ ρA J_pᵀ (J̇_p q̇) + J_wᵀ (I_b (J̇_w q̇) + ω × I_b ω) ds``,
 ``G = −Σ_i ρA ∫ J_pᵀ g ds`` and ``K_i = f_L diag(E I, E I, G J, c_sh G A, c_sh G A, E A)``
 (``J = 2I``).  The integrals are Gauss–Legendre quadratures of closed-form Jacobians evaluated by
-the compiled kernels of :mod:`pcs_sindy.simulation._spatial_kernels` (one state at a time, batches
-by a compiled loop), and the robot is integrated by the planar robot's integrators
+the compiled kernels of :mod:`pcs_sindy.core.spatial_kernels` (shared with the identified spatial model;
+one state at a time, batches by a compiled loop) and :mod:`pcs_sindy.simulation._spatial_kernels`
+(stiffness, damping, actuation), and the robot is integrated by the planar robot's integrators
 (:mod:`pcs_sindy.simulation.integrate`), with the same :meth:`SpatialPCSRobot.simulate` contract.
 Restricted to the plane (only ``bend_z``, ``shear_x`` and ``axial``), every term equals the planar
 robot's (:class:`~pcs_sindy.simulation.PCSRobot`).
@@ -34,6 +35,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..core import spatial_kernels
 from ..core.simulate_contract import SimulationError
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
 from . import _spatial_kernels
@@ -237,43 +239,26 @@ class SpatialPCSRobot(RobotBase):
         self._w_lin = (weights * (self.density * self.area)[:, None]).reshape(-1)
         inertia = (self.density * self.second_moment)[:, None] * np.array([1.0, 2.0, 1.0])[None, :]  # (m, 3)
         self._w_rot = (weights[:, :, None] * inertia[:, None, :]).reshape(-1, 3)
-        # the compiled kernels' quadrature tiers: fewer nodes where a segment bends little, as accurate
-        tiers = [(bound, k) for bound, k in _spatial_kernels.QUADRATURE_TIERS if k < K] + [(np.inf, K)]
-        m = L.size
-        self._tier_nodes = np.array([k for _, k in tiers], dtype=np.int64)
-        self._tier_bounds = np.array([bound for bound, _ in tiers])
-        self._tier_ell = np.zeros((len(tiers), m, K + 1))
-        self._tier_w_lin = np.zeros((len(tiers), m, K))
-        self._tier_w_rot = np.zeros((len(tiers), m, K, 3))
-        for t, (_, k) in enumerate(tiers):
-            xk, wk = np.polynomial.legendre.leggauss(k)
-            wk = 0.5 * wk[None, :] * L[:, None]
-            self._tier_ell[t, :, :k] = 0.5 * (xk + 1.0)[None, :] * L[:, None]
-            self._tier_ell[t, :, k] = L
-            self._tier_w_lin[t, :, :k] = wk * (self.density * self.area)[:, None]
-            self._tier_w_rot[t, :, :k] = wk[:, :, None] * inertia[:, None, :]
+        # the compiled kernels' body: quadrature tiers (fewer nodes where a segment bends little, as accurate)
+        # and node weights; the gravity weights are set from the public ``gravity`` at every call
+        self._body = spatial_kernels.body_tuple(
+            L, K, self.density * self.area, inertia, np.zeros((L.size, 3)), self.base_position, self.base_rotation
+        )
 
     def _jit_geometry(self) -> tuple:
         """Robot structure for :mod:`._spatial_kernels` (layout in its docstring); rebuilt at every call
-        because ``stiffness`` and ``damping`` are public attributes users may rescale."""
+        because ``stiffness``, ``damping`` and ``gravity`` are public attributes users may change."""
         kind, offset, span, matrix = self._act
+        body = list(self._body)
+        body[4] = body[2][..., None] * np.asarray(self.gravity, dtype=float)  # w ρA g per node
         return (
-            np.ascontiguousarray(self.segment_lengths, dtype=float),
-            self._tier_ell,
-            self._tier_w_lin,
-            self._tier_w_rot,
+            tuple(body),
             np.ascontiguousarray(self.stiffness, dtype=float),
             np.ascontiguousarray(self.damping, dtype=float),
-            np.ascontiguousarray(self.gravity, dtype=float),
-            np.ascontiguousarray(self.base_position, dtype=float),
-            np.ascontiguousarray(self.base_rotation, dtype=float),
             int(kind),
             np.ascontiguousarray(offset, dtype=float),
             np.ascontiguousarray(span, dtype=float),
             np.ascontiguousarray(matrix, dtype=float),
-            int(self.n_segments),
-            self._tier_nodes,
-            self._tier_bounds,
         )
 
     def _trajectory(self, q: NDArray, t: NDArray, qd: NDArray, metadata: dict) -> SpatialStrainTrajectory:
@@ -290,7 +275,7 @@ class SpatialPCSRobot(RobotBase):
 
     def _terms(self, qf: NDArray, qdf: NDArray | None) -> tuple[NDArray, NDArray, NDArray]:
         qd = qf if qdf is None else qdf
-        return _spatial_kernels.terms_batch(qf, qd, self._jit_geometry(), qdf is not None)
+        return spatial_kernels.terms_batch(qf, qd, self._jit_geometry()[0], qdf is not None)
 
     # -- dynamics terms -----------------------------------------------------------
     def mass_matrix(self, q: ArrayLike) -> NDArray[np.float64]:
@@ -316,7 +301,7 @@ class SpatialPCSRobot(RobotBase):
         """``J_p`` (base frame) and body ``J_w`` at the quadrature nodes, each (..., m K, 3, n)."""
         q = self._check("q", q)
         lead, (qf,) = self._flatten(q)
-        jp, jw = _spatial_kernels.jacobian_batch(qf, self._jit_geometry())
+        jp, jw = spatial_kernels.jacobian_batch(qf, self._body)
         shape = lead + jp.shape[1:]
         return jp.reshape(shape), jw.reshape(shape)
 
@@ -337,7 +322,7 @@ class SpatialPCSRobot(RobotBase):
         lead, (qf,) = self._flatten(q)
         kind, offset, span, _ = self._act
         if kind == ACT_TENDON:
-            A = -_spatial_kernels.tendon_batch(qf, offset, span)[1].transpose(0, 2, 1)
+            A = -spatial_kernels.tendon_batch(qf, offset, span)[1].transpose(0, 2, 1)
         else:
             A = np.broadcast_to(np.eye(self.n_q), (qf.shape[0], self.n_q, self.n_q)).copy()
         return A.reshape(lead + (self.n_q, self.n_inputs))
@@ -356,7 +341,7 @@ class SpatialPCSRobot(RobotBase):
             raise ValueError(f"tendon_lengths needs a robot with SpatialTendons; this one has {self.actuation!r}")
         q = self._check("q", q)
         lead, (qf,) = self._flatten(q)
-        return _spatial_kernels.tendon_batch(qf, offset, span)[0].reshape(lead + (self.n_inputs,))
+        return spatial_kernels.tendon_batch(qf, offset, span)[0].reshape(lead + (self.n_inputs,))
 
     # -- simulation -----------------------------------------------------------------
     def simulate(
