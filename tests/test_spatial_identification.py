@@ -289,3 +289,23 @@ def test_output_error_start_of_a_shared_gravity_fit_keeps_its_equilibria_at_the_
     np.testing.assert_allclose(lay.pack(c1, g1), x, atol=1e-12)
     assert np.linalg.norm(c1[1:4]) == pytest.approx(9.81 * coef[0], rel=1e-12)
     assert not np.allclose(c1[1:4], start[1:4])
+
+
+def test_balanced_start_makes_the_mean_recorded_shape_an_equilibrium_under_the_mean_input():
+    from pcs_sindy.identification.output_error import _balanced_start, _Layout
+
+    rng = np.random.default_rng(4)
+    bending = np.tile([True, True, False, False, False, False], 2)
+    lib = SpatialPhysicalPCSLibrary([0.1, 0.1], active_strains=bending, identify_gravity="shared", density="uniform")
+    lib.fit(np.zeros((1, 8)))
+    coef = np.abs(rng.standard_normal(lib.n_coefficients_))
+    act = LearnedActuation(n_inputs=2).fit(lib.kinematics)
+    lay = _Layout(lib, coef, act, rng.standard_normal(act.n_gains), None)
+    recs = [(None, rng.uniform(-3, 3, (40, 4)), None, rng.uniform(0, 1, (40, 2)), None) for _ in range(2)]
+    c, g = lay.unpack(_balanced_start(lib, lay, act, lay.x0, recs))
+    q = np.concatenate([r[1] for r in recs]).mean(axis=0)[None]
+    u = np.concatenate([r[3] for r in recs]).mean(axis=0)[None]
+    net = lib.bias_forces(q, 0 * q, c) - act.forces(q, u, g)  # static balance: gravity, springs, f0, inputs
+    assert np.max(np.abs(net)) < 1e-12 * np.max(np.abs(lib.bias_forces(q, 0 * q, coef)))
+    c0, _ = lay.unpack(lay.x0)
+    np.testing.assert_allclose(np.delete(c, lib.rest_force_index_), np.delete(c0, lib.rest_force_index_), rtol=1e-12)

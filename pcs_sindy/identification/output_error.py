@@ -61,6 +61,10 @@ INPUT_RANK_TOL = 0.02
 #: plane) are refined along this many leading input directions; the constant gains along all excited ones.  Each
 #: refined parameter costs one rollout of every training recording per step of the fit
 SPATIAL_SLOPE_DIRECTIONS = 1
+#: a spatial refinement stops after about this many rollouts of the training recordings (finite-difference Jacobians
+#: included: one per refined parameter and step), at least 10 steps: a compiled spatial rollout of 75 s at 100 Hz
+#: takes about 0.3 s, so this is minutes where the planar model's 60 steps are
+SPATIAL_ROLLOUT_BUDGET = 1500
 #: above this many inputs the box's vertices (2^p) are replaced by its training samples' extremes
 MAX_VERTICES = 256
 #: a stiffness margin missed by the whole smallest stiffness costs like this marker RMS [m] over the recordings
@@ -265,6 +269,29 @@ def _enforce_margin(
     return coef, g, lo
 
 
+def _balanced_start(
+    lib: Any, layout: _Layout, act: Any, x: NDArray[np.float64], recordings: Sequence[tuple]
+) -> NDArray[np.float64] | None:
+    """``x`` with the rest forces ``f0`` that make the recordings' mean strain an equilibrium under their mean input
+    (None when some modelled strain has no rest force)."""
+    rest = np.asarray(getattr(lib, "rest_force_index_", []), dtype=int)
+    rows = np.asarray(getattr(lib, "rest_force_rows_", []), dtype=int)
+    q = np.concatenate([r[1] for r in recordings])
+    n = q.shape[1]
+    if rest.size != n or not np.array_equal(np.sort(rows), np.arange(n)):
+        return None
+    u = np.concatenate([r[3] for r in recordings])
+    q_mean, u_mean = q.mean(axis=0)[None], u.mean(axis=0)[None]
+    coef, gains = layout.unpack(x)
+    static = np.asarray(lib.bias_forces(q_mean, np.zeros_like(q_mean), coef), dtype=float)[0]  # G + K q - f0
+    f0 = np.zeros(n)
+    f0[rows] = coef[rest]
+    need = static + f0 - np.asarray(act.forces(q_mean, u_mean, gains), dtype=float)[0]
+    coef = coef.copy()
+    coef[rest] = need[rows]
+    return layout.pack(coef, gains)
+
+
 def refine_output_error(
     lib: Any,
     coef: NDArray[np.float64],
@@ -363,6 +390,17 @@ def refine_output_error(
         r1 = residual(x1)
         if np.sum(r1**2) < np.sum(r0**2):
             x0, r0 = x1, r1
+    spatial = isinstance(kinematics, SpatialPCS)
+    if spatial:
+        # a spatial fit from positions alone hangs from a fitted base under a gravity of loose direction: its rest
+        # forces may hold a pose far from the recorded ones.  Also try them set so that the recordings' mean shape
+        # is the equilibrium under their mean input; the better rollout starts the fit
+        x2 = _balanced_start(lib, layout, act, x0, recordings)
+        if x2 is not None:
+            r2 = residual(x2)
+            if np.sum(r2**2) < np.sum(r0**2):
+                x0, r0 = x2, r2
+        max_nfev = int(min(max_nfev, max(10, SPATIAL_ROLLOUT_BUDGET // max(x0.size, 1))))
     res = least_squares(residual, x0, bounds=(layout.lower, np.inf), x_scale="jac", max_nfev=max_nfev, diff_step=1e-4)
     best = res.x if np.sum(res.fun**2) <= np.sum(r0**2) else x0
     coef_out, gains_out = layout.unpack(best)
