@@ -25,6 +25,13 @@ The refined model is stable by construction:
   afterwards by shrinking the ``B_k`` (gravity's stiffness is left out: it is
   positive about the hanging pose, so the condition is conservative there).
 
+A spatial fit (:class:`~pcs_sindy.core.SpatialPCS`) from positions alone carries one weight vector
+``rhoA g`` of unknown direction (``identify_gravity="shared"``): its magnitude is set to the line density
+times the library's ``|g|`` and its direction refined (two angles); the fit also starts from rest forces
+that balance the recordings' mean shape under their mean input when that rollout is better, refines its
+``u*q`` gains along :data:`SPATIAL_SLOPE_DIRECTIONS` leading input direction(s) and stops after about
+:data:`SPATIAL_ROLLOUT_BUDGET` rollouts (spatial models have many more strain pairs than planar ones).
+
 Internal to :class:`~pcs_sindy.identification.EulerLagrangeRegressor`
 (``refine="output_error"``).
 """
@@ -49,6 +56,8 @@ __all__ = [
     "STIFFNESS_MARGIN",
     "INPUT_RANK_TOL",
     "MAX_VERTICES",
+    "SPATIAL_SLOPE_DIRECTIONS",
+    "SPATIAL_ROLLOUT_BUDGET",
 ]
 
 #: smallest eigenvalue of ``K - sum_k u_k B_k`` required at the training input box's vertices,
