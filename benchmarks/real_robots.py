@@ -125,19 +125,19 @@ def pcs_trunk_3d(
     test_inputs: np.ndarray,
     dt: float,
     details: dict | None = None,
-    refine: str = "none",
+    space: str = "auto",
 ) -> np.ndarray:
     """The documented spatial path (issue 26) on a recording that moves in 3-D.
 
     ``KinematicFusion()`` at its defaults (``space="auto"`` goes 3-D on such a recording; arc lengths
-    1, 2, 3 disk spacings as in :func:`pcs_trunk`) -> ``EulerLagrangeRegressor(actuation=LearnedActuation(6),
-    refine=refine)`` (the spatial physical library, chosen for 3-D strains; no mass: the scale convention)
-    -> ``simulate`` of the test inputs from the fused first test state at rest rates ->
-    ``fusion.inverse_transform``; returns the predicted tip (T_test, 3) in the capture frame.
-    ``refine="auto"`` (the regressor's default) adds the output-error refinement, whose finite-difference
-    Jacobian needs one rollout of the training half per refined parameter: not affordable with the NumPy
-    spatial rollout (docs/real_robots.md), hence ``"none"`` here.  ``details`` receives ``"fit"``, and
-    ``"release"`` as in :func:`pcs_trunk`.
+    1, 2, 3 disk spacings as in :func:`pcs_trunk`) -> ``EulerLagrangeRegressor(actuation=LearnedActuation(6))``
+    at its defaults (the spatial physical library, chosen for 3-D strains: from positions alone one line
+    density and one weight vector ``rhoA g`` of unknown direction; no mass: the scale convention; the
+    output-error refinement) -> ``simulate`` of the test inputs from the fused first test state at rest
+    rates -> ``fusion.inverse_transform``; returns the predicted tip (T_test, 3) in the capture frame.
+    ``space="3d"`` forces the spatial path on a recording that stays near a plane (the step files: a check
+    that the 3-D path is not tuned to the one 3-D file).  ``details`` receives ``"fit"``, and ``"release"``
+    as in :func:`pcs_trunk`.
     """
     from pcs_sindy.core import PoseTrajectory
     from pcs_sindy.fusion import KinematicFusion
@@ -147,16 +147,24 @@ def pcs_trunk_3d(
     arcs = TRUNK_DISK_SPACING * np.arange(1, train_positions.shape[1] + 1)
     train = PoseTrajectory.from_positions(train_positions, dt=dt, arc_lengths=arcs)
     test = PoseTrajectory.from_positions(test_positions, dt=dt, arc_lengths=arcs)
-    fusion = KinematicFusion().fit(train)
+    fusion = KinematicFusion(space=space).fit(train)
     (strains,), (st_test,) = fusion.transform(train), fusion.transform(test)
     if details is not None:
         lengths = np.round(1e3 * np.asarray(fusion.segment_lengths_)).astype(int).tolist()
         details["fit"] = f"space {fusion.space_}, {fusion.n_segments_} segment(s) {lengths} mm"
-    model = EulerLagrangeRegressor(actuation=LearnedActuation(train_inputs.shape[1]), refine=refine)
+    model = EulerLagrangeRegressor(actuation=LearnedActuation(train_inputs.shape[1]))
     model.fit([strains], [train_inputs])
     if details is not None:
         details["model"] = model
         details["fit"] += f", strains {', '.join(model.kinematics_.strain_names(active_only=True))}"
+        ref = model.refinement_
+        if ref is not None:
+            details["fit"] += (
+                f", output-error refinement: training marker RMSE {1e3 * ref['rmse_start']:.1f} -> "
+                f"{1e3 * ref['rmse']:.1f} mm in {ref['nfev']} evaluations"
+            )
+        else:
+            details["fit"] += ", not refined"
         q_bent = strains.q[np.argmax(np.abs(strains.q).sum(axis=1))]
 
         def release(duration: float) -> np.ndarray:
@@ -469,7 +477,7 @@ def plot_tentacle(res: dict, path: Path) -> None:
 
 
 # ================================================================================ report
-def table(trunk: list[dict], three_d: dict | None, rest: dict | None, tent: dict | None) -> str:
+def table(trunk: list[dict], three_d: list[dict], rest: dict | None, tent: dict | None) -> str:
     lines = []
     if trunk:
         lines += [
@@ -495,11 +503,15 @@ def table(trunk: list[dict], three_d: dict | None, rest: dict | None, tent: dict
                 f"{r.get('pcs_seconds', float('nan')):.0f} |"
             )
         lines.append(f"\nRead with: {trunk[0]['reader']}.\n")
-    if three_d is not None:
-        r = three_d
+    for k, r in enumerate(three_d):
         pcs_run = any(name.startswith("PCS") for name, _, _ in r["rows"])
+        what = (
+            "all six motors, the robot moves in 3-D"
+            if k == 0
+            else "a step file, near a plane: the spatial path forced (`space='3d'`), a check on another recording"
+        )
         lines += [
-            f"`{r['name']}` (all six motors, the robot moves in 3-D: out-of-plane RMS {r['out_of_plane_mm']:.1f} mm): "
+            f"`{r['name']}` ({what}: out-of-plane RMS {r['out_of_plane_mm']:.1f} mm): "
             + (
                 "the spatial PCS path (issue 26) beside the black boxes; same split and score.\n"
                 if pcs_run
@@ -570,7 +582,7 @@ def main(argv: list[str] | None = None) -> dict:
         return {}
     start = time.perf_counter()
     n_rows = 2000 if args.quick else None
-    trunk, three_d, rest, tent = [], None, None, None
+    trunk, three_d, rest, tent = [], [], None, None
     tdir = root / "trunk"
     for name in TRUNK_STEP_FILES if args.only not in ("tentacle", "trunk3d") else ():
         if (tdir / name).is_file():
@@ -579,15 +591,29 @@ def main(argv: list[str] | None = None) -> dict:
     if (tdir / TRUNK_3D_FILE).is_file() and args.only != "tentacle":
         commanded = tdir / TRUNK_3D_INPUTS if (tdir / TRUNK_3D_INPUTS).is_file() else None
         # the planar PCS model is out of scope on the 3-D recording; --pcs-3d runs the spatial path (issue 26)
-        three_d = run_trunk_file(
-            tdir / TRUNK_3D_FILE,
-            n_rows,
-            pcs=args.pcs_3d and not args.no_pcs,
-            commanded=commanded,
-            pcs_fn=pcs_trunk_3d,
-            pcs_label="PCS 3-D, documented spatial path (equation error, refine='none')",
+        three_d.append(
+            run_trunk_file(
+                tdir / TRUNK_3D_FILE,
+                n_rows,
+                pcs=args.pcs_3d and not args.no_pcs,
+                commanded=commanded,
+                pcs_fn=pcs_trunk_3d,
+                pcs_label="PCS 3-D, documented spatial path at defaults",
+            )
         )
-        print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d["rows"]), flush=True)
+        print(f"{TRUNK_3D_FILE}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d[-1]["rows"]), flush=True)
+    for name in TRUNK_STEP_FILES if args.only == "trunk3d" and args.pcs_3d and not args.no_pcs else ():
+        # the same spatial path on the step files (fused in 3-D): acceptance runs on other recordings too
+        if (tdir / name).is_file():
+            three_d.append(
+                run_trunk_file(
+                    tdir / name,
+                    n_rows,
+                    pcs_fn=lambda *a, **k: pcs_trunk_3d(*a, **k, space="3d"),
+                    pcs_label="PCS 3-D, documented spatial path at defaults (space='3d')",
+                )
+            )
+            print(f"{name}: " + "; ".join(f"{n} {e:.2f} mm {x}" for n, e, x in three_d[-1]["rows"]), flush=True)
     if (tdir / TRUNK_REST_FILE).is_file() and args.only not in ("tentacle", "trunk3d"):
         rest = rest_file(tdir / TRUNK_REST_FILE)
     if (root / "tentacle").is_dir() and args.only not in ("trunk", "trunk3d"):
@@ -601,11 +627,11 @@ def main(argv: list[str] | None = None) -> dict:
     print(f"wall time {seconds:.0f} s")
     if args.plots is not None:
         args.plots.mkdir(parents=True, exist_ok=True)
-        for r in trunk + ([three_d] if three_d else []):
+        for r in trunk + three_d:
             plot_trunk(r, args.plots / f"real_trunk_{Path(r['name']).stem}.png")
         if tent is not None and tent["holds"]:
             plot_tentacle(tent, args.plots / "real_tentacle_holds.png")
-    if args.write and not args.quick and args.only == "trunk3d" and three_d is not None:
+    if args.write and not args.quick and args.only == "trunk3d" and three_d:
         write_section(
             "real_robots_3d",
             "Real robots: the Trunk in 3-D (issue 26)",

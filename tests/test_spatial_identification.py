@@ -230,3 +230,82 @@ def test_output_error_refinement_compares_spatial_marker_positions():
     err = kin.forward_kinematics(sim.q, [0.1])[0][:, 0] - kin.forward_kinematics(tr.q, [0.1])[0][:, 0]
     assert info["rmse"] == pytest.approx(np.sqrt(np.mean(err**2)), rel=0.05)
     assert info["rmse"] != pytest.approx(np.sqrt(np.mean(err[:, :2] ** 2)), rel=0.05)  # z counts (here most)
+
+
+def test_uniform_density_and_shared_gravity_are_the_per_segment_model_of_a_uniform_robot():
+    # one line density and one weight vector rhoA g: the same inverse dynamics, momenta and Lagrangian as the
+    # per-segment library with known gravity (1, 9, -2) and equal densities
+    rng = np.random.default_rng(11)
+    lengths, g = [0.08, 0.1], (1.0, 9.0, -2.0)
+    per_seg = SpatialPhysicalPCSLibrary(lengths, gravity=g).fit(np.zeros((1, 24)))
+    shared = SpatialPhysicalPCSLibrary(lengths, gravity=g, identify_gravity="shared", density="uniform")
+    shared.fit(np.zeros((1, 24)))
+    assert shared.coefficient_names()[:4] == ["rhoA", "rhoAgx", "rhoAgy", "rhoAgz"]
+    assert shared.n_coefficients_ == per_seg.n_coefficients_ + 2  # -rhoA_2, +3 weights
+    d = np.tile(DAMP, 2)
+    ca = per_seg.coefficients_from_parameters(RHO, 0.02, E, G, d)
+    cb = shared.coefficients_from_parameters(RHO, 0.02, E, G, d)
+    np.testing.assert_allclose(cb[1:4], RHO * np.pi * 0.02**2 * np.array(g), rtol=1e-14)
+    q, qd, qdd = random_states(rng, 2, 6)
+    assert rel(shared.euler_lagrange_matrix(q, qd, qdd) @ cb, per_seg.euler_lagrange_matrix(q, qd, qdd) @ ca) < 1e-12
+    (Pa, Ra), (Pb, Rb) = per_seg.weak_terms(q, qd), shared.weak_terms(q, qd)
+    assert rel(Pb @ cb, Pa @ ca) < 1e-12 and rel(Rb @ cb, Ra @ ca) < 1e-9
+    x = np.hstack([q, qd])
+    la = np.asarray(per_seg.transform(x)) @ ca[: per_seg.n_lagrangian_terms]
+    lb = np.asarray(shared.transform(x)) @ cb[: shared.n_lagrangian_terms]
+    assert rel(lb, la) < 1e-12
+    assert rel(shared.mass_matrix(q, cb), per_seg.mass_matrix(q, ca)) < 1e-12
+    # the mass constraint sums the one density over the whole length
+    a, b = shared.set_params(mass=2.0).scale_constraint()
+    assert a[0] == pytest.approx(0.18) and np.count_nonzero(a) == 1 and b == 2.0
+    with pytest.raises(ValueError, match="density='uniform'"):
+        SpatialPhysicalPCSLibrary(lengths, identify_gravity="shared").fit(np.zeros((1, 24)))
+
+
+def test_output_error_start_of_a_shared_gravity_fit_keeps_its_equilibria_at_the_known_gravity():
+    # the equation-error fit leaves |rhoA g| loose; the refinement's start scales the static forces with it, so the
+    # static forces at every pose are those of the fit times one factor (same equilibria), |g| = 9.81
+    from pcs_sindy.identification.output_error import _Layout
+
+    rng = np.random.default_rng(2)
+    bending = np.tile([True, True, False, False, False, False], 2)
+    lib = SpatialPhysicalPCSLibrary([0.1, 0.1], active_strains=bending, identify_gravity="shared", density="uniform")
+    lib.fit(np.zeros((1, 8)))
+    coef = np.abs(rng.standard_normal(lib.n_coefficients_))
+    coef[1:4] = [0.5, 1.5, -0.3]  # |g| = 1.6 / rhoA
+    act = LearnedActuation(n_inputs=2, terms=("u",)).fit(lib.kinematics)  # no u*q: no symmetric tying
+    gains = rng.standard_normal(act.n_gains)
+    lay = _Layout(lib, coef, act, gains, None)
+    start, g_start = lay.unpack(lay.x0)
+    assert np.linalg.norm(start[1:4]) == pytest.approx(9.81 * coef[0], rel=1e-12)
+    scale = 9.81 * coef[0] / np.linalg.norm(coef[1:4])
+    q = rng.uniform(-5, 5, (7, 4))
+    np.testing.assert_allclose(lib.bias_forces(q, 0 * q, start), scale * lib.bias_forces(q, 0 * q, coef), rtol=1e-10)
+    np.testing.assert_allclose(g_start, scale * gains, rtol=1e-12)
+    # the two direction angles: pack inverts unpack, and they turn the weight, never resize it
+    x = lay.x0.copy()
+    x[-2:] = [0.3, -0.2]
+    c1, g1 = lay.unpack(x)
+    np.testing.assert_allclose(lay.pack(c1, g1), x, atol=1e-12)
+    assert np.linalg.norm(c1[1:4]) == pytest.approx(9.81 * coef[0], rel=1e-12)
+    assert not np.allclose(c1[1:4], start[1:4])
+
+
+def test_balanced_start_makes_the_mean_recorded_shape_an_equilibrium_under_the_mean_input():
+    from pcs_sindy.identification.output_error import _balanced_start, _Layout
+
+    rng = np.random.default_rng(4)
+    bending = np.tile([True, True, False, False, False, False], 2)
+    lib = SpatialPhysicalPCSLibrary([0.1, 0.1], active_strains=bending, identify_gravity="shared", density="uniform")
+    lib.fit(np.zeros((1, 8)))
+    coef = np.abs(rng.standard_normal(lib.n_coefficients_))
+    act = LearnedActuation(n_inputs=2).fit(lib.kinematics)
+    lay = _Layout(lib, coef, act, rng.standard_normal(act.n_gains), None)
+    recs = [(None, rng.uniform(-3, 3, (40, 4)), None, rng.uniform(0, 1, (40, 2)), None) for _ in range(2)]
+    c, g = lay.unpack(_balanced_start(lib, lay, act, lay.x0, recs))
+    q = np.concatenate([r[1] for r in recs]).mean(axis=0)[None]
+    u = np.concatenate([r[3] for r in recs]).mean(axis=0)[None]
+    net = lib.bias_forces(q, 0 * q, c) - act.forces(q, u, g)  # static balance: gravity, springs, f0, inputs
+    assert np.max(np.abs(net)) < 1e-12 * np.max(np.abs(lib.bias_forces(q, 0 * q, coef)))
+    c0, _ = lay.unpack(lay.x0)
+    np.testing.assert_allclose(np.delete(c, lib.rest_force_index_), np.delete(c0, lib.rest_force_index_), rtol=1e-12)

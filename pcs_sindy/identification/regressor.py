@@ -193,7 +193,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         bounded by construction).  ``"auto"``: so for a
         :class:`~pcs_sindy.models.actuation.LearnedActuation` (an input map of
         unknown layout, which the equation error fits worst: measured on the
-        real Trunk step recordings, docs/results.md), none otherwise.
+        real Trunk step recordings, docs/results.md), none otherwise; skipped
+        (with a warning) when the forward model has no compiled rollouts.  A
+        spatial fit from positions alone (one weight vector ``rhoA g``) also
+        refines gravity's direction, at ``|g|`` of the library.
     check_fit : bool, default True
         After :meth:`fit`, roll each training recording out (``training_rollout_error_``,
         ``no_input_error_``) and warn with :class:`PoorFitWarning` when the model is worse than a
@@ -605,6 +608,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
         lib = self.make_library(kin).fit(X)
         self.scale_convention_ = None
+        spatial_default = isinstance(kin, SpatialPCS) and self._library_choice() in (None, "physical")
+        if spatial_default and all(x.metadata.get("shape_fit") == "positions" for x in X):
+            # strains fused from positions alone hang from a fitted base: gravity's direction in it is not known
+            # (the planar path tries both models; in 3-D the one consistent model of a uniform robot is identified:
+            # one weight vector rhoA g shared by all segments)
+            lib.set_params(density="uniform", identify_gravity="shared").fit(X)
         if (
             act.n_gains
             and "mass" in lib.get_params()
@@ -614,6 +623,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             # nothing absolute is known (every force is a gain times a known function): the motion is the same
             # for every common scale of densities, stiffness, damping and gains, so fix one and say so
             lib.set_params(mass=SCALE_CONVENTION_MASS)
+            if spatial_default:  # the convention's uniform line density, imposed: M positive definite by construction
+                lib.set_params(density="uniform").fit(X)
             self.scale_convention_ = (
                 f"total mass {SCALE_CONVENTION_MASS:g} kg, uniform line density (no mass, gain or force in known "
                 "units was given; the motion does not depend on this scale, the parameters are relative to it)"
@@ -842,6 +853,19 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 f"got {type(lib).__name__}: use refine='none'"
             )
         kin = self.kinematics_
+        fm = self.forward_model()
+        self.__dict__.pop("_forward", None)
+        if self.refine == "auto" and not getattr(fm, "compiled_rollouts", True):
+            # one rollout of every training recording per refined parameter and step: with an uncompiled forward
+            # model (minutes per rollout) not affordable by default; refine="output_error" asks for it anyway
+            warnings.warn(
+                f"refine='auto' skipped the output-error refinement: {type(fm).__name__} has no "
+                "compiled rollouts, so it would take hours; the model is the equation-error fit (refine='output_error' "
+                "forces the refinement, refine='none' silences this warning)",
+                UserWarning,
+                stacklevel=3,
+            )
+            return
         arcs = [np.asarray(x.metadata.get("marker_arc_lengths", []), dtype=float).reshape(-1) for x in X]
         arc = arcs[0] if arcs[0].size and all(np.array_equal(a, arcs[0]) for a in arcs) else np.zeros(0)
         if not arc.size:

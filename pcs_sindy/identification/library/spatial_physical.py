@@ -19,7 +19,12 @@ Coefficient layout: per segment ``i``: ``rhoA_i``, ``rhoI_i`` (``rotary_inertia=
 ``identify_gravity`` ``rhoAgx_i``, ``rhoAgy_i``, ``rhoAgz_i``, then ``k_<strain>_i`` of each active
 strain; after all segments ``f0_<strain>_i`` (``rest_strain``) and the dampings ``d_<strain>_i``
 (last).  Columns that vanish because no strain they act through is active are dropped (``rhoI_i``
-needs a bending or twist strain at or before segment ``i``).
+needs a bending or twist strain at or before segment ``i``).  ``density="uniform"`` replaces the
+``rhoA_i`` by one line density ``rhoA`` of the whole robot (first column), and
+``identify_gravity="shared"`` the ``rhoAg<a>_i`` by one weight vector ``rhoAgx, rhoAgy, rhoAgz``
+(after it; with ``density="segment"``: ``rhoAg<a>_i = rhoA_i g_a`` needs per-segment columns), the
+physically consistent model of a uniform robot whose gravity direction in the base frame is not
+known (a base fitted to markers): the mass matrix is positive definite whenever ``rhoA > 0``.
 
 Weak form: ``P`` (generalised momentum per unit parameter: ``∫ J_pᵀ ṗ ds``, ``∫ J_wᵀ Ī ω ds``, ``q``
 for damping) exactly, and ``R = −∂L/∂q`` with the kinetic-energy gradients by a central
@@ -187,18 +192,27 @@ class _Layout:
         row_of[self.active] = np.arange(self.n)
         self.row_of = row_of
         self.identify_gravity = bool(lib.identify_gravity)
+        self.shared_gravity = lib.identify_gravity == "shared"
+        self.uniform = lib.density == "uniform"
         names: list[str] = []
-        kinds: list[tuple[str, int, int]] = []  # (kind, segment, full strain index or gravity axis)
+        kinds: list[tuple[str, int, int]] = []  # (kind, segment (-1: every segment), full strain index or axis)
+        if self.uniform:
+            names.append("rhoA")
+            kinds.append(("rhoA", -1, -1))
+        if self.shared_gravity:
+            for a, axis in enumerate("xyz"):
+                names.append(f"rhoAg{axis}")
+                kinds.append(("g", -1, a))
         for i in range(m):
             seg = i + 1
             before = self.mask[: 6 * (i + 1)].reshape(-1, 6)
-            if before.any():
+            if before.any() and not self.uniform:
                 names.append(f"rhoA_{seg}")
                 kinds.append(("rhoA", i, -1))
             if before[:, _ROTATIONAL].any() and lib.rotary_inertia == "free":
                 names.append(f"rhoI_{seg}")
                 kinds.append(("rhoI", i, -1))
-            if self.identify_gravity and before.any():
+            if self.identify_gravity and not self.shared_gravity and before.any():
                 for a, axis in enumerate("xyz"):
                     names.append(f"rhoAg{axis}_{seg}")
                     kinds.append(("g", i, a))
@@ -227,6 +241,10 @@ class _Layout:
             kind: [(j, k[1], k[2]) for j, k in enumerate(kinds) if k[0] == kind] for kind in ("rhoA", "rhoI", "g")
         }
 
+    def segments(self, i: int) -> list[int]:
+        """The segments a column of segment ``i`` acts on (``i = -1``: all of them)."""
+        return list(range(self.kin.n_segments)) if i < 0 else [i]
+
 
 class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     """Euler–Lagrange regressor of a spatial PCS robot, linear in per-segment physical parameters.
@@ -246,8 +264,11 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         Cross-section radius [m] (``coefficients_from_parameters`` and ``rotary_inertia="tied"``).
     gravity : sequence of float, shape (3,), default (0, 9.81, 0)
         Known gravity in the base frame (the robot hangs along +y by default).
-    identify_gravity : bool, default False
-        Identify ``rhoA_i g`` as three free columns per segment instead.
+    identify_gravity : bool or "shared", default False
+        Identify ``rhoA_i g`` as three free columns per segment instead; ``"shared"``: one weight
+        vector ``rhoA g`` for all segments (needs ``density="uniform"``).
+    density : {"segment", "uniform"}, default "segment"
+        One line density per segment, or one for the whole robot.
     n_quadrature : int, default 16
         Gauss–Legendre nodes per segment.
     rotary_inertia : {"free", "tied", "none"}, default "free"
@@ -273,11 +294,12 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         active_strains: ArrayLike | None = None,
         radius: float | Sequence[float] = 0.02,
         gravity: Sequence[float] = (0.0, 9.81, 0.0),
-        identify_gravity: bool = False,
+        identify_gravity: bool | str = False,
         n_quadrature: int = 16,
         rotary_inertia: str = "free",
         rest_strain: Any = True,
         mass: float | None = None,
+        density: str = "segment",
     ) -> None:
         self.segment_lengths = segment_lengths
         self.active_strains = active_strains
@@ -288,17 +310,19 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         self.rotary_inertia = rotary_inertia
         self.rest_strain = rest_strain
         self.mass = mass
+        self.density = density
 
     _parameter_constraints: dict = {
         "segment_lengths": LagrangianLibrary._parameter_constraints["segment_lengths"],
         "active_strains": [None, Check(_mask6_ok, "booleans (or 0/1) of shape (m, 6) or (6m,)")],
         "radius": [Check(_radius_ok, "a finite number > 0 or one per segment [m]")],
         "gravity": [Check(_gravity3_ok, "three finite numbers (g_x, g_y, g_z) [m/s^2]")],
-        "identify_gravity": ["boolean"],
+        "identify_gravity": ["boolean", Options(("shared",))],
         "n_quadrature": [Interval(Integral, 1, None, closed="left")],
         "rotary_inertia": [Options(("free", "tied", "none"))],
         "rest_strain": ["boolean", Check(_rest_ok, f"a tuple of strain kinds from {SPATIAL_STRAIN_NAMES}")],
         "mass": [None, Interval(Real, 0, None, closed="neither")],
+        "density": [Options(("segment", "uniform"))],
     }
 
     # -- segmentation ------------------------------------------------------------
@@ -339,6 +363,11 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         """
         validate_parameters(self)
         self._check_segmentation()
+        if self.identify_gravity == "shared" and self.density != "uniform":
+            raise ValueError(
+                f"identify_gravity='shared' needs density='uniform' (one weight vector rhoA g is one line density "
+                f"times one gravity); got density={self.density!r}: set density='uniform' or identify_gravity=True"
+            )
         kin = spatial_kinematics_of(x)
         if kin is None:
             arrays = self.check_states(x)
@@ -385,6 +414,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
             self.rotary_inertia,
             str(self.rest_strain),
             self.mass,
+            self.density,
         )
         cached = self.__dict__.get("_layout_cache")
         if cached is None or cached[0] != key:
@@ -433,11 +463,11 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         if self.mass is None:
             return None
         lay = self._layout
-        if len(lay.cols["rhoA"]) != lay.kin.n_segments:
+        if not lay.uniform and len(lay.cols["rhoA"]) != lay.kin.n_segments:
             raise ValueError("mass fixes the scale only when every segment's density is identified")
         a = np.zeros(lay.n_coef)
         for j, i, _ in lay.cols["rhoA"]:
-            a[j] = lay.kin.segment_lengths[i]
+            a[j] = sum(lay.kin.segment_lengths[k] for k in lay.segments(i))
         return a, float(self.mass)
 
     # -- evaluation ------------------------------------------------------------------
@@ -470,14 +500,16 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         out = np.zeros((B, n, lay.n_coef))
         g = np.zeros(3) if lay.identify_gravity else lay.gravity
         for j, i, _ in lay.cols["rhoA"]:
-            col = f["trans"][:, i] - f["grav"][:, i] @ g
-            if lay.tie[i]:
-                col = col + lay.tie[i] * f["rot"][:, i]
+            col = np.zeros((B, lay.kin.n_q))
+            for k in lay.segments(i):
+                col += f["trans"][:, k] - f["grav"][:, k] @ g
+                if lay.tie[k]:
+                    col = col + lay.tie[k] * f["rot"][:, k]
             out[:, :, j] = col[:, act]
         for j, i, _ in lay.cols["rhoI"]:
             out[:, :, j] = f["rot"][:, i][:, act]
         for j, i, a in lay.cols["g"]:
-            out[:, :, j] = -f["grav"][:, i, :, a][:, act]
+            out[:, :, j] = -f["grav"][..., a][:, lay.segments(i)].sum(axis=1)[:, act]
         rows = np.arange(n)
         out[:, rows, lay.stiffness_index] = q
         out[:, rows, lay.damping_index] = qd
@@ -499,8 +531,9 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         m = lay.kin.n_segments
         rhoA, rhoI = np.zeros(m), np.zeros(m)
         for j, i, _ in lay.cols["rhoA"]:
-            rhoA[i] = coef[j]
-            rhoI[i] += lay.tie[i] * coef[j]
+            for k in lay.segments(i):
+                rhoA[k] = coef[j]
+                rhoI[k] += lay.tie[k] * coef[j]
         for j, i, _ in lay.cols["rhoI"]:
             rhoI[i] += coef[j]
         return rhoA, rhoI
@@ -573,13 +606,14 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         mom = np.zeros((B, n, lay.n_coef))
         rest = np.zeros((B, n, lay.n_coef))
         for j, i, _ in lay.cols["rhoA"]:
-            mom[:, :, j] = P_t[:, i] + lay.tie[i] * P_r[:, i]
-            rest[:, :, j] = -dT_t[:, :, i] - lay.tie[i] * dT_r[:, :, i] - (f["grav"][:, i] @ g)[:, act]
+            for k in lay.segments(i):
+                mom[:, :, j] += P_t[:, k] + lay.tie[k] * P_r[:, k]
+                rest[:, :, j] += -dT_t[:, :, k] - lay.tie[k] * dT_r[:, :, k] - (f["grav"][:, k] @ g)[:, act]
         for j, i, _ in lay.cols["rhoI"]:
             mom[:, :, j] = P_r[:, i]
             rest[:, :, j] = -dT_r[:, :, i]
         for j, i, a in lay.cols["g"]:
-            rest[:, :, j] = -f["grav"][:, i, :, a][:, act]
+            rest[:, :, j] = -f["grav"][..., a][:, lay.segments(i)].sum(axis=1)[:, act]
         rows = np.arange(n)
         rest[:, rows, lay.stiffness_index] = q
         if lay.rest_index.size:
@@ -635,17 +669,21 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         if not lay.identify_gravity and not np.allclose(g, lay.gravity, rtol=1e-12, atol=0.0):
             raise ValueError(f"gravity {g.tolist()} differs from the library's known gravity {lay.gravity.tolist()}")
         area, inertia = np.pi * r**2, np.pi * r**4 / 4.0
+        if lay.uniform and not np.allclose(rho * area, rho[0] * area[0], rtol=1e-12, atol=0.0):
+            raise ValueError(
+                f"density='uniform' needs one line density rho pi r^2 for every segment; got {(rho * area).tolist()}"
+            )
         c = shear_factor
         per = np.stack([E * inertia, E * inertia, 2 * G * inertia, c * G * area, c * G * area, E * area], axis=1)
         stiff = (f_l[:, None] * per).reshape(-1)
         out = np.empty(lay.n_coef)
         for j, (kind, i, e) in enumerate(lay.kinds):
             if kind == "rhoA":
-                out[j] = rho[i] * area[i]
+                out[j] = rho[max(i, 0)] * area[max(i, 0)]
             elif kind == "rhoI":
                 out[j] = rho[i] * inertia[i]
             elif kind == "g":
-                out[j] = rho[i] * area[i] * g[e]
+                out[j] = rho[max(i, 0)] * area[max(i, 0)] * g[e]
             elif kind == "k":
                 out[j] = stiff[e]
             elif kind == "d":
@@ -679,6 +717,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
             rotary_inertia=self.rotary_inertia,
             rest_strain=self.rest_strain,
             mass=self.mass,
+            density=self.density,
         )
         child.column_map_ = np.array([lay.col[name] for name in child._layout.names], dtype=int)
         if hasattr(self, "n_features_in_"):
@@ -694,7 +733,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         if lay.identify_gravity:
             rhoAg = np.zeros((lay.kin.n_segments, 3))
             for j, i, a in lay.cols["g"]:
-                rhoAg[i, a] = coef[j]
+                rhoAg[lay.segments(i), a] = coef[j]
         else:
             rhoAg = rhoA[:, None] * lay.gravity[None, :]
         return {
@@ -744,6 +783,8 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         if lay.rest_index.size:
             elastic += " - 2 f0^T q"
         gravity = "rhoAg_i . p" if lay.identify_gravity else "rhoA_i g . p"
+        if lay.shared_gravity:
+            gravity = "rhoAg . p"
         return [
             f"L = 1/2 qd^T M(q) qd + sum_i int_0^L_i {gravity} ds - 1/2 ({elastic})",
             "M(q) = sum_i int_0^L_i (rhoA_i Jp^T Jp + rhoI_i Jw^T diag(1, 2, 1) Jw) ds  (Jw: body angular Jacobian)",
@@ -780,11 +821,12 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
             for c, j in enumerate(cols):
                 kind, i, e = lay.kinds[j]
                 if kind == "rhoA":
-                    res[:, c] = T_t[:, i] + pos[:, i] @ g + lay.tie[i] * T_r[:, i]
+                    segs = lay.segments(i)
+                    res[:, c] = sum(T_t[:, k] + pos[:, k] @ g + lay.tie[k] * T_r[:, k] for k in segs)
                 elif kind == "rhoI":
                     res[:, c] = T_r[:, i]
                 elif kind == "g":
-                    res[:, c] = pos[:, i, e]
+                    res[:, c] = pos[:, lay.segments(i), e].sum(axis=1)
                 elif kind == "f0":
                     res[:, c] = arr[:, lay.row_of[e]]
                 else:
@@ -802,7 +844,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
             names = list(input_features[: lay.n])
         out = []
         for kind, i, e in lay.kinds:
-            seg = i + 1
+            seg = i + 1 if i >= 0 else "all"
             if kind == "rhoA":
                 out.append(f"T_A{seg}" if lay.identify_gravity else f"T_A{seg} + int g.p ds ({seg})")
             elif kind == "rhoI":
