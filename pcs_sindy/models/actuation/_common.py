@@ -9,7 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ...core.validation import Check, InvalidParameterError
 
@@ -82,3 +82,60 @@ def check_inside(value: NDArray, name: str, total: float, *, allow_zero: bool, t
         raise ValueError(
             f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m){hint}"
         )
+
+
+class TendonDrive:
+    """What the planar and the spatial tendon kinds share: tensions or servo-wound elastic tendons.
+
+    A mixin placed before :class:`~pcs_sindy.models.actuation.base.Actuation` in a tendon kind's
+    bases.  The kind supplies ``drive``, ``stiffness``, ``stretch(q, u, offsets)`` and
+    ``n_tendons_`` (the tendons: the inputs, unless servos wind several of them).
+    """
+
+    @property
+    def n_tendons_(self) -> int:
+        """Number of tendons (one per input unless the kind lets one servo wind several)."""
+        return int(self.n_inputs_)  # type: ignore[attr-defined]
+
+    @property
+    def is_displacement(self) -> bool:
+        """True for servo-wound elastic tendons (inputs are servo angles)."""
+        return self.drive == "displacement"  # type: ignore[attr-defined]
+
+    @property
+    def linear_in_inputs(self) -> bool:
+        """False for a displacement drive: the tensions are ``k max(0, stretch)``, not linear in the angles."""
+        return not self.is_displacement
+
+    def input_bounds(self) -> tuple[NDArray[np.float64], NDArray[np.float64]] | None:
+        """Tensions pull: ``[0, inf)``; servo angles are unbounded (None)."""
+        if self.is_displacement:
+            return None
+        p = self.n_inputs_  # type: ignore[attr-defined]
+        return np.zeros(p), np.full(p, np.inf)
+
+    def check_inputs(self, u: Any, name: str = "u", t: Any = None) -> NDArray[np.float64]:
+        arr = super().check_inputs(u, name, t)  # type: ignore[misc]
+        if not self.is_displacement and np.any(arr < 0):
+            idx = np.argwhere(arr < 0)[0]
+            when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
+            raise ValueError(
+                f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
+                "tendon tensions must be >= 0"
+            )
+        return arr
+
+    def _stiffness(self, gains: ArrayLike | None = None) -> NDArray[np.float64]:
+        """Tendon stiffnesses [N/m] (p,): given, or the identified gains."""
+        if self.stiffness is not None:  # type: ignore[attr-defined]
+            return per_actuator(self, "stiffness", self.n_tendons_)  # type: ignore[attr-defined]
+        return self._gains(gains)  # type: ignore[attr-defined]
+
+    def tensions(
+        self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None
+    ) -> NDArray[np.float64]:
+        """Tendon tensions [N] (B, p): the inputs, or ``k max(0, stretch)`` for a displacement drive."""
+        u = np.atleast_2d(np.asarray(u, dtype=float))
+        if not self.is_displacement:
+            return u.copy()
+        return self._stiffness(gains) * np.maximum(self.stretch(q, u, offsets), 0.0)  # type: ignore[attr-defined]

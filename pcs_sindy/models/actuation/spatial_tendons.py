@@ -29,7 +29,16 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...core.spatial import SpatialPCS
 from ...core.validation import Check, Interval, InvalidParameterError, Options
-from ._common import END, check_inside, finite_vector, per_actuator, positive_vector, segment_cover, sides
+from ._common import (
+    END,
+    TendonDrive,
+    check_inside,
+    finite_vector,
+    per_actuator,
+    positive_vector,
+    segment_cover,
+    sides,
+)
 from .base import Actuation
 
 __all__ = ["SpatialTendonActuation"]
@@ -56,7 +65,7 @@ def _offsets_ok(value: Any) -> bool:
     return shaped and bool(np.all(np.isfinite(arr)))
 
 
-class SpatialTendonActuation(Actuation):
+class SpatialTendonActuation(TendonDrive, Actuation):
     """Tendons in 3-D: from the base to termination arc lengths at offsets ``(d_x, d_z)`` in the cross-section.
 
     ``A(q) = −∂l/∂q`` with the exact tendon lengths ``l_k = Σ_i c_ki |v_i + ω_i × d_k|`` (module
@@ -175,22 +184,6 @@ class SpatialTendonActuation(Actuation):
     def n_tendons_(self) -> int:
         """Number of tendons (the inputs are the servos when ``motor`` couples several tendons to one)."""
         return int(self._arrays["cover"].shape[0])
-
-    @property
-    def is_displacement(self) -> bool:
-        """True for servo-wound elastic tendons (inputs are servo angles)."""
-        return self.drive == "displacement"
-
-    @property
-    def linear_in_inputs(self) -> bool:
-        """False for a displacement drive: the tensions are ``k max(0, stretch)``, not linear in the angles."""
-        return not self.is_displacement
-
-    def input_bounds(self):
-        """Tensions pull: ``[0, inf)``; servo angles are unbounded (None)."""
-        if self.is_displacement:
-            return None
-        return np.zeros(self.n_inputs_), np.full(self.n_inputs_, np.inf)
 
     def _structure(self, kinematics: SpatialPCS) -> dict[str, Any]:
         if not isinstance(kinematics, SpatialPCS):
@@ -319,18 +312,6 @@ class SpatialTendonActuation(Actuation):
         """The offsets ``(d_x, d_z)`` [m] of every tendon, shape (p, 2)."""
         return np.asarray(self.offsets_, dtype=float)[: 2 * self.n_tendons_].reshape(-1, 2)
 
-    # -- inputs -------------------------------------------------------------------------
-    def check_inputs(self, u, name="u", t=None):
-        arr = super().check_inputs(u, name, t)
-        if not self.is_displacement and np.any(arr < 0):
-            idx = np.argwhere(arr < 0)[0]
-            when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
-            raise ValueError(
-                f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
-                "tendon tensions must be >= 0"
-            )
-        return arr
-
     # -- the map --------------------------------------------------------------------------
     def _tangents(self, q: ArrayLike, offsets: ArrayLike | None) -> tuple[NDArray, NDArray, NDArray]:
         """Body tangents ``v_i + ω_i × d_k`` (B, p, m, 3) of the offset curves, their lengths (B, p, m), d (p, 2)."""
@@ -375,20 +356,6 @@ class SpatialTendonActuation(Actuation):
         if "motor" in self._arrays:  # each tendon's angle: its servo's, signed by the winding
             u = u[:, self._arrays["motor"]] * self._arrays["winding"]
         return r * np.deg2rad(u) + self.lengths(q, offsets) - self._arrays["rest"] - s
-
-    def _stiffness(self, gains: ArrayLike | None = None) -> NDArray[np.float64]:
-        if self.stiffness is not None:
-            return per_actuator(self, "stiffness", self.n_tendons_)
-        return self._gains(gains)
-
-    def tensions(
-        self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Tendon tensions [N] (B, p): the inputs, or ``k max(0, stretch)`` for a displacement drive."""
-        u = np.atleast_2d(np.asarray(u, dtype=float))
-        if not self.is_displacement:
-            return u.copy()
-        return self._stiffness(gains) * np.maximum(self.stretch(q, u, offsets), 0.0)
 
     def parts(self, q, u, offsets=None):
         jac = self.jacobian(q, offsets)

@@ -15,7 +15,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...core.kinematics import PlanarPCS
 from ...core.validation import Check, Interval, InvalidParameterError, Options
-from ._common import END, SIDE, check_inside, finite_vector, per_actuator, positive_vector, segment_cover
+from ._common import END, SIDE, TendonDrive, check_inside, finite_vector, per_actuator, positive_vector, segment_cover
 from .base import Actuation
 
 __all__ = ["TendonActuation"]
@@ -26,7 +26,7 @@ _WEIGHTINGS = ("residual", "none")
 _DRIVES = ("tension", "displacement")
 
 
-class TendonActuation(Actuation):
+class TendonActuation(TendonDrive, Actuation):
     """Tendons from the base to termination arc lengths, at offsets along the cross-section axis.
 
     Tendon k runs at the signed offset ``d_k`` from the backbone along
@@ -122,22 +122,6 @@ class TendonActuation(Actuation):
     }
 
     depends_on_q = True
-
-    @property
-    def is_displacement(self) -> bool:
-        """True for servo-wound elastic tendons (inputs are servo angles)."""
-        return self.drive == "displacement"
-
-    @property
-    def linear_in_inputs(self) -> bool:
-        """False for a displacement drive: the tensions are ``k max(0, stretch)``, not linear in the angles."""
-        return not self.is_displacement
-
-    def input_bounds(self):
-        """Tensions pull: ``[0, inf)``; servo angles are unbounded (None)."""
-        if self.is_displacement:
-            return None
-        return np.zeros(self.n_inputs_), np.full(self.n_inputs_, np.inf)
 
     def __init__(
         self,
@@ -279,17 +263,6 @@ class TendonActuation(Actuation):
                 out[full] = x[par]
         return out
 
-    def check_inputs(self, u, name="u", t=None):
-        arr = super().check_inputs(u, name, t)
-        if not self.is_displacement and np.any(arr < 0):
-            idx = np.argwhere(arr < 0)[0]
-            when = "" if t is None else f" at t = {float(np.asarray(t)[idx[0]]):g} s"
-            raise ValueError(
-                f"{name}[{idx[0]}, {idx[1]}] = {float(arr[tuple(idx)])!r}{when}: tendon {idx[1]} would push; "
-                "tendon tensions must be >= 0"
-            )
-        return arr
-
     def lengths(self, q: ArrayLike, offsets: ArrayLike | None = None) -> NDArray[np.float64]:
         """Tendon lengths (B, p) at modelled strains ``q`` (B, n)."""
         qf = self.kinematics_.to_full(np.atleast_2d(np.asarray(q, dtype=float)))
@@ -323,21 +296,6 @@ class TendonActuation(Actuation):
         r, s = full[p : 2 * p], full[2 * p : 3 * p]
         u = np.atleast_2d(np.asarray(u, dtype=float))
         return r * np.deg2rad(u) + self.lengths(q, offsets) - self._arrays["rest"] - s
-
-    def tensions(
-        self, q: ArrayLike, u: ArrayLike, gains: ArrayLike | None = None, offsets: ArrayLike | None = None
-    ) -> NDArray[np.float64]:
-        """Tendon tensions [N] (B, p): the inputs, or ``k max(0, stretch)`` for a displacement drive."""
-        u = np.atleast_2d(np.asarray(u, dtype=float))
-        if not self.is_displacement:
-            return u.copy()
-        k = self._stiffness(gains)
-        return k * np.maximum(self.stretch(q, u, offsets), 0.0)
-
-    def _stiffness(self, gains: ArrayLike | None = None) -> NDArray[np.float64]:
-        if self.stiffness is not None:
-            return per_actuator(self, "stiffness", self.n_inputs_)
-        return self._gains(gains)
 
     def parts(self, q, u, offsets=None):
         jac = self.jacobian(q, offsets)
