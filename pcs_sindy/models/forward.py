@@ -30,7 +30,7 @@ from ..core.simulate_contract import SCIPY_METHODS, SimulationError, canonical_m
 from ..core.trajectory import StrainTrajectory, check_time
 from .integrators import COMPILED_METHODS, solve_held
 
-__all__ = ["ForwardModel", "LumpedPCSModel", "CallableModel", "reduce_strains"]
+__all__ = ["ForwardModel", "CompiledForwardModel", "LumpedPCSModel", "CallableModel", "reduce_strains"]
 
 
 def reduce_strains(kinematics: PlanarPCS, value: ArrayLike, name: str = "q") -> NDArray[np.float64]:
@@ -487,7 +487,67 @@ class CallableModel(ForwardModel):
         return np.concatenate([y[n:], np.linalg.solve(M, self.input_forces(y[:n], u) - bias)])
 
 
-class LumpedPCSModel(ForwardModel):
+class CompiledForwardModel(ForwardModel):
+    """A forward model whose terms, input map and rollouts are compiled kernels.
+
+    Subclasses set ``_jit`` (the module of kernels: ``dynamics``, ``mass_bias_batch``,
+    ``input_forces``, ``rhs``, ``workspace``), ``_params`` (its parameter tuple), ``_work`` (its work
+    arrays) and ``python_inputs`` (True when the input map has no compiled form: the kernels then take
+    generalised forces, computed by the actuation in Python).
+    """
+
+    def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")), dtype=float)
+        qd = np.ascontiguousarray(np.atleast_2d(self._reduce(qd, "qd")), dtype=float)
+        if q.shape != qd.shape:
+            raise ValueError(f"q and qd must have the same shape; got {q.shape} and {qd.shape}")
+        return self._jit.mass_bias_batch(q, qd, self._params, self._work)
+
+    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        W = self._work
+        self._jit.dynamics(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qd, dtype=float), self._params, W)
+        return W[0].copy(), W[1].copy()
+
+    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        if self.python_inputs:
+            return super().input_forces(q, u)
+        tau = np.empty(self.n)
+        self._jit.input_forces(
+            np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
+        )
+        return tau
+
+    def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
+        out = np.empty(y.size)
+        if self.python_inputs:  # the kernels' input map is "forces": hand them A(q) u
+            u = self.input_forces(y[: self.n], np.asarray(u, dtype=float))
+        if not self._jit.rhs(
+            np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
+        ):
+            raise np.linalg.LinAlgError("singular mass matrix")
+        return out
+
+    def _loop(self, P, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats):
+        from . import _jit_rollout
+
+        return _jit_rollout.rollout(
+            P,
+            self._jit.workspace(P),
+            y0,
+            t,
+            u,
+            method,
+            step=step,
+            rtol=rtol,
+            atol=atol,
+            max_step=max_step,
+            max_abs_state=max_abs_state,
+            state_names=state_names,
+            stats=stats,
+        )
+
+
+class LumpedPCSModel(CompiledForwardModel):
     """Planar PCS dynamics from lumped per-segment parameters, evaluated by compiled kernels.
 
     Parameters
@@ -626,37 +686,6 @@ class LumpedPCSModel(ForwardModel):
             actuation=actuation,
         )
 
-    def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")))
-        qd = np.ascontiguousarray(np.atleast_2d(self._reduce(qd, "qd")))
-        if q.shape != qd.shape:
-            raise ValueError(f"q and qd must have the same shape; got {q.shape} and {qd.shape}")
-        return self._jit.mass_bias_batch(q, qd, self._params, self._work)
-
-    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        W = self._work
-        self._jit.dynamics(q, qd, self._params, W)
-        return W[0].copy(), W[1].copy()
-
-    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-        if self.python_inputs:
-            return super().input_forces(q, u)
-        tau = np.empty(self.n)
-        self._jit.input_forces(
-            np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
-        )
-        return tau
-
-    def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.empty(y.size)
-        if self.python_inputs:  # the kernels' input map is "forces": hand them A(q) u
-            u = self.input_forces(y[: self.n], np.asarray(u, dtype=float))
-        if not self._jit.rhs(
-            np.ascontiguousarray(y), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
-        ):
-            raise np.linalg.LinAlgError("singular mass matrix")
-        return out
-
     def _rollout_compiled(
         self, y0, t, u, method, *, step, rtol, atol, max_step, max_abs_state, state_names, stats
     ) -> NDArray[np.float64]:
@@ -666,22 +695,3 @@ class LumpedPCSModel(ForwardModel):
             if np.abs(bend).max() <= self.fast_max_bend:
                 return y
         return self._loop(self._params, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats)
-
-    def _loop(self, P, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats):
-        from . import _jit_rollout
-
-        return _jit_rollout.rollout(
-            P,
-            self._jit.workspace(P),
-            y0,
-            t,
-            u,
-            method,
-            step=step,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            max_abs_state=max_abs_state,
-            state_names=state_names,
-            stats=stats,
-        )

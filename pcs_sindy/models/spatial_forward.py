@@ -33,7 +33,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..core.simulate_contract import SCIPY_METHODS
 from ..core.spatial import SpatialPCS, SpatialStrainTrajectory
 from ..core.spatial_kernels import body_tuple
-from .forward import ForwardModel
+from .forward import CompiledForwardModel, ForwardModel
 from .integrators import COMPILED_METHODS
 
 __all__ = ["SpatialPCSModel", "spatial_quadrature", "node_terms", "BODY_INERTIA"]
@@ -112,7 +112,7 @@ def node_terms(
     return out
 
 
-class SpatialPCSModel(ForwardModel):
+class SpatialPCSModel(CompiledForwardModel):
     """Spatial PCS dynamics from lumped per-segment parameters, evaluated by compiled kernels (rollouts, controllers).
 
     Parameters
@@ -225,37 +225,6 @@ class SpatialPCSModel(ForwardModel):
         keys = ("rhoA", "rhoI", "rhoAg", "stiffness", "damping", "rest_force", "n_quadrature")
         return cls(kinematics, **{k: lumped[k] for k in keys if k in lumped}, actuation=actuation)
 
-    def mass_and_bias(self, q: ArrayLike, qd: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        q = np.ascontiguousarray(np.atleast_2d(self._reduce(q, "q")), dtype=float)
-        qd = np.ascontiguousarray(np.atleast_2d(self._reduce(qd, "qd")), dtype=float)
-        if q.shape != qd.shape:
-            raise ValueError(f"q and qd must have the same shape; got {q.shape} and {qd.shape}")
-        return self._jit.mass_bias_batch(q, qd, self._params, self._work)
-
-    def terms(self, q: NDArray[np.float64], qd: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        W = self._work
-        self._jit.dynamics(np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(qd, dtype=float), self._params, W)
-        return W[0].copy(), W[1].copy()
-
-    def input_forces(self, q: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-        if self.python_inputs:
-            return super().input_forces(q, u)
-        tau = np.empty(self.n)
-        self._jit.input_forces(
-            np.ascontiguousarray(q, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, tau
-        )
-        return tau
-
-    def _state_derivative(self, y: NDArray[np.float64], u: NDArray[np.float64]) -> NDArray[np.float64]:
-        out = np.empty(y.size)
-        if self.python_inputs:  # the kernels' input map is "forces": hand them A(q) u
-            u = self.input_forces(y[: self.n], np.asarray(u, dtype=float))
-        if not self._jit.rhs(
-            np.ascontiguousarray(y, dtype=float), np.ascontiguousarray(u, dtype=float), self._params, self._work, out
-        ):
-            raise np.linalg.LinAlgError("singular mass matrix")
-        return out
-
     def _trajectory(self, q_full: NDArray, qd_full: NDArray, t: NDArray, metadata: dict) -> Any:
         kin = self.kinematics
         return SpatialStrainTrajectory(
@@ -272,20 +241,4 @@ class SpatialPCSModel(ForwardModel):
     def _rollout_compiled(
         self, y0, t, u, method, *, step, rtol, atol, max_step, max_abs_state, state_names, stats
     ) -> NDArray[np.float64]:
-        from . import _jit_rollout
-
-        return _jit_rollout.rollout(
-            self._params,
-            self._jit.workspace(self._params),
-            y0,
-            t,
-            u,
-            method,
-            step=step,
-            rtol=rtol,
-            atol=atol,
-            max_step=max_step,
-            max_abs_state=max_abs_state,
-            state_names=state_names,
-            stats=stats,
-        )
+        return self._loop(self._params, y0, t, u, method, step, rtol, atol, max_step, max_abs_state, state_names, stats)
