@@ -85,9 +85,12 @@ N_DRAWS_REFINED = 3
 CONFIGS = {
     "default": ({}, False),
     "default+smooth": ({}, True),
+    "w16": ({"weak_window": 16}, False),
     "w30": ({"weak_window": 30}, False),
+    "w40": ({"weak_window": 40}, False),
     "w45": ({"weak_window": 45}, False),
     "w45+smooth": ({"weak_window": 45}, True),
+    "w50": ({"weak_window": 50}, False),
     "w60": ({"weak_window": 60}, False),
     "w80": ({"weak_window": 80}, False),
     "default+weighted": ({"optimizer": StiffnessThresholdOptimizer(weight_equations=True)}, False),

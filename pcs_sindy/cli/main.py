@@ -718,7 +718,9 @@ def build_parser() -> argparse.ArgumentParser:
         help=_later(
             lambda: (
                 "weak form: window in sampling intervals (default "
-                f"{read_default('identification.recordings:WEAK_WINDOW')}, or half the shortest recording)"
+                f"{read_default('identification.recordings:WEAK_WINDOW'):g} s, at least "
+                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')} intervals, at most half "
+                "the shortest recording)"
             )
         ),
     )
