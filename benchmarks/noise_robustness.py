@@ -83,7 +83,7 @@ CONFIGS = {
         weak_stride=20,
         window_length=7,
     ),
-    # the package's defaults: weak form over windows of 0.16 s (160 samples at 1 kHz), rest strains (a constant force per strain)
+    # the package's defaults: weak form over windows of 0.16 s (160 samples at 1 kHz), a constant force per strain
     "default": lambda: EulerLagrangeRegressor(),
     # a default candidate: each strain's equation weighted by 1 / its residual RMS (one feasible-GLS step)
     "default+weighted": lambda: EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer(weight_equations=True)),

@@ -75,7 +75,7 @@ TENDON_END = [0.1] * 4 + [0.2] * 4
 TENDON_OFFSET = [[R, 0.0], [-R, 0.0], [0.0, R], [0.0, -R]] * 2
 TENSION = 0.8
 #: the configurations run on the tendon cases
-TENDON_CONFIGS = ("default", "w45", "w30+weighted", "w45+weighted", "w60+weighted")
+TENDON_CONFIGS = ("default", "w150", "w45", "w30+weighted", "w45+weighted", "w60+weighted")
 CASES = ("clean", "noisy", "tendons-clean", "tendons-noisy")
 #: noise draws of the noisy case (draw 0 continues the data's generator)
 N_DRAWS = 6
@@ -84,6 +84,11 @@ N_DRAWS_REFINED = 3
 #: configuration -> (EulerLagrangeRegressor arguments, smooth the strains first)
 CONFIGS = {
     "default": ({}, False),
+    # the default before the window became a time span: half the 3-s recordings (150 samples, 1.5 s at 100 Hz)
+    "w150": ({"weak_window": 150}, False),
+    "w150+smooth": ({"weak_window": 150}, True),
+    "w150+weighted": ({"weak_window": 150, "optimizer": StiffnessThresholdOptimizer(weight_equations=True)}, False),
+    "w150+oe": ({"weak_window": 150, "refine": "output_error"}, False),
     "default+smooth": ({}, True),
     "w16": ({"weak_window": 16}, False),
     "w30": ({"weak_window": 30}, False),
@@ -362,8 +367,10 @@ def render(rows: dict) -> str:
         "Targets (issue 26): ≤ 0.1 mm noise-free, ≤ 1 mm with 0.5 mm marker noise.",
         "",
         "Configurations (all `EulerLagrangeRegressor` with the spatial physical library chosen from the data, "
-        "Savitzky–Golay 7/3 rates): `default` = no arguments (weak form; the window is half the 3-s recordings, 150 "
-        "samples); `wN` = `weak_window=N`; `+smooth` = option (a), the strains low-passed first (zero-phase "
+        "Savitzky–Golay 7/3 rates): `default` = no arguments (weak form; windows of `WEAK_WINDOW` = 0.16 s but at "
+        "least `WEAK_WINDOW_MIN_SAMPLES` = 40 sampling intervals: here 40 samples, 0.4 s); `w150` = the default "
+        "before that (half the 3-s recordings, 150 samples, 1.5 s; its rows were measured as `default`); "
+        "`wN` = `weak_window=N`; `+smooth` = option (a), the strains low-passed first (zero-phase "
         "Butterworth 4 at 1.5 × the noise corner: the highest frequency where the strains' periodogram exceeds 10 × "
         "the white-noise floor of `core.metrics.noise_level`; about 4 Hz here, none on noise-free data); "
         "`+weighted` = `optimizer=StiffnessThresholdOptimizer(weight_equations=True)` (equation weighting, finding 4); "
