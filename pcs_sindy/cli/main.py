@@ -717,9 +717,9 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         help=_later(
             lambda: (
-                "weak form: window in sampling intervals (default "
+                "weak form: window in sampling intervals (default those in "
                 f"{read_default('identification.recordings:WEAK_WINDOW'):g} s, at least "
-                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')} intervals, at most half "
+                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')}, at most half "
                 "the shortest recording)"
             )
         ),
