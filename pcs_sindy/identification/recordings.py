@@ -87,8 +87,8 @@ def weak_windows(
         The user's window (sampling intervals) and stride (samples); None for the defaults.
     dt : float, optional
         Sampling interval [s] of the recordings (their median).  The default window spans
-        :data:`WEAK_WINDOW` seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals; without
-        ``dt``, 160 intervals (the default at 1 kHz).  Either way at most half the shortest recording.
+        :data:`WEAK_WINDOW` seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals (without
+        ``dt``, that minimum), at most half the shortest recording.
 
     Returns
     -------
