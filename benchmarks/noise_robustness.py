@@ -47,6 +47,7 @@ from pcs_sindy.core import (
 from pcs_sindy.identification import (
     EulerLagrangeRegressor,  # noqa: E402
     PhysicalPCSLibrary,  # noqa: E402
+    StiffnessThresholdOptimizer,  # noqa: E402
 )
 from pcs_sindy.simulation import get_scenario  # noqa: E402
 from pcs_sindy.simulation.scenarios import add_pose_noise  # noqa: E402
@@ -82,8 +83,10 @@ CONFIGS = {
         weak_stride=20,
         window_length=7,
     ),
-    # the package's defaults: weak form over windows of 160 samples, rest strains (a constant force per strain)
+    # the package's defaults: weak form over windows of 0.16 s (160 samples at 1 kHz), a constant force per strain
     "default": lambda: EulerLagrangeRegressor(),
+    # a default candidate: each strain's equation weighted by 1 / its residual RMS (one feasible-GLS step)
+    "default+weighted": lambda: EulerLagrangeRegressor(optimizer=StiffnessThresholdOptimizer(weight_equations=True)),
 }
 CACHE = Path(os.environ.get("PCS_SINDY_CACHE") or Path.home() / ".cache" / "pcs_sindy") / "noise_robustness_rows.json"
 CHUNK = 500  # samples per rollout chunk (0.5 s at 1 kHz)

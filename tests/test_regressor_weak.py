@@ -257,3 +257,36 @@ def test_physical_equations_print_the_parameters():
     }
     for name, value in truth.items():
         assert float(values[name]) == pytest.approx(value, rel=2e-3), name
+
+
+def test_default_window_is_a_time_span_with_a_sample_floor():
+    from pcs_sindy.identification.recordings import WEAK_WINDOW, WEAK_WINDOW_MIN_SAMPLES, weak_windows
+
+    long = 100_000
+    # the same 0.16 s at 1 kHz and 10 kHz (160 and 1600 intervals), stride a quarter of it
+    assert weak_windows(long, None, None, 1e-3) == (160, 40)
+    assert weak_windows(long, None, None, 1e-4) == (1600, 400)
+    assert WEAK_WINDOW == pytest.approx(0.16)
+    # at 100 Hz 0.16 s is 16 intervals: the floor holds (the measured failure of short windows there)
+    assert weak_windows(long, None, None, 1e-2) == (WEAK_WINDOW_MIN_SAMPLES, WEAK_WINDOW_MIN_SAMPLES // 4)
+    # never more than half the shortest recording; the user's window and stride unchanged
+    assert weak_windows(301, None, None, 1e-3) == (150, 37)
+    assert weak_windows(long, 30, 7, 1e-3) == (30, 7)
+
+
+@pytest.mark.parametrize("dt", [1e-3, 1e-2])
+def test_default_window_identifies_the_same_robot_at_100_hz_and_1_khz(dt):
+    # analytic smooth trajectories (1-6 Hz) with their exact forces, 3 s at 100 Hz or at 1 kHz: the defaults
+    # (0.16 s windows at 1 kHz, 40 intervals = 0.4 s at 100 Hz) recover the simulator's parameters at both rates
+    robot = _robot("one_segment")
+    L = robot.kinematics.segment_lengths
+    n = int(round(3.0 / dt))
+    recs = [_smooth_recording(robot, s, n_samples=n, amp=(20.0, 0.05, 0.05), dt=dt) for s in range(3)]
+    X = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs]
+    model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=False), weak_hold="trapezoid")
+    model.fit(X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
+    width = 160 if dt == 1e-3 else 40
+    assert model.n_regression_samples_ == 3 * len(range(0, n - width, width // 4))
+    # measured: stiffness within 8e-9 (1 kHz) and 4e-7 (100 Hz), damping within 5e-9 and 5e-6
+    np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-4)
+    np.testing.assert_allclose(model.damping_, robot.damping, rtol=1e-4)

@@ -717,8 +717,10 @@ def build_parser() -> argparse.ArgumentParser:
         type=_positive_int,
         help=_later(
             lambda: (
-                "weak form: window in sampling intervals (default "
-                f"{read_default('identification.recordings:WEAK_WINDOW')}, or half the shortest recording)"
+                "weak form: window in sampling intervals (default those in "
+                f"{read_default('identification.recordings:WEAK_WINDOW'):g} s, at least "
+                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')}, at most half "
+                "the shortest recording)"
             )
         ),
     )

@@ -26,7 +26,9 @@ __all__ = [
     "derivatives",
     "prepare",
     "weak_windows",
+    "sampling_interval",
     "WEAK_WINDOW",
+    "WEAK_WINDOW_MIN_SAMPLES",
     "as_trajectories",
     "data_kinematics",
     "with_active",
@@ -53,8 +55,12 @@ def with_active(kin: PlanarPCS | SpatialPCS, active: ArrayLike) -> PlanarPCS | S
     return PlanarPCS(kin.segment_lengths, active, kin.base_pose)
 
 
-#: default weak-form window in sampling intervals (shorter for recordings shorter than twice it)
-WEAK_WINDOW = 160
+#: default weak-form window [s]: 160 sampling intervals at 1 kHz, measured best on the planar scenarios with pose
+#: noise (docs/results.md); a time span, so the band the bump test function keeps does not depend on the rate
+WEAK_WINDOW = 0.16
+#: but at least this many sampling intervals: each window averages the per-sample noise of the rates, and fewer
+#: samples leave it in the rows (measured at 100 Hz on the spatial benchmark, docs/results.md)
+WEAK_WINDOW_MIN_SAMPLES = 40
 
 
 def check_list(y: Any, n: int, name: str) -> list:
@@ -68,13 +74,39 @@ def check_list(y: Any, n: int, name: str) -> list:
     return list(y)
 
 
-def weak_windows(shortest: int, weak_window: int | None, weak_stride: int | None) -> tuple[int, int]:
-    """Weak-form window and stride: the given ones, or the defaults fitted to the shortest recording."""
+def weak_windows(
+    shortest: int, weak_window: int | None, weak_stride: int | None, dt: float | None = None
+) -> tuple[int, int]:
+    """Weak-form window and stride in samples: the given ones, or the defaults for the data.
+
+    Parameters
+    ----------
+    shortest : int
+        Samples of the shortest recording.
+    weak_window, weak_stride : int or None
+        The user's window (sampling intervals) and stride (samples); None for the defaults.
+    dt : float, optional
+        Sampling interval [s] of the recordings (their median).  The default window spans
+        :data:`WEAK_WINDOW` seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals (without
+        ``dt``, that minimum), at most half the shortest recording.
+
+    Returns
+    -------
+    width, stride : int
+    """
     width = weak_window
     if width is None:
-        width = max(2, min(WEAK_WINDOW, (shortest - 1) // 2))
+        span = 0 if dt is None else int(round(WEAK_WINDOW / dt))
+        width = max(2, min(max(span, WEAK_WINDOW_MIN_SAMPLES), (shortest - 1) // 2))
     stride = weak_stride if weak_stride is not None else max(1, int(width) // 4)
     return int(width), int(stride)
+
+
+def sampling_interval(X: list) -> float | None:
+    """Median sampling interval [s] over the recordings (None when no recording has two samples)."""
+    steps = [np.diff(np.asarray(rec.t, dtype=float)) for rec in X]
+    steps = [d for d in steps if d.size]
+    return float(np.median(np.concatenate(steps))) if steps else None
 
 
 def derivatives(
@@ -196,7 +228,9 @@ def prepare(
     if (qds is None) != (qdds is None) and formulation == "strong":
         raise ValueError("give both qd and qdd (known derivatives) or neither")
     width, stride = (
-        (0, 0) if formulation == "static" else weak_windows(min(rec.n_frames for rec in X), weak_window, weak_stride)
+        (0, 0)
+        if formulation == "static"
+        else weak_windows(min(rec.n_frames for rec in X), weak_window, weak_stride, sampling_interval(X))
     )
     recs = []
     for k, (rec, tau) in enumerate(zip(X, taus)):

@@ -155,10 +155,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         a jump of the held actuation (and the ends); for step actuation only.
     weak_window : int, optional
         Weak form: window length in sampling intervals (every recording needs
-        more samples).  Default: :data:`WEAK_WINDOW` (160), or half the shortest
-        recording when that is shorter.  Long windows average the noise of the
-        rates: measured best at 160 (0.16 s at 1 kHz) on the scenarios with pose
-        noise (docs/results.md, "Weak-form window").
+        more samples).  Default: :data:`WEAK_WINDOW` seconds (0.16 s, measured best
+        at 1 kHz on the scenarios with pose noise), at least ``WEAK_WINDOW_MIN_SAMPLES``
+        (40) intervals (the noise of the rates, measured at 100 Hz), at most half the
+        shortest recording (docs/results.md, spatial identification).
     weak_stride : int, optional
         Weak form: step between windows in samples; default a quarter of the window.
     weak_hold : {"zoh", "trapezoid"}, default "zoh"
