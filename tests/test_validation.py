@@ -30,6 +30,7 @@ from pcs_sindy.core import (
     InvalidParameterError,
     Options,
     PlanarPCS,
+    SpatialPCS,
     validate_parameters,
 )
 from pcs_sindy.fusion import KinematicFusion
@@ -37,6 +38,7 @@ from pcs_sindy.identification import (
     EulerLagrangeRegressor,
     PCSLagrangianLibrary,
     PhysicalPCSLibrary,
+    SpatialPhysicalPCSLibrary,
     StiffnessThresholdOptimizer,
 )
 from pcs_sindy.io import REGISTRY, load, save
@@ -45,11 +47,13 @@ from pcs_sindy.models import (
     LearnedActuation,
     LinearActuation,
     PressureActuation,
+    SpatialTendonActuation,
     TendonActuation,
 )
 from pcs_sindy.vision import MarkerPoseExtractor
 
 KIN = PlanarPCS((0.1,))  # one segment of 10 cm: what the actuation layouts below are fitted to
+KIN3 = SpatialPCS((0.1,))  # its spatial twin, for the 3-D kinds
 
 #: every estimator with a table, and constructor arguments that make a valid instance
 ESTIMATORS = {
@@ -64,6 +68,8 @@ ESTIMATORS = {
     PressureActuation: {"start": [0.0], "end": [0.1], "side": [1]},
     LinearActuation: {"pattern": [[1], [0], [0]]},
     LearnedActuation: {"n_inputs": 2},
+    SpatialPhysicalPCSLibrary: {},
+    SpatialTendonActuation: {"end": [0.1], "offset": [[0.01, 0.0]]},
 }
 
 
@@ -77,6 +83,8 @@ def _fit(est):
         return est.fit()
     if isinstance(est, (TendonActuation, PressureActuation, LinearActuation, IdentityActuation, LearnedActuation)):
         return est.fit(KIN)
+    if isinstance(est, SpatialTendonActuation):
+        return est.fit(KIN3)
     return est.fit(None)
 
 
@@ -300,6 +308,13 @@ BAD = [
     (StiffnessThresholdOptimizer, "shear_factor", None),
     (StiffnessThresholdOptimizer, "stiffness_scaling", "area"),
     (StiffnessThresholdOptimizer, "max_stiffness", [1.0, -1.0, 2.0]),
+    (SpatialPhysicalPCSLibrary, "density", "per_segment"),
+    (SpatialPhysicalPCSLibrary, "identify_gravity", "all"),
+    (SpatialPhysicalPCSLibrary, "n_quadrature", 0),
+    (SpatialPhysicalPCSLibrary, "gravity", (0.0, 9.81)),
+    (SpatialTendonActuation, "drive", "pull"),
+    (SpatialTendonActuation, "max_offset", 0.0),
+    (SpatialTendonActuation, "offset", [[0.01, np.nan]]),
     (PhysicalPCSLibrary, "segment_lengths", [0.1, -0.1]),
     (PhysicalPCSLibrary, "segment_lengths", []),
     (PhysicalPCSLibrary, "active_strains", [[1, 2, 0]]),
