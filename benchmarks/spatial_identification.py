@@ -134,7 +134,12 @@ the noisy first frame (q, and a Savitzky-Golay rate).  Probes with a patched cop
 quadratic fit of the first 21 samples 0.66 and 0.85 mm.  A prototype that compares all 16 markers (so
 torsion is seen), starts from rest and frees all 40 coefficients (scipy `least_squares` on the simulator's
 kernels, another noise draw): 1.70 -> 0.096 mm, marker RMS 0.74 -> 0.50 mm (the noise floor), ρA within
-1.2 %, bending stiffness within 0.8 %.
+1.2 %, bending stiffness within 0.8 %.  Since then, with inputs in physical units (no scale convention, no given
+mass) the refinement frees the line densities (each >= 0; `default+oe`, draws 0-4: 1.00 / 0.42 / 28.0 / 0.95 / 1.12
+mm against 0.50 / 3.62 / 28.0 / 2.98 / 1.68 mm fixed; draw 2's equation-error start diverges and is kept; noise-free
+0.18 against 0.17 mm).  The start state from a quadratic fit of the first 20 samples was probed with it and dropped:
+noisy 0.58 / 0.91 mm, but noise-free 0.97 mm (the polynomial's bias on a clean start).  `refine="auto"` still does
+not refine these fits: refined noise-free rows miss 0.1 mm.
 4. **Equation weighting** (`optimizer=StiffnessThresholdOptimizer(weight_equations=True)`, added with this
 benchmark: every strain equation's weak rows scaled by 1 / the RMS residual of a first bounded fit, one step of
 feasible generalised least squares; the shear and axial strains of segment 2 carry per-frame noise larger than

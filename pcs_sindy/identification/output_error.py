@@ -13,8 +13,9 @@ The refined model is stable by construction:
 
 * **mass matrix** positive definite: the line densities are fixed (uniform over
   the segments, at the fit's total mass: under the scale convention of
-  :class:`~pcs_sindy.identification.EulerLagrangeRegressor` 1 kg), rotary
-  inertia ``>= 0``;
+  :class:`~pcs_sindy.identification.EulerLagrangeRegressor` 1 kg) or, for inputs
+  in physical units (``free_density``), refined from that start with each
+  ``>= 0``; rotary inertia ``>= 0``;
 * **damping** and **stiffness** ``>= 0`` (bounds);
 * **input map from a potential**: a learned map's ``u * q`` terms are tied
   symmetric (``tau = -d/dq sum_k u_k (a_k^T q + 1/2 q^T B_k q)``), so a held
@@ -133,7 +134,13 @@ class _Layout:
     """
 
     def __init__(
-        self, lib: Any, coef: NDArray[np.float64], act: Any, gains: NDArray[np.float64], directions: NDArray | None
+        self,
+        lib: Any,
+        coef: NDArray[np.float64],
+        act: Any,
+        gains: NDArray[np.float64],
+        directions: NDArray | None,
+        free_density: bool = False,
     ) -> None:
         names = list(lib.coefficient_names())
         self.coef0 = np.asarray(coef, dtype=float).copy()
@@ -173,8 +180,15 @@ class _Layout:
             # an orthonormal pair perpendicular to the start direction
             e = np.linalg.svd(self.n0[None, :])[2][1:]
             self.e1, self.e2 = e[0], e[1]
-        self.free = [j for j, nm in enumerate(names) if not (nm == "rhoA" or nm.startswith(("rhoA_", "rhoAg")))]
-        lower = [0.0 if names[j].startswith(("rhoI_", "k_", "d_")) else -np.inf for j in self.free]
+        # inputs in physical units (no scale convention, no given mass): the line densities are determined by the
+        # data and refined, each bounded below by 0 (they start uniform at the fit's total mass, positive)
+        free_rho = free_density and not self.gcols
+        self.free = [
+            j
+            for j, nm in enumerate(names)
+            if not (nm.startswith("rhoAg") or (not free_rho and (nm == "rhoA" or nm.startswith("rhoA_"))))
+        ]
+        lower = [0.0 if names[j].startswith(("rhoI_", "k_", "d_", "rhoA")) else -np.inf for j in self.free]
         self.stiff = np.asarray(lib.stiffness_index_, dtype=int)
         self.damp = np.asarray(lib.damping_index_, dtype=int)
         self.n_coef = len(self.free)
@@ -311,6 +325,7 @@ def refine_output_error(
     input_box: tuple[NDArray[np.float64], NDArray[np.float64]] | None,
     *,
     max_nfev: int = 60,
+    free_density: bool = False,
 ) -> tuple[NDArray[np.float64], NDArray[np.float64], dict]:
     """Fit the physical parameters to open-loop rollouts of the training recordings.
 
@@ -333,6 +348,10 @@ def refine_output_error(
         The training inputs' range: the stiffness margin holds at its vertices.
     max_nfev : int
         Function evaluations of ``least_squares`` (each one a rollout of every recording).
+    free_density : bool
+        Refine the line densities too (each ``>= 0``, from the uniform start): for inputs in physical units,
+        where the data determine the mass.  False (under the scale convention or a given mass) keeps them
+        uniform at the fit's total mass.
 
     Returns
     -------
@@ -342,7 +361,9 @@ def refine_output_error(
         (1 unless the ``u*q`` gains were shrunk to hold the margin) and ``n_vertices``.
     """
     u_all = np.concatenate([u for (_, _, _, u, _) in recordings])
-    layout = _Layout(lib, coef, act, act.gains_, input_directions(u_all) if act.kind == "learned" else None)
+    layout = _Layout(
+        lib, coef, act, act.gains_, input_directions(u_all) if act.kind == "learned" else None, free_density
+    )
     mask = kinematics.active_mask
     s = np.asarray(arc_lengths, dtype=float)
     vertices = np.zeros((0, act.n_inputs_)) if input_box is None else _box_vertices(*input_box)

@@ -188,13 +188,15 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         damping, rotary inertia, rest forces and input gains so that open-loop
         rollouts of the training recordings follow them
         (:func:`~pcs_sindy.identification.output_error.refine_output_error`:
-        uniform line density, symmetric input-stiffness terms, ``K - sum u_k
-        B_k`` positive definite over the training input box: passive and
-        bounded by construction).  ``"auto"``: so for a
-        :class:`~pcs_sindy.models.actuation.LearnedActuation` (an input map of
-        unknown layout, which the equation error fits worst: measured on the
-        real Trunk step recordings, docs/results.md), none otherwise; skipped
-        (with a warning) when the forward model has no compiled rollouts.  A
+        uniform line density at the fit's total mass under the scale convention
+        or a given ``mass``, else each segment's refined ``>= 0``; symmetric
+        input-stiffness terms, ``K - sum u_k B_k`` positive definite over the
+        training input box: passive and bounded by construction).  ``"auto"``:
+        so for a :class:`~pcs_sindy.models.actuation.LearnedActuation` (an
+        input map of unknown layout, which the equation error fits worst:
+        measured on the real Trunk step recordings, docs/results.md), none
+        otherwise; skipped (with a warning) when the forward model has no
+        compiled rollouts.  A
         spatial fit from positions alone (one weight vector ``rhoA g``) also
         refines gravity's direction, at ``|g|`` of the library.
     check_fit : bool, default True
@@ -877,8 +879,17 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             valid = seen if seen.shape == (r.q.shape[0],) and seen.any() else np.ones(r.q.shape[0], bool)
             rolls.append((r.t, r.q[:, kept], r.qd[0, kept], u if u.shape[0] == r.t.size else r.u, valid))
         act = self.actuation_
+        # no scale convention and no given mass: the inputs are in physical units and determine the densities
+        free_density = self.scale_convention_ is None and getattr(self.full_library_, "mass", None) is None
         coef, gains, info = refine_output_error(
-            lib, self.model_coef_, act, rolls, kin, arc, (self.input_range_[0], self.input_range_[1])
+            lib,
+            self.model_coef_,
+            act,
+            rolls,
+            kin,
+            arc,
+            (self.input_range_[0], self.input_range_[1]),
+            free_density=free_density,
         )
         act.set_identified(gains, act.offsets_)
         self.model_coef_ = coef
