@@ -269,6 +269,7 @@ def test_default_window_is_a_time_span_with_a_sample_floor():
     assert WEAK_WINDOW == pytest.approx(0.16)
     # at 100 Hz 0.16 s is 16 intervals: the floor holds (the measured failure of short windows there)
     assert weak_windows(long, None, None, 1e-2) == (WEAK_WINDOW_MIN_SAMPLES, WEAK_WINDOW_MIN_SAMPLES // 4)
+    assert WEAK_WINDOW_MIN_SAMPLES >= 16
     # never more than half the shortest recording; the user's window and stride unchanged
     assert weak_windows(301, None, None, 1e-3) == (150, 37)
     assert weak_windows(long, 30, 7, 1e-3) == (30, 7)
@@ -277,7 +278,7 @@ def test_default_window_is_a_time_span_with_a_sample_floor():
 @pytest.mark.parametrize("dt", [1e-3, 1e-2])
 def test_default_window_identifies_the_same_robot_at_100_hz_and_1_khz(dt):
     # analytic smooth trajectories (1-6 Hz) with their exact forces, 3 s at 100 Hz or at 1 kHz: the defaults
-    # (0.16 s windows at 1 kHz, 40 intervals = 0.4 s at 100 Hz) recover the simulator's parameters at both rates
+    # (0.16 s windows at 1 kHz, the sample floor at 100 Hz) recover the simulator's parameters at both rates
     robot = _robot("one_segment")
     L = robot.kinematics.segment_lengths
     n = int(round(3.0 / dt))
@@ -285,8 +286,12 @@ def test_default_window_identifies_the_same_robot_at_100_hz_and_1_khz(dt):
     X = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs]
     model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=False), weak_hold="trapezoid")
     model.fit(X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
-    width = 160 if dt == 1e-3 else 40
-    assert model.n_regression_samples_ == 3 * len(range(0, n - width, width // 4))
+    from pcs_sindy.identification.recordings import WEAK_WINDOW_MIN_SAMPLES
+
+    # 0.16 s, at least the floor, at most half the recording
+    width = min(max(round(0.16 / dt), WEAK_WINDOW_MIN_SAMPLES), (n - 1) // 2)
+    stride = width // 4
+    assert model.n_regression_samples_ == 3 * len(range(0, n - width, stride))
     # measured: stiffness within 8e-9 (1 kHz) and 4e-7 (100 Hz), damping within 5e-9 and 5e-6
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-4)
     np.testing.assert_allclose(model.damping_, robot.damping, rtol=1e-4)

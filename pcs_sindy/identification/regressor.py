@@ -157,8 +157,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Weak form: window length in sampling intervals (every recording needs
         more samples).  Default: :data:`WEAK_WINDOW` seconds (0.16 s, measured best
         at 1 kHz on the scenarios with pose noise), at least ``WEAK_WINDOW_MIN_SAMPLES``
-        (40) intervals (the noise of the rates, measured at 100 Hz), at most half the
-        shortest recording (docs/results.md, spatial identification).
+        (160) intervals (so 160 samples at every rate up to 1 kHz), at most half the
+        shortest recording (docs/results.md, spatial identification: 40 at 100 Hz is
+        better on noisy 3-D data but not everywhere).
     weak_stride : int, optional
         Weak form: step between windows in samples; default a quarter of the window.
     weak_hold : {"zoh", "trapezoid"}, default "zoh"
