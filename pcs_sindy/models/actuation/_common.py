@@ -6,12 +6,13 @@ arc-length intervals with segments.  Knows no kind: each kind's module takes wha
 
 from __future__ import annotations
 
+from numbers import Real
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ...core.validation import Check, InvalidParameterError
+from ...core.validation import Check, Interval, InvalidParameterError, Options
 
 __all__ = [
     "per_actuator",
@@ -82,6 +83,24 @@ def check_inside(value: NDArray, name: str, total: float, *, allow_zero: bool, t
         raise ValueError(
             f"{name}[{k}] = {float(value[k])!r} m lies beyond the robot (total rest length {total:g} m){hint}"
         )
+
+
+#: how the offsets' outer problem weights the strains' equations (pcs_sindy.identification.variable_projection)
+TENDON_WEIGHTINGS = ("residual", "none")
+#: what the inputs of tendons are: tensions [N] or servo angles [deg] (displacement drive)
+TENDON_DRIVES = ("tension", "displacement")
+#: the constructor checks every tendon kind shares (offset search bound, weighting, drive and its parameters)
+TENDON_DRIVE_CONSTRAINTS: dict = {
+    "max_offset": [Interval(Real, 0, None, closed="neither")],
+    "shared": ["boolean"],
+    "weighting": [Options(TENDON_WEIGHTINGS)],
+    "drive": [Options(TENDON_DRIVES)],
+    "stiffness": [None, Check(positive_vector, "a non-empty 1-D array of tendon stiffnesses > 0 [N/m]")],
+    "pulley_radius": [None, Check(positive_vector, "a non-empty 1-D array of pulley radii > 0 [m]")],
+    "slack": [None, Check(finite_vector, "a non-empty 1-D array of finite slacks [m]")],
+    "max_radius": [Interval(Real, 0, None, closed="neither")],
+    "max_slack": [Interval(Real, 0, None, closed="neither")],
+}
 
 
 class TendonDrive:

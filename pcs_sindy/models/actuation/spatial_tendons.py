@@ -21,21 +21,20 @@ Imports only :mod:`pcs_sindy.core` and its own package.
 
 from __future__ import annotations
 
-from numbers import Real
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...core.spatial import SpatialPCS
-from ...core.validation import Check, Interval, InvalidParameterError, Options
+from ...core.validation import Check, InvalidParameterError
 from ._common import (
     END,
+    TENDON_DRIVE_CONSTRAINTS,
     TendonDrive,
     check_inside,
     finite_vector,
     per_actuator,
-    positive_vector,
     segment_cover,
     sides,
 )
@@ -43,8 +42,6 @@ from .base import Actuation
 
 __all__ = ["SpatialTendonActuation"]
 
-_WEIGHTINGS = ("residual", "none")
-_DRIVES = ("tension", "displacement")
 #: the displacement-drive parameters, with the label of their identified values
 _SERVO = (("pulley_radius", "r"), ("slack", "s"))
 
@@ -135,15 +132,7 @@ class SpatialTendonActuation(TendonDrive, Actuation):
         "end": [END],
         "offset": [None, Check(_offsets_ok, "finite offsets (d_x, d_z) [m], shape (p, 2)")],
         "angle": [None, Check(finite_vector, "a non-empty 1-D array of finite angles [rad]")],
-        "max_offset": [Interval(Real, 0, None, closed="neither")],
-        "shared": ["boolean"],
-        "weighting": [Options(_WEIGHTINGS)],
-        "drive": [Options(_DRIVES)],
-        "stiffness": [None, Check(positive_vector, "a non-empty 1-D array of tendon stiffnesses > 0 [N/m]")],
-        "pulley_radius": [None, Check(positive_vector, "a non-empty 1-D array of pulley radii > 0 [m]")],
-        "slack": [None, Check(finite_vector, "a non-empty 1-D array of finite slacks [m]")],
-        "max_radius": [Interval(Real, 0, None, closed="neither")],
-        "max_slack": [Interval(Real, 0, None, closed="neither")],
+        **TENDON_DRIVE_CONSTRAINTS,
         "motor": [None, Check(_motor_ok, "a non-empty 1-D array of input indices 0, 1, ... (one per tendon)")],
         "winding": [None, Check(sides, "a non-empty 1-D array of -1 or 1 (one per tendon)")],
     }

@@ -7,23 +7,26 @@ slacks) enter nonlinearly and are identified by variable projection.
 
 from __future__ import annotations
 
-from numbers import Real
 from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...core.kinematics import PlanarPCS
-from ...core.validation import Check, Interval, InvalidParameterError, Options
-from ._common import END, SIDE, TendonDrive, check_inside, finite_vector, per_actuator, positive_vector, segment_cover
+from ...core.validation import Check, InvalidParameterError
+from ._common import (
+    END,
+    SIDE,
+    TENDON_DRIVE_CONSTRAINTS,
+    TendonDrive,
+    check_inside,
+    per_actuator,
+    positive_vector,
+    segment_cover,
+)
 from .base import Actuation
 
 __all__ = ["TendonActuation"]
-
-#: how the offsets' outer problem weights the strains' equations (pcs_sindy.identification.variable_projection)
-_WEIGHTINGS = ("residual", "none")
-#: what the inputs of tendons are: tensions [N] or servo angles [deg] (displacement drive)
-_DRIVES = ("tension", "displacement")
 
 
 class TendonActuation(TendonDrive, Actuation):
@@ -110,15 +113,7 @@ class TendonActuation(TendonDrive, Actuation):
         "end": [END],
         "side": [SIDE],
         "offset": [None, Check(positive_vector, "a non-empty 1-D array of finite magnitudes > 0 [m]")],
-        "max_offset": [Interval(Real, 0, None, closed="neither")],
-        "shared": ["boolean"],
-        "weighting": [Options(_WEIGHTINGS)],
-        "drive": [Options(_DRIVES)],
-        "stiffness": [None, Check(positive_vector, "a non-empty 1-D array of tendon stiffnesses > 0 [N/m]")],
-        "pulley_radius": [None, Check(positive_vector, "a non-empty 1-D array of pulley radii > 0 [m]")],
-        "slack": [None, Check(finite_vector, "a non-empty 1-D array of finite slacks [m]")],
-        "max_radius": [Interval(Real, 0, None, closed="neither")],
-        "max_slack": [Interval(Real, 0, None, closed="neither")],
+        **TENDON_DRIVE_CONSTRAINTS,
     }
 
     depends_on_q = True
