@@ -106,3 +106,74 @@ class Spec:
         self.cols_gy = [(j, k[1]) for j, k in enumerate(kinds) if k[0] == "gy"]
         self.identify_gravity = bool(lib.identify_gravity)
         self.g_complex = complex(self.gravity[0], self.gravity[1])
+
+
+class CachedLayout:
+    """What the planar and spatial physical libraries share: a column layout cached per parameter set.
+
+    A mixin before :class:`~pcs_sindy.identification.library.base.LagrangianLibrary`.  The library names
+    its layout class (``_layout_class``, built as ``_layout_class(library, kinematics)``) and may add
+    parameters to the cache key (:meth:`_layout_key_extra`); the layout answers ``n_coef``, ``names``,
+    ``stiffness_index``, ``damping_index``, ``rest_index``, ``rest_rows`` and ``lower``.
+    """
+
+    _layout_class: type
+
+    def _layout_key_extra(self) -> tuple:
+        return ()
+
+    @property
+    def _spec(self) -> Any:
+        kin = self.kinematics  # type: ignore[attr-defined]
+        key = (
+            kin.segment_lengths,
+            kin.active_strains.tobytes(),
+            np.asarray(self.radius, dtype=float).tobytes(),  # type: ignore[attr-defined]
+            np.asarray(self.gravity, dtype=float).tobytes(),  # type: ignore[attr-defined]
+            self.identify_gravity,  # type: ignore[attr-defined]
+            self.n_quadrature,  # type: ignore[attr-defined]
+            self.rotary_inertia,  # type: ignore[attr-defined]
+            str(self.rest_strain),  # type: ignore[attr-defined]
+            self.mass,  # type: ignore[attr-defined]
+            *self._layout_key_extra(),
+        )
+        cached = self.__dict__.get("_spec_cache")
+        if cached is None or cached[0] != key:
+            cached = (key, self._layout_class(self, kin))
+            self.__dict__["_spec_cache"] = cached
+        return cached[1]
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state.pop("_spec_cache", None)
+        return state
+
+    @property
+    def n_coefficients_(self) -> int:
+        return self._spec.n_coef
+
+    @property
+    def stiffness_index_(self) -> np.ndarray:
+        return self._spec.stiffness_index.copy()
+
+    @property
+    def damping_index_(self) -> np.ndarray:
+        return self._spec.damping_index.copy()
+
+    @property
+    def rest_force_index_(self) -> np.ndarray:
+        return self._spec.rest_index.copy()
+
+    @property
+    def rest_force_rows_(self) -> np.ndarray:
+        return self._spec.rest_rows.copy()
+
+    @property
+    def lower_bounds_(self) -> np.ndarray:
+        return self._spec.lower.copy()
+
+    stiffness_factor_: float = 1.0
+
+    def coefficient_names(self) -> list[str]:
+        """Names of the ``n_coefficients_`` parameters (``rhoA_1``, ``k_<strain>_1``, ``d_<strain>_2``, ...)."""
+        return list(self._spec.names)

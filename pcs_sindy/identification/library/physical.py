@@ -73,7 +73,7 @@ from ...core.kinematics import STRAIN_NAMES
 from ...core.units import KILOGRAM, METRE, NEWTON, Unit, generalised_force_unit, strain_rate_unit, strain_unit
 from ...core.validation import Check, Interval, Options
 from ...models import pcs_numeric as _num
-from ._physical_layout import Spec, rest_kinds
+from ._physical_layout import CachedLayout, Spec, rest_kinds
 from .base import LagrangianLibrary
 
 __all__ = ["PhysicalPCSLibrary"]
@@ -98,7 +98,7 @@ def _gravity_ok(value: Any) -> bool:
 # --------------------------------------------------------------------------
 # Library
 # --------------------------------------------------------------------------
-class PhysicalPCSLibrary(LagrangianLibrary):
+class PhysicalPCSLibrary(CachedLayout, LagrangianLibrary):
     """Euler–Lagrange regressor of a planar PCS robot, linear in per-segment physical parameters.
 
     Implements the :class:`~pcs_sindy.identification.library.base.LagrangianLibrary` contract;
@@ -216,60 +216,7 @@ class PhysicalPCSLibrary(LagrangianLibrary):
             )
         return a, float(self.mass)
 
-    @property
-    def _spec(self) -> Spec:
-        kin = self.kinematics
-        key = (
-            kin.segment_lengths,
-            kin.active_strains.tobytes(),
-            np.asarray(self.radius, dtype=float).tobytes(),
-            np.asarray(self.gravity, dtype=float).tobytes(),
-            self.identify_gravity,
-            self.n_quadrature,
-            self.rotary_inertia,
-            self.rest_strain,
-            self.mass,
-        )
-        cached = self.__dict__.get("_spec_cache")
-        if cached is None or cached[0] != key:
-            cached = (key, Spec(self, kin))
-            self.__dict__["_spec_cache"] = cached
-        return cached[1]
-
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        state.pop("_spec_cache", None)
-        return state
-
-    @property
-    def n_coefficients_(self) -> int:
-        return self._spec.n_coef
-
-    @property
-    def stiffness_index_(self) -> NDArray[np.intp]:
-        return self._spec.stiffness_index.copy()
-
-    @property
-    def damping_index_(self) -> NDArray[np.intp]:
-        return self._spec.damping_index.copy()
-
-    @property
-    def rest_force_index_(self) -> NDArray[np.intp]:
-        return self._spec.rest_index.copy()
-
-    @property
-    def rest_force_rows_(self) -> NDArray[np.intp]:
-        return self._spec.rest_rows.copy()
-
-    @property
-    def lower_bounds_(self) -> NDArray[np.float64]:
-        return self._spec.lower.copy()
-
-    stiffness_factor_: float = 1.0
-
-    def coefficient_names(self) -> list[str]:
-        """Names of the ``n_coefficients_`` parameters, e.g. ``rhoA_1``, ``k_be_1``, ``d_ax_2``."""
-        return list(self._spec.names)
+    _layout_class = Spec
 
     def coefficient_units(self) -> list[Unit]:
         """Unit of each parameter (:mod:`pcs_sindy.core.units`).

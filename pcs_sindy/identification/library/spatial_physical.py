@@ -59,6 +59,7 @@ from ...core.units import (
 from ...core.validation import Check, Interval, InvalidParameterError, Options, validate_parameters
 from ...models.spatial_forward import BODY_INERTIA, node_terms, spatial_quadrature
 from ..least_squares import stiffness_bounds
+from ._physical_layout import CachedLayout
 from .base import LagrangianLibrary
 
 __all__ = ["SpatialPhysicalPCSLibrary", "spatial_kinematics_of", "spatial_stiffness_bounds"]
@@ -246,7 +247,7 @@ class _Layout:
         return list(range(self.kin.n_segments)) if i < 0 else [i]
 
 
-class SpatialPhysicalPCSLibrary(LagrangianLibrary):
+class SpatialPhysicalPCSLibrary(CachedLayout, LagrangianLibrary):
     """Euler–Lagrange regressor of a spatial PCS robot, linear in per-segment physical parameters.
 
     Implements the :class:`~pcs_sindy.identification.library.base.LagrangianLibrary` contract for a
@@ -401,68 +402,16 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         self.n_output_features_ = self.n_lagrangian_terms
         return self
 
-    @property
-    def _layout(self) -> _Layout:
-        kin = self.kinematics
-        key = (
-            kin.segment_lengths,
-            kin.active_strains.tobytes(),
-            np.asarray(self.radius, dtype=float).tobytes(),
-            np.asarray(self.gravity, dtype=float).tobytes(),
-            self.identify_gravity,
-            self.n_quadrature,
-            self.rotary_inertia,
-            str(self.rest_strain),
-            self.mass,
-            self.density,
-        )
-        cached = self.__dict__.get("_layout_cache")
-        if cached is None or cached[0] != key:
-            cached = (key, _Layout(self, kin))
-            self.__dict__["_layout_cache"] = cached
-        return cached[1]
+    _layout_class = _Layout
 
-    def __getstate__(self) -> dict:
-        state = self.__dict__.copy()
-        state.pop("_layout_cache", None)
-        return state
-
-    # -- column layout -------------------------------------------------------------
-    @property
-    def n_coefficients_(self) -> int:
-        return self._layout.n_coef
-
-    @property
-    def stiffness_index_(self) -> NDArray[np.intp]:
-        return self._layout.stiffness_index.copy()
-
-    @property
-    def damping_index_(self) -> NDArray[np.intp]:
-        return self._layout.damping_index.copy()
-
-    @property
-    def rest_force_index_(self) -> NDArray[np.intp]:
-        return self._layout.rest_index.copy()
-
-    @property
-    def rest_force_rows_(self) -> NDArray[np.intp]:
-        return self._layout.rest_rows.copy()
-
-    @property
-    def lower_bounds_(self) -> NDArray[np.float64]:
-        return self._layout.lower.copy()
-
-    stiffness_factor_: float = 1.0
-
-    def coefficient_names(self) -> list[str]:
-        """Names of the ``n_coefficients_`` parameters, e.g. ``rhoA_1``, ``k_twist_1``, ``d_axial_2``."""
-        return list(self._layout.names)
+    def _layout_key_extra(self) -> tuple:
+        return (self.density,)
 
     def scale_constraint(self) -> tuple[NDArray[np.float64], float] | None:
         """``Σ_i rhoA_i L_i = mass`` when ``mass`` is given, else None."""
         if self.mass is None:
             return None
-        lay = self._layout
+        lay = self._spec
         if not lay.uniform and len(lay.cols["rhoA"]) != lay.kin.n_segments:
             raise ValueError("mass fixes the scale only when every segment's density is identified")
         a = np.zeros(lay.n_coef)
@@ -472,7 +421,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
 
     # -- evaluation ------------------------------------------------------------------
     def _check_states(self, **arrays: ArrayLike) -> list[NDArray[np.float64]]:
-        n = self._layout.n
+        n = self._spec.n
         out, shape = [], None
         for name, value in arrays.items():
             a = np.asarray(value, dtype=float)
@@ -487,13 +436,13 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         return out
 
     def _full(self, a: NDArray[np.float64]) -> NDArray[np.float64]:
-        lay = self._layout
+        lay = self._spec
         out = np.zeros((a.shape[0], lay.kin.n_q))
         out[:, lay.active] = a
         return out
 
     def _psi_block(self, q: NDArray, qd: NDArray, qdd: NDArray) -> NDArray[np.float64]:
-        lay = self._layout
+        lay = self._spec
         B, n = q.shape
         act = lay.active
         f = node_terms(lay.kin, lay.quadrature, self._full(q), self._full(qd), self._full(qdd))
@@ -520,14 +469,14 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     def euler_lagrange_matrix(self, q: ArrayLike, qd: ArrayLike, qdd: ArrayLike) -> NDArray[np.float64]:
         """Regressor ``Psi`` with ``tau = Psi @ coef``, shape (n_samples, n, n_coefficients_)."""
         q, qd, qdd = self._check_states(q=q, qd=qd, qdd=qdd)
-        out = np.empty((q.shape[0], self._layout.n, self._layout.n_coef))
+        out = np.empty((q.shape[0], self._spec.n, self._spec.n_coef))
         for a in range(0, q.shape[0], _CHUNK):
             b = a + _CHUNK
             out[a:b] = self._psi_block(q[a:b], qd[a:b], qdd[a:b])
         return out
 
     def _lumped_inertia(self, coef: NDArray) -> tuple[NDArray, NDArray]:
-        lay = self._layout
+        lay = self._spec
         m = lay.kin.n_segments
         rhoA, rhoI = np.zeros(m), np.zeros(m)
         for j, i, _ in lay.cols["rhoA"]:
@@ -542,7 +491,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         """Mass matrix ``M(q)`` of the parameters ``coef``, shape (n_samples, n, n)."""
         coef = self._check_coef(coef)
         (q,) = self._check_states(q=q)
-        lay = self._layout
+        lay = self._spec
         rhoA, rhoI = self._lumped_inertia(coef)
         out = np.empty((q.shape[0], lay.n, lay.n))
         for a in range(0, q.shape[0], _CHUNK):
@@ -565,7 +514,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         ``R = −∂L/∂q`` per unit parameter, the kinetic-energy gradients by central differences.
         """
         q, qd = self._check_states(q=q, qd=qd)
-        lay = self._layout
+        lay = self._spec
         mom = np.empty((q.shape[0], lay.n, lay.n_coef))
         rest = np.empty_like(mom)
         for a in range(0, q.shape[0], _CHUNK):
@@ -575,7 +524,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
 
     def _energies(self, qf: NDArray, qdf: NDArray) -> tuple[NDArray, NDArray]:
         """Per-segment ``1/2 ∫ |ṗ|² ds`` and ``1/2 ∫ ωᵀ Ī ω ds``, each (B, m)."""
-        lay = self._layout
+        lay = self._spec
         s, w, seg = lay.quadrature
         v, om = lay.kin.velocities(qf, qdf, s)  # (B, K, 3)
         onehot = np.zeros((s.size, lay.kin.n_segments))
@@ -583,7 +532,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         return 0.5 * np.sum(v**2, axis=-1) @ onehot, 0.5 * np.sum(BODY_INERTIA * om**2, axis=-1) @ onehot
 
     def _weak_block(self, q: NDArray, qd: NDArray) -> tuple[NDArray, NDArray]:
-        lay = self._layout
+        lay = self._spec
         B, n = q.shape
         m = lay.kin.n_segments
         act = lay.active
@@ -639,7 +588,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         ``d`` (``damping``: (6m,) all strains or (n,) active), ``f0 = 0``; ``gravity`` (3,) fills the
         ``rhoAg`` columns with ``identify_gravity`` (default the library's).
         """
-        lay = self._layout
+        lay = self._spec
         m = lay.kin.n_segments
 
         def per_seg(val: Any, name: str, positive: bool) -> NDArray[np.float64]:
@@ -695,7 +644,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     # -- structure changes -------------------------------------------------------------------
     def restrict(self, active_strains: ArrayLike) -> SpatialPhysicalPCSLibrary:
         """Library of a subset of the active strains (removed strains held at 0), with ``column_map_``."""
-        lay = self._layout
+        lay = self._spec
         m = lay.kin.n_segments
         new = np.asarray(active_strains)
         if new.shape not in ((m, 6), (6 * m,)):
@@ -728,7 +677,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     def lumped_from_coef(self, coef: ArrayLike) -> dict:
         """Per-segment lumped parameters of ``coef``: the arguments of :class:`~pcs_sindy.models.SpatialPCSModel`."""
         coef = self._check_coef(coef)
-        lay = self._layout
+        lay = self._spec
         rhoA, rhoI = self._lumped_inertia(coef)
         if lay.identify_gravity:
             rhoAg = np.zeros((lay.kin.n_segments, 3))
@@ -755,10 +704,10 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     def coefficient_units(self) -> list[Any]:
         """Unit of each parameter (:mod:`pcs_sindy.core.units`): ``rhoA`` kg/m, ``rhoI`` kg·m, ``rhoAg`` N/m,
         stiffness ``tau_e / q_e``, constant force ``tau_e``, damping ``tau_e / qd_e``."""
-        names = self._layout.kin.strain_names()
+        names = self._spec.kin.strain_names()
         per_segment = {"rhoA": KILOGRAM / METRE, "rhoI": KILOGRAM * METRE, "g": NEWTON / METRE}
         out = []
-        for kind, _, e in self._layout.kinds:
+        for kind, _, e in self._spec.kinds:
             if kind in per_segment:
                 out.append(per_segment[kind])
                 continue
@@ -769,7 +718,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
     def equations(self, coef: ArrayLike, precision: int = 3, threshold: float = 0.0) -> list[str]:
         """The Lagrangian's structure, ``M(q)``, the units, the parameter values with units, and ``D``."""
         coef = self._check_coef(coef)
-        lay = self._layout
+        lay = self._spec
         damp = set(int(j) for j in lay.damping_index)
         values = [
             f"{nm} = {self._with_unit(c, unit, precision)}"
@@ -802,7 +751,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
         ``∫ p_a ds``; ``k_e``: ``−q_e²/2``; ``f0_e``: ``q_e``.
         """
         check_is_fitted(self, "n_features_in_")
-        lay = self._layout
+        lay = self._spec
         s, w, seg = lay.quadrature
         onehot = np.zeros((s.size, lay.kin.n_segments))
         onehot[np.arange(s.size), seg] = w
@@ -836,7 +785,7 @@ class SpatialPhysicalPCSLibrary(LagrangianLibrary):
 
     def get_feature_names(self, input_features: Sequence[str] | None = None) -> list[str]:
         """Names of the Lagrangian basis terms (see :meth:`transform`)."""
-        lay = self._layout
+        lay = self._spec
         names = lay.kin.strain_names(active_only=True)
         if input_features is not None:
             if len(input_features) != 2 * lay.n:
