@@ -72,15 +72,27 @@ def test_an_unexcited_noisy_strain_is_removed_and_a_noise_free_one_kept(data):
     assert np.all(sim.q[:, 2] == 0.0) and np.all(np.isfinite(sim.q))
 
 
-def test_min_excitation_none_or_zero_keeps_every_strain(data):
+def test_min_excitation_none_or_zero_or_no_kinds_keep_every_strain(data):
     _, t, U, _, noisy = data
-    for off in (None, 0.0):
-        reg = _fit(t, noisy, U, min_excitation=off)
+    for off in ({"min_excitation": None}, {"min_excitation": 0.0}, {"excitation_kinds": ()}):
+        reg = _fit(t, noisy, U, **off)
         assert reg.removed_strains_ == [] and reg.removal_reasons_ == {}
         assert reg.excitation_[2] < 0.5  # still measured and reported
 
 
-def test_min_excitation_is_validated(data):
+def test_excitation_kinds_choose_what_may_be_removed(data):
+    _, t, U, _, noisy = data
+    # shear may go too, but moves well above its noise here: the same removal
+    assert _fit(t, noisy, U, excitation_kinds=("twist", "shear", "axial")).removed_strains_ == ["twist_1"]
+    # a threshold above every non-bending strain's ratio: all of them go, the bendings stay
+    reg = _fit(t, noisy, U, excitation_kinds=("twist", "shear", "axial"), min_excitation=1e6)
+    assert reg.active_strains_.tolist() == [[True, True, False, False, False, False]]
+    assert _fit(t, noisy, U, excitation_kinds=("shear",)).removed_strains_ == []
+
+
+def test_min_excitation_and_kinds_are_validated(data):
     _, t, U, Q, _ = data
     with pytest.raises(ValueError, match="min_excitation"):
         _fit(t, Q, U, min_excitation=-1.0)
+    with pytest.raises(ValueError, match="excitation_kinds"):
+        _fit(t, Q, U, excitation_kinds=("bend_z",))

@@ -4,8 +4,9 @@ A strain that moves less than its per-frame noise (a tendon-driven robot's twist
 noisy markers) gives stiffness, damping and inertia columns made of noise, which pull the coefficients
 every strain shares (the line densities) and degrade the whole fit.  :func:`unexcited_strains` measures
 each strain's motion against its white-noise level (:func:`pcs_sindy.core.metrics.motion_to_noise`) and
-names those below a threshold; :func:`restricted_problem` gives the regression without them (held at 0,
-like the stiffness threshold's removal).  Bending is never removed: it is what the inputs move.
+names those below a threshold among the strain kinds asked for (:data:`EXCITATION_KINDS`);
+:func:`restricted_problem` gives the regression without them (held at 0, like the stiffness threshold's
+removal).  Bending is never removed: it is what the inputs move.
 
 Knows the regression's column layout and the strain names; nothing of how the rows are built.
 """
@@ -21,14 +22,23 @@ from numpy.typing import NDArray
 from ..core.metrics import motion_to_noise
 from .library.with_gains import WithGains
 
-__all__ = ["EXCITATION_EXEMPT", "unexcited_strains", "restricted_problem"]
+__all__ = ["EXCITATION_KINDS", "STRAIN_KIND", "unexcited_strains", "restricted_problem", "valid_kinds"]
 
-#: strain kinds never removed for want of excitation (planar "be", spatial "bend_z", "bend_x")
-EXCITATION_EXEMPT = ("be", "bend_z", "bend_x")
+#: the strain kinds the excitation test may remove (bending never: it is what the inputs move)
+EXCITATION_KINDS = ("twist", "shear", "axial")
+#: strain name (planar and spatial, without the segment number) -> its kind
+STRAIN_KIND = {"twist": "twist", "shear_x": "shear", "shear_z": "shear", "sh": "shear", "axial": "axial", "ax": "axial"}
+
+
+def valid_kinds(value: object) -> bool:
+    """A tuple or list of distinct :data:`EXCITATION_KINDS` (possibly empty)."""
+    return (
+        isinstance(value, (tuple, list)) and len(set(value)) == len(value) and all(v in EXCITATION_KINDS for v in value)
+    )
 
 
 def unexcited_strains(
-    kin: Any, q_active: list[NDArray[np.float64]], min_excitation: float | None
+    kin: Any, q_active: list[NDArray[np.float64]], min_excitation: float | None, kinds: tuple = EXCITATION_KINDS
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Each modelled strain's motion-to-noise ratio, and which ones fall below ``min_excitation``.
 
@@ -40,13 +50,15 @@ def unexcited_strains(
         The modelled strains of every recording.
     min_excitation : float or None
         Threshold on :func:`~pcs_sindy.core.metrics.motion_to_noise`; None or 0 removes nothing.
+    kinds : tuple of str
+        The strain kinds that may be removed (of :data:`EXCITATION_KINDS`).
 
     Returns
     -------
     ratio : ndarray, shape (n_q,)
         The ratio of every strain (NaN for a strain the data do not model).
     remove : ndarray of bool, shape (n_q,)
-        Strains below the threshold (never a bending strain, never every modelled strain).
+        Strains of ``kinds`` below the threshold (never a bending strain, never every modelled strain).
     """
     mask = np.asarray(kin.active_mask, dtype=bool)
     ratio = np.full(mask.size, np.nan)
@@ -54,8 +66,7 @@ def unexcited_strains(
     remove = np.zeros(mask.size, dtype=bool)
     if not min_excitation:
         return ratio, remove
-    kinds = [name.rpartition("_")[0] for name in kin.strain_names()]
-    eligible = mask & ~np.isin(kinds, EXCITATION_EXEMPT)
+    eligible = mask & np.array([STRAIN_KIND.get(name.rpartition("_")[0]) in kinds for name in kin.strain_names()])
     remove = eligible & (ratio < float(min_excitation))
     if not np.any(mask & ~remove):  # a model needs a strain: keep them all rather than none
         remove[:] = False

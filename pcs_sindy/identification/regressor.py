@@ -59,6 +59,7 @@ __all__ = [
     "SCORE_DERIVATIVES",
     "WEAK_WINDOW",
     "MIN_EXCITATION",
+    "EXCITATION_KINDS_DEFAULT",
 ]
 
 #: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
@@ -68,9 +69,11 @@ _LIBRARIES = ("physical", "monomial")
 _REFINE = ("auto", "output_error", "none")
 #: the scale convention of a fit in which no absolute quantity is known (no mass, no gains, no forces)
 SCALE_CONVENTION_MASS = 1.0
-#: default ``min_excitation``: strains (but bending) moving less than this times their per-sample noise are not
-#: identified (measured on the spatial benchmark's tendon and force cases, docs/results.md)
+#: default ``min_excitation``: strains of ``excitation_kinds`` moving less than this times their per-sample noise are
+#: not identified (measured on the spatial benchmark's tendon and force cases, docs/results.md)
 MIN_EXCITATION = 0.5
+#: default ``excitation_kinds``: the strain kinds the excitation test removes (twist alone: see the parameter)
+EXCITATION_KINDS_DEFAULT = ("twist",)
 #: inputs this far (relative to the training range, at least 1e-9) outside it are out of range
 INPUT_RANGE_TOL = 0.05
 
@@ -218,14 +221,22 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         0.5 s at 1 kHz: 0.2-0.6 s, several times the equation-error fit); False skips it, e.g.
         inside a grid search whose scorer rolls the held-out recordings out anyway.
     min_excitation : float or None, default :data:`MIN_EXCITATION`
-        Dynamic formulations: a strain other than a bending whose motion stands less than this above its
-        measurement noise in the training recordings is removed before the regression (held at 0, like a
-        strain the stiffness threshold removes): the ratio of
-        :func:`~pcs_sindy.core.metrics.motion_to_noise` (the strain's standard deviation net of its white
-        noise, over that noise, per sample, pooled over the recordings; ``excitation_``).  Tendons hardly
-        move a robot's twist and shear, which markers with 0.5 mm noise then give as noise alone: their
-        stiffness, damping and inertia come from that noise and pull the line densities (docs/results.md,
-        spatial identification).  Noise-free data read far above any threshold.  None or 0 keeps every strain.
+        Dynamic formulations: a strain of ``excitation_kinds`` whose motion stands less than this above its
+        measurement noise in the training recordings is removed before the regression (held at 0 in every
+        row and in the model, like a strain the stiffness threshold removes).  The measure is
+        :func:`~pcs_sindy.core.metrics.motion_to_noise`: the strain's standard deviation net of its white
+        noise, over that noise, per sample, pooled over the recordings (``excitation_``; a sinusoid of
+        amplitude ``a`` under noise ``sigma`` reads ``a / (sqrt(2) sigma)``).  Tendons hardly twist a robot,
+        and markers with 0.5 mm noise then give the twist as noise alone: its stiffness, damping and inertia
+        come from that noise and pull the coefficients the strains share.  Noise-free data read far above
+        any threshold.  None or 0 keeps every strain.
+    excitation_kinds : tuple of str, default ``("twist",)``
+        The strain kinds ``min_excitation`` may remove, among ``"twist"``, ``"shear"``, ``"axial"``
+        (bending never: it is what the inputs move).  Shear and axial strains carry the line densities'
+        translational inertia: removing them when they move less than their noise helped the tendon-driven
+        3-D benchmark with equation weighting (``StiffnessThresholdOptimizer(weight_equations=True)``) but
+        left the line density at 0 (a singular mass matrix) without it (docs/results.md, spatial
+        identification), so the default removes twist alone.
     library : deprecated
         Former name of ``feature_library`` (a FutureWarning in :meth:`fit`); kept so that
         existing scripts and model files work.
@@ -357,6 +368,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         refine: str = "auto",
         check_fit: bool = True,
         min_excitation: float | None = MIN_EXCITATION,
+        excitation_kinds: tuple[str, ...] = EXCITATION_KINDS_DEFAULT,
         library: Any = None,
     ) -> None:
         self.feature_library = feature_library
@@ -377,6 +389,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.refine = refine
         self.check_fit = check_fit
         self.min_excitation = min_excitation
+        self.excitation_kinds = excitation_kinds
         self.library = library
 
     @classmethod
@@ -432,6 +445,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         "refine": [Options(_REFINE)],
         "check_fit": "no_validation",
         "min_excitation": [None, Interval(Real, 0, None, closed="left")],
+        "excitation_kinds": [
+            Check(_exc.valid_kinds, f"a tuple of distinct strain kinds among {_exc.EXCITATION_KINDS}")
+        ],
     }
 
     def _check_joint_parameters(self) -> None:
@@ -643,7 +659,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.excitation_, unexcited = (
             (np.full(kin.n_q, np.nan), np.zeros(kin.n_q, dtype=bool))  # holds, not motion: nothing to measure
             if self.formulation == "static"
-            else _exc.unexcited_strains(kin, [r.q for r in recs], self.min_excitation)
+            else _exc.unexcited_strains(kin, [r.q for r in recs], self.min_excitation, tuple(self.excitation_kinds))
         )
         names_all = kin.strain_names()
         self.removal_reasons_ = {
