@@ -93,6 +93,7 @@ __getattr__, __dir__, __all__ = _lazy.attach(
             "rollout_scorer",
             "rollout_r2_scorer",
             "noise_level",
+            "motion_to_noise",
         ],
         "validation": [
             "validate_parameters",

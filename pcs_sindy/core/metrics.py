@@ -6,7 +6,8 @@ cross-sections passed in (leave the base out, as the seed does); the
 end-effector metrics use the last point.  Angle differences are wrapped to
 [-π, π) so that a 2π offset is not an error.  :func:`rollout_scorer` scores
 rollouts for scikit-learn's model selection.  :func:`noise_level` estimates a
-signal's white-noise level from its second differences (robust to jumps).
+signal's white-noise level from its second differences (robust to jumps), and
+:func:`motion_to_noise` how far a signal's motion stands above that noise.
 """
 
 from __future__ import annotations
@@ -25,6 +26,7 @@ __all__ = [
     "rollout_scorer",
     "rollout_r2_scorer",
     "noise_level",
+    "motion_to_noise",
 ]
 
 #: median absolute deviation -> standard deviation of a Gaussian
@@ -55,6 +57,39 @@ def noise_level(values: ArrayLike, axis: int | tuple[int, ...] | None = None) ->
         raise ValueError(f"values must hold at least 3 samples along axis 0; got shape {x.shape}")
     d2 = np.abs(np.diff(x, n=2, axis=0))
     return _MAD_TO_SIGMA * np.median(d2, axis=axis) / np.sqrt(6.0)
+
+
+def motion_to_noise(recordings: ArrayLike | list[ArrayLike]) -> np.ndarray:
+    """Per column: the standard deviation of the motion net of white noise, over that noise's standard deviation.
+
+    For each recording the variance around its mean and the white-noise variance ``sigma^2`` of
+    :func:`noise_level` are pooled over the recordings (weighted by their samples); the ratio is
+    ``sqrt(max(var - sigma^2, 0)) / sigma``.  A sinusoid of amplitude ``a`` under white noise of level
+    ``sigma`` reads ``a / (sqrt(2) sigma)``; noise alone reads about 0.  Noise-free data read large (``inf``
+    when the second differences vanish: a straight line); a column that never moves reads 0.
+
+    Parameters
+    ----------
+    recordings : array_like (T, n), or a list of them
+        Samples in time order (T >= 3 each), the same ``n`` columns in every recording.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+    """
+    recs = [np.asarray(r, dtype=float) for r in (recordings if isinstance(recordings, (list, tuple)) else [recordings])]
+    if not recs or any(r.ndim != 2 or r.shape[1] != recs[0].shape[1] for r in recs):
+        raise ValueError(
+            "recordings must be one (T, n) array or a list of them with the same n; "
+            f"got shapes {[r.shape for r in recs]}"
+        )
+    weights = np.array([r.shape[0] for r in recs], dtype=float)
+    var = np.average([np.var(r, axis=0) for r in recs], axis=0, weights=weights)
+    noise = np.average([noise_level(r, axis=0) ** 2 for r in recs], axis=0, weights=weights)
+    motion = np.sqrt(np.maximum(var - noise, 0.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = motion / np.sqrt(noise)
+    return np.where(motion > 0, ratio, 0.0)
 
 
 def _pair(estimate: ArrayLike, truth: ArrayLike) -> tuple[np.ndarray, np.ndarray]:

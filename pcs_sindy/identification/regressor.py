@@ -42,6 +42,7 @@ from ..core.validation import Check, InstanceOf, Interval, InvalidParameterError
 from ..models.actuation import Actuation, IdentityActuation, actuation_from_layout
 from ..models.actuation.base import gain_unit
 from ..models.forward import reduce_strains
+from . import excitation as _exc
 from . import formulations as _form
 from . import identifiability as _ident
 from . import recordings as _rec
@@ -51,7 +52,15 @@ from .optimizers import StiffnessThresholdOptimizer, fit_normalized
 from .recordings import WEAK_WINDOW
 from .variable_projection import fit_offsets
 
-__all__ = ["EulerLagrangeRegressor", "DivergenceError", "PoorFitWarning", "SCORE_DERIVATIVES", "WEAK_WINDOW"]
+__all__ = [
+    "EulerLagrangeRegressor",
+    "DivergenceError",
+    "PoorFitWarning",
+    "SCORE_DERIVATIVES",
+    "WEAK_WINDOW",
+    "MIN_EXCITATION",
+    "EXCITATION_KINDS_DEFAULT",
+]
 
 #: Savitzky–Golay window and order of the initial rates of :meth:`EulerLagrangeRegressor.score` and
 #: :meth:`EulerLagrangeRegressor.rollout_error` (fixed, so every candidate of a search is scored alike)
@@ -60,6 +69,11 @@ _LIBRARIES = ("physical", "monomial")
 _REFINE = ("auto", "output_error", "none")
 #: the scale convention of a fit in which no absolute quantity is known (no mass, no gains, no forces)
 SCALE_CONVENTION_MASS = 1.0
+#: default ``min_excitation``: strains of ``excitation_kinds`` moving less than this times their per-sample noise are
+#: not identified (measured on the spatial benchmark's tendon and force cases, docs/results.md)
+MIN_EXCITATION = 0.5
+#: default ``excitation_kinds``: the strain kinds the excitation test removes (twist alone: see the parameter)
+EXCITATION_KINDS_DEFAULT = ("twist",)
 #: inputs this far (relative to the training range, at least 1e-9) outside it are out of range
 INPUT_RANGE_TOL = 0.05
 
@@ -206,6 +220,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         model with no inputs.  This costs one rollout per training recording (on 8 recordings of
         0.5 s at 1 kHz: 0.2-0.6 s, several times the equation-error fit); False skips it, e.g.
         inside a grid search whose scorer rolls the held-out recordings out anyway.
+    min_excitation : float or None, default :data:`MIN_EXCITATION`
+        Dynamic formulations: a strain of ``excitation_kinds`` whose motion stands less than this above its
+        measurement noise in the training recordings is removed before the regression (held at 0 in every
+        row and in the model, like a strain the stiffness threshold removes).  The measure is
+        :func:`~pcs_sindy.core.metrics.motion_to_noise`: the strain's standard deviation net of its white
+        noise, over that noise, per sample, pooled over the recordings (``excitation_``; a sinusoid of
+        amplitude ``a`` under noise ``sigma`` reads ``a / (sqrt(2) sigma)``).  Tendons hardly twist a robot,
+        and markers with 0.5 mm noise then give the twist as noise alone: its stiffness, damping and inertia
+        come from that noise and pull the coefficients the strains share.  Noise-free data read far above
+        any threshold.  None or 0 keeps every strain.
+    excitation_kinds : tuple of str, default ``("twist",)``
+        The strain kinds ``min_excitation`` may remove, among ``"twist"``, ``"shear"``, ``"axial"``
+        (bending never: it is what the inputs move).  Shear and axial strains carry the line densities'
+        translational inertia: removing them when they move less than their noise helped the tendon-driven
+        3-D benchmark with equation weighting (``StiffnessThresholdOptimizer(weight_equations=True)``) but
+        left the line density at 0 (a singular mass matrix) without it (docs/results.md, spatial
+        identification), so the default removes twist alone.
     library : deprecated
         Former name of ``feature_library`` (a FutureWarning in :meth:`fit`); kept so that
         existing scripts and model files work.
@@ -227,7 +258,13 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         Identified stiffness (``inf`` for a strain not modelled), damping (0
         there) and rest strain ``f0 / stiffness`` (0 without constant forces).
     removed_strains_ : list of str
-        Strains removed by the stiffness threshold.
+        Strains removed: those not excited above their noise (``min_excitation``), then those the stiffness
+        threshold found stiffer than the material bound.
+    removal_reasons_ : dict
+        Why each of ``removed_strains_`` was removed (its name -> a sentence).
+    excitation_ : ndarray, shape (n_q,)
+        Each strain's motion-to-noise ratio in the training recordings (full strain order; NaN for a
+        strain the data do not model); ``min_excitation`` is compared with it.
     optimizer_ : the fitted optimizer
     kinematics_ : PlanarPCS
         Segmentation with ``active_strains_``.
@@ -330,6 +367,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         actuation: Any = None,
         refine: str = "auto",
         check_fit: bool = True,
+        min_excitation: float | None = MIN_EXCITATION,
+        excitation_kinds: tuple[str, ...] = EXCITATION_KINDS_DEFAULT,
         library: Any = None,
     ) -> None:
         self.feature_library = feature_library
@@ -349,6 +388,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.actuation = actuation
         self.refine = refine
         self.check_fit = check_fit
+        self.min_excitation = min_excitation
+        self.excitation_kinds = excitation_kinds
         self.library = library
 
     @classmethod
@@ -403,6 +444,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         "actuation": [None, InstanceOf(Actuation, "an Actuation"), InstanceOf(dict, "a layout dict")],
         "refine": [Options(_REFINE)],
         "check_fit": "no_validation",
+        "min_excitation": [None, Interval(Real, 0, None, closed="left")],
+        "excitation_kinds": [
+            Check(_exc.valid_kinds, f"a tuple of distinct strain kinds among {_exc.EXCITATION_KINDS}")
+        ],
     }
 
     def _check_joint_parameters(self) -> None:
@@ -609,6 +654,23 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 "y (the inputs) is zero in every recording: nothing drives the robot, so nothing can be "
                 "identified; record with actuation"
             )
+        # strains moving less than their noise leave before the regression: held at 0 in every row (the inputs'
+        # A(q) too, as in the model's rollouts); the optimizer fits the rest
+        self.excitation_, unexcited = (
+            (np.full(kin.n_q, np.nan), np.zeros(kin.n_q, dtype=bool))  # holds, not motion: nothing to measure
+            if self.formulation == "static"
+            else _exc.unexcited_strains(kin, [r.q for r in recs], self.min_excitation, tuple(self.excitation_kinds))
+        )
+        names_all = kin.strain_names()
+        self.removal_reasons_ = {
+            names_all[e]: f"not excited: motion {self.excitation_[e]:.2g} x its noise (min_excitation "
+            f"{self.min_excitation:g})"
+            for e in np.flatnonzero(unexcited)
+        }
+        for r in recs:
+            for arr in (r.q, r.qd, r.qdd):
+                if arr is not None:
+                    arr[:, unexcited[kin.active_mask]] = 0.0
         lib = self.make_library(kin).fit(X)
         self.scale_convention_ = None
         spatial_default = isinstance(kin, SpatialPCS) and self._library_choice() in (None, "physical")
@@ -648,12 +710,21 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             )
         opt = StiffnessThresholdOptimizer() if self.optimizer is None else clone(self.optimizer)
         p_lib = lib.n_coefficients_
+        fit_cols, x_o, target_o, design_o, eq_o = columns, x, target, design, equality
+        cols_o = np.arange(p_lib + act.n_gains)
+        if unexcited.any():
+            fit_cols, cols_o, x_o, target_o, design_o, eq_o = _exc.restricted_problem(
+                columns, design, target, equality, ~unexcited[kin.active_mask]
+            )
+        coef_all = np.zeros(p_lib + act.n_gains)
         if isinstance(opt, StiffnessThresholdOptimizer):
-            opt.fit(x, target, library=columns, design=design, equality=equality)
-            lib_r = opt.library_.library if act.n_gains else opt.library_
-            coef_all = np.asarray(opt.coef_[0], dtype=float)
-            column_map = np.asarray([c for c in opt.column_map_ if c < p_lib], dtype=int)
+            opt.fit(x_o, target_o, library=fit_cols, design=design_o, equality=eq_o)
+            coef_all[cols_o] = np.asarray(opt.coef_[0], dtype=float)
             active, removed = opt.active_strains_, list(opt.removed_strains_)
+            self.removal_reasons_.update({nm: "stiffer than its bound (stiffness threshold)" for nm in removed})
+            lib_r = lib.restrict(active) if unexcited.any() else (opt.library_.library if act.n_gains else opt.library_)
+            column_map = np.asarray([c for c in cols_o[opt.column_map_] if c < p_lib], dtype=int)
+            removed = list(self.removal_reasons_)
         else:
             if equality is not None:
                 raise ValueError(
@@ -661,10 +732,12 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                     "use StiffnessThresholdOptimizer"
                 )
             # unit-norm columns and target: the optimizer's thresholds mean the same on every robot
-            coef_all = fit_normalized(opt, x, target)
-            self._warn_missing_physics(lib, coef_all[:p_lib], type(opt).__name__)
-            lib_r, column_map = lib, np.arange(p_lib)
-            active, removed = kin.active_strains.copy(), []
+            coef_all[cols_o] = fit_normalized(opt, x_o, target_o)
+            lib_e = fit_cols.library if act.n_gains else fit_cols
+            lib_r, column_map = (lib_e, cols_o[: lib_e.n_coefficients_]) if unexcited.any() else (lib, np.arange(p_lib))
+            self._warn_missing_physics(lib_r, coef_all[column_map], type(opt).__name__)
+            active = kin.active_strains.copy() & ~unexcited.reshape(kin.n_segments, -1)
+            removed = list(self.removal_reasons_)
         coef, library_ = coef_all[:p_lib], lib_r
         self.actuation_ = act.set_identified(
             coef_all[p_lib:] if act.n_gains else act.gains_,
@@ -1019,6 +1092,9 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
                 f"\nonly {dirs.shape[1]} of {dirs.shape[0]} inputs varied (input_directions_): the gains a_*_u<i> "
                 "above number the varying inputs; actuation_ holds them per input (zero for a constant one)"
             )
+        reasons = getattr(self, "removal_reasons_", None) or {}
+        if reasons:
+            text += "\nremoved strains (held at 0): " + "; ".join(f"{nm}: {why}" for nm, why in reasons.items())
         ref = getattr(self, "refinement_", None)
         if ref:
             text += (
@@ -1638,6 +1714,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         reg.coef_ = reg.model_coef_ = coef[0].copy()
         reg.active_strains_ = kin.active_strains.copy()
         reg.removed_strains_ = []
+        reg.removal_reasons_ = {}
+        reg.excitation_ = np.full(kin.n_q, np.nan)
         reg.kinematics_ = PlanarPCS(kin.segment_lengths, kin.active_strains, kin.base_pose)
         reg._set_physical_attributes(kin)
         reg.actuation_ = IdentityActuation().fit(PlanarPCS(kin.segment_lengths, kin.active_strains))

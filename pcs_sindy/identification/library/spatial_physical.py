@@ -668,9 +668,9 @@ class SpatialPhysicalPCSLibrary(CachedLayout, LagrangianLibrary):
             mass=self.mass,
             density=self.density,
         )
-        child.column_map_ = np.array([lay.col[name] for name in child._layout.names], dtype=int)
+        child.column_map_ = np.array([lay.col[name] for name in child._spec.names], dtype=int)
         if hasattr(self, "n_features_in_"):
-            child.fit(np.zeros((1, 2 * child._layout.n)))
+            child.fit(np.zeros((1, 2 * child._spec.n)))
         return child
 
     # -- the model of given coefficients ---------------------------------------------------
