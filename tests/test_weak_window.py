@@ -15,6 +15,7 @@ from pcs_sindy.identification.recordings import (
     WEAK_WINDOW,
     WEAK_WINDOW_BAND,
     WEAK_WINDOW_BAND_MIN_SAMPLES,
+    WEAK_WINDOW_BAND_SNR,
     WEAK_WINDOW_MIN_SAMPLES,
     band_frequency,
     weak_windows,
@@ -52,6 +53,16 @@ def test_default_window_keeps_the_band_of_a_sinusoid():
     assert round(WEAK_WINDOW / 1e-3) == 160
     # nor past half the shortest recording
     assert weak_windows(81, None, None, dt, strains=[q]) == (40, 10)
+
+
+def test_the_window_is_shortened_only_when_the_noise_threatens_the_band():
+    dt, n = 0.01, 3000
+    # motion / noise: the sinusoid 0.707 / sigma, the unexcited strain 1; the median of the two
+    assert 0.5 * (1 / np.sqrt(2) / 0.1 + 1) < WEAK_WINDOW_BAND_SNR < 0.5 * (1 / np.sqrt(2) / 0.01 + 1)
+    assert weak_windows(n, None, None, dt, strains=[_sine_in_noise(1.5, dt, sigma=0.1)])[0] == 50
+    # the same band with 10 x less noise: the longest default (0.16 s, at least 160 intervals)
+    assert weak_windows(n, None, None, dt, strains=[_sine_in_noise(1.5, dt, sigma=0.01)]) == (160, 40)
+    assert band_frequency([_sine_in_noise(1.5, dt, sigma=0.01)], dt) == pytest.approx(1.5, abs=1e-9)
 
 
 def test_no_band_keeps_the_longest_default_and_a_user_window_is_untouched():

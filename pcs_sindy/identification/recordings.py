@@ -32,6 +32,7 @@ __all__ = [
     "WEAK_WINDOW",
     "WEAK_WINDOW_BAND",
     "WEAK_WINDOW_BAND_MIN_SAMPLES",
+    "WEAK_WINDOW_BAND_SNR",
     "WEAK_WINDOW_MIN_SAMPLES",
     "as_trajectories",
     "data_kinematics",
@@ -75,6 +76,12 @@ WEAK_WINDOW_MIN_SAMPLES = 160
 #: right, 80 fail), 0.2-0.25 Hz on the servo captures of slow steps (not shortened), 4-7 Hz on the 1 kHz planar
 #: scenarios (docs/results.md, "Spatial identification" and the noise study)
 WEAK_WINDOW_BAND = 0.75
+#: but only when the noise threatens the band: the strains' motion (standard deviation) is less than this many times
+#: their per-sample noise (median over strains and recordings).  Without noise a long window loses nothing and its
+#: quadrature is finer: on noise-free 200 Hz tendon data (tests/test_spatial_tendons.py) 64 samples put the tendon
+#: offsets 1.6 % off, 149 samples 0.2 %.  About 2 on the noisy spatial benchmark, 100 or more on noise-free
+#: simulations, 15-30 on the 1 kHz planar scenarios with 0.5-1 mm pose noise (kept at 160)
+WEAK_WINDOW_BAND_SNR = 10.0
 #: the shortened window keeps at least this many sampling intervals (16 at 100 Hz left the rates' noise in the rows
 #: of the noisy spatial benchmark; 30 did not)
 WEAK_WINDOW_BAND_MIN_SAMPLES = 32
@@ -140,6 +147,19 @@ def band_frequency(strains: list, dt: float) -> float | None:
     return float(np.median(found)) if found else None
 
 
+def _motion_to_noise(strains: list) -> float:
+    """Median over strains and recordings of a strain's standard deviation over its white-noise level (inf: none)."""
+    ratios = []
+    for q in strains:
+        q = np.asarray(q, dtype=float)
+        if q.ndim != 2 or q.shape[0] < BAND_MIN_SAMPLES or not np.all(np.isfinite(q)):
+            continue
+        sigma = noise_level(q, axis=0)
+        keep = sigma > 0
+        ratios.extend(q[:, keep].std(axis=0) / sigma[keep])
+    return float(np.median(ratios)) if ratios else np.inf
+
+
 def weak_windows(
     shortest: int,
     weak_window: int | None,
@@ -161,8 +181,9 @@ def weak_windows(
         The modelled strains of each recording, shape (T, n).  The default window spans :data:`WEAK_WINDOW`
         seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals (without ``dt``, that many), shortened to
         :data:`WEAK_WINDOW_BAND` / :func:`band_frequency` seconds when the strains' band needs it (the bump test
-        function keeps the band) but not below :data:`WEAK_WINDOW_BAND_MIN_SAMPLES` intervals; at most half the
-        shortest recording.
+        function keeps the band) and their noise threatens it (motion less than :data:`WEAK_WINDOW_BAND_SNR` times
+        the noise) but not below :data:`WEAK_WINDOW_BAND_MIN_SAMPLES` intervals; at most half the shortest
+        recording.
 
     Returns
     -------
@@ -171,7 +192,8 @@ def weak_windows(
     width = weak_window
     if width is None:
         width = WEAK_WINDOW_MIN_SAMPLES if dt is None else max(int(round(WEAK_WINDOW / dt)), WEAK_WINDOW_MIN_SAMPLES)
-        band = None if dt is None or strains is None else band_frequency(strains, dt)
+        noisy = strains is not None and _motion_to_noise(strains) < WEAK_WINDOW_BAND_SNR
+        band = band_frequency(strains, dt) if noisy and dt is not None else None
         if band is not None:
             width = min(width, max(int(round(WEAK_WINDOW_BAND / (band * dt))), WEAK_WINDOW_BAND_MIN_SAMPLES))
         width = max(2, min(width, (shortest - 1) // 2))
