@@ -80,7 +80,8 @@ WEAK_WINDOW_BAND = 0.75
 #: their per-sample noise (median over strains and recordings).  Without noise a long window loses nothing and its
 #: quadrature is finer: on noise-free 200 Hz tendon data (tests/test_spatial_tendons.py) 64 samples put the tendon
 #: offsets 1.6 % off, 149 samples 0.2 %.  About 2 on the noisy spatial benchmark, 100 or more on noise-free
-#: simulations, 15-30 on the 1 kHz planar scenarios with 0.5-1 mm pose noise (kept at 160)
+#: simulations, 15-30 on the 1 kHz planar scenarios with 0.5-1 mm pose noise (kept at 160), 68 on the real Trunk in
+#: 3-D (observations_controlled_1.csv)
 WEAK_WINDOW_BAND_SNR = 10.0
 #: the shortened window keeps at least this many sampling intervals (16 at 100 Hz left the rates' noise in the rows
 #: of the noisy spatial benchmark; 30 did not)
