@@ -278,7 +278,8 @@ def test_default_window_is_a_time_span_with_a_sample_floor():
 @pytest.mark.parametrize("dt", [1e-3, 1e-2])
 def test_default_window_identifies_the_same_robot_at_100_hz_and_1_khz(dt):
     # analytic smooth trajectories (1-6 Hz) with their exact forces, 3 s at 100 Hz or at 1 kHz: the defaults
-    # (0.16 s windows at 1 kHz, the sample floor at 100 Hz) recover the simulator's parameters at both rates
+    # (0.16 s, at least 160 intervals, at most half the recording: noise-free strains keep the longest window) recover
+    # the simulator's parameters at both rates
     robot = _robot("one_segment")
     L = robot.kinematics.segment_lengths
     n = int(round(3.0 / dt))
@@ -286,11 +287,12 @@ def test_default_window_identifies_the_same_robot_at_100_hz_and_1_khz(dt):
     X = [StrainTrajectory(r[1], r[0], segment_lengths=L) for r in recs]
     model = EulerLagrangeRegressor(feature_library=PhysicalPCSLibrary(rest_strain=False), weak_hold="trapezoid")
     model.fit(X, [r[4] for r in recs], qd=[r[2] for r in recs], qdd=[r[3] for r in recs])
-    from pcs_sindy.identification.recordings import WEAK_WINDOW_MIN_SAMPLES
+    from pcs_sindy.identification.recordings import band_frequency, weak_windows
 
-    # 0.16 s, at least the floor, at most half the recording
-    width = min(max(round(0.16 / dt), WEAK_WINDOW_MIN_SAMPLES), (n - 1) // 2)
-    stride = width // 4
+    band = band_frequency([r[1] for r in recs], dt)
+    assert 1.0 <= band <= 6.0  # the trajectories' band
+    width, stride = weak_windows(n, None, None, dt, strains=[r[1] for r in recs])
+    assert width == (160 if dt == 1e-3 else 149)
     assert model.n_regression_samples_ == 3 * len(range(0, n - width, stride))
     # measured: stiffness within 8e-9 (1 kHz) and 4e-7 (100 Hz), damping within 5e-9 and 5e-6
     np.testing.assert_allclose(model.stiffness_, robot.stiffness, rtol=1e-4)

@@ -719,8 +719,12 @@ def build_parser() -> argparse.ArgumentParser:
             lambda: (
                 "weak form: window in sampling intervals (default those in "
                 f"{read_default('identification.recordings:WEAK_WINDOW'):g} s, at least "
-                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')}, at most half "
-                "the shortest recording)"
+                f"{read_default('identification.recordings:WEAK_WINDOW_MIN_SAMPLES')}, at most half the shortest "
+                "recording; shortened to "
+                f"{read_default('identification.recordings:WEAK_WINDOW_BAND'):g} / the strains' band frequency "
+                f"(at least {read_default('identification.recordings:WEAK_WINDOW_BAND_MIN_SAMPLES')}) when their "
+                f"motion is less than {read_default('identification.recordings:WEAK_WINDOW_BAND_SNR'):g} x their "
+                "noise)"
             )
         ),
     )

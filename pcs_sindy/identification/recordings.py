@@ -16,6 +16,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..core.kinematics import PlanarPCS
+from ..core.metrics import noise_level
 from ..core.spatial import SpatialPCS
 from ..core.trajectory import StrainTrajectory, as_strain_trajectories, kinematics_of
 from . import formulations as _form
@@ -27,7 +28,11 @@ __all__ = [
     "prepare",
     "weak_windows",
     "sampling_interval",
+    "band_frequency",
     "WEAK_WINDOW",
+    "WEAK_WINDOW_BAND",
+    "WEAK_WINDOW_BAND_MIN_SAMPLES",
+    "WEAK_WINDOW_BAND_SNR",
     "WEAK_WINDOW_MIN_SAMPLES",
     "as_trajectories",
     "data_kinematics",
@@ -55,15 +60,39 @@ def with_active(kin: PlanarPCS | SpatialPCS, active: ArrayLike) -> PlanarPCS | S
     return PlanarPCS(kin.segment_lengths, active, kin.base_pose)
 
 
-#: default weak-form window [s]: 160 sampling intervals at 1 kHz, measured best on the planar scenarios with pose
-#: noise (docs/results.md); a time span, so the band the bump test function keeps does not depend on the rate
+#: the longest default weak-form window [s]: 160 sampling intervals at 1 kHz, measured best on the planar scenarios
+#: with pose noise (docs/results.md, noise study); a time span, so the band the bump test function keeps does not
+#: depend on the rate
 WEAK_WINDOW = 0.16
-#: but at least this many sampling intervals: each window averages the per-sample noise of the rates, and fewer
-#: samples leave it in the rows.  160 keeps every rate up to 1 kHz at the measured 160 samples: a floor of 40
-#: (0.4 s at 100 Hz) was better on the noisy spatial benchmark, the simulated capture and Trunk motor4, but it
-#: broke three 100 Hz servo/tendon fits (a clean servo capture, a swapped-sides warning, a 3-D tendon fit: a
-#: zero inertia), so it is not the default (docs/results.md, "Spatial identification")
+#: but at least this many sampling intervals: each window averages the per-sample noise of the rates (every rate
+#: up to 1 kHz keeps the measured 160 samples; at 100 Hz the servo captures of slow steps needed 120 or more: 20-80
+#: biased a stiffness by 11-18 %)
 WEAK_WINDOW_MIN_SAMPLES = 160
+#: that window is shortened to keep the strains' band: window length x band frequency (the median frequency of the
+#: strains' power above their white-noise floor, :func:`band_frequency`) at most this.  At 0.75 the bump test
+#: function passes 73 % of the amplitude at the band frequency (half at 1.05 / window, almost nothing above
+#: 2 / window).  Measured: the band frequency is 1.3-2 Hz on the 100 Hz spatial benchmark (3-s recordings: the
+#: 150 samples the longest default gives kill the inertia band there and fail every noisy draw; 40-50 samples are
+#: right, 80 fail), 0.2-0.25 Hz on the servo captures of slow steps (not shortened), 4-7 Hz on the 1 kHz planar
+#: scenarios (docs/results.md, "Spatial identification" and the noise study)
+WEAK_WINDOW_BAND = 0.75
+#: but only when the noise threatens the band: the strains' motion (standard deviation) is less than this many times
+#: their per-sample noise (median over strains and recordings).  Without noise a long window loses nothing and its
+#: quadrature is finer: on noise-free 200 Hz tendon data (tests/test_spatial_tendons.py) 64 samples put the tendon
+#: offsets 1.6 % off, 149 samples 0.2 %.  About 2 on the noisy spatial benchmark, 100 or more on noise-free
+#: simulations, 15-30 on the 1 kHz planar scenarios with 0.5-1 mm pose noise (kept at 160), 68 on the real Trunk in
+#: 3-D (observations_controlled_1.csv)
+WEAK_WINDOW_BAND_SNR = 10.0
+#: the shortened window keeps at least this many sampling intervals (16 at 100 Hz left the rates' noise in the rows
+#: of the noisy spatial benchmark; 30 did not)
+WEAK_WINDOW_BAND_MIN_SAMPLES = 32
+#: recordings shorter than this (samples) tell no band
+BAND_MIN_SAMPLES = 16
+#: the strains' power counts where it stands above this many times their white-noise floor: a strain of pure white
+#: noise exceeds 3 x its floor in 5 % of the periodogram's bins (and by e^-3 of the floor on average), so the
+#: strains the data do not excite hardly move the band (the tendon-driven spatial benchmark: 1.67-2 Hz with 1 x,
+#: 1.67 Hz on every draw with 3 x)
+BAND_NOISE_FACTOR = 3.0
 
 
 def check_list(y: Any, n: int, name: str) -> list:
@@ -77,8 +106,67 @@ def check_list(y: Any, n: int, name: str) -> list:
     return list(y)
 
 
+def band_frequency(strains: list, dt: float) -> float | None:
+    """Median frequency [Hz] of the strains' power above their white-noise floor.
+
+    Per recording: the Hann-windowed periodogram of every strain (mean removed), less :data:`BAND_NOISE_FACTOR`
+    times its white-noise floor ``sigma**2`` (:func:`~pcs_sindy.core.metrics.noise_level`; white noise of level
+    sigma has ``sigma**2`` in every bin), in units of that floor (so a strain counts by its signal-to-noise ratio,
+    not its unit), summed over the strains; the frequency below which half of that excess lies.  The median over
+    the recordings.  Noise-free strains have a floor too (their second differences): at a rate well above their
+    band it is far below their power.
+
+    Parameters
+    ----------
+    strains : list of array_like, shape (T, n)
+        The modelled strains of each recording.
+    dt : float
+        Sampling interval [s].
+
+    Returns
+    -------
+    float or None
+        None when no recording of at least :data:`BAND_MIN_SAMPLES` samples has a strain above its noise floor.
+    """
+    found = []
+    for q in strains:
+        q = np.asarray(q, dtype=float)
+        if q.ndim != 2 or q.shape[0] < BAND_MIN_SAMPLES or not np.all(np.isfinite(q)):
+            continue
+        floor = noise_level(q, axis=0) ** 2
+        keep = floor > 0  # a strain without noise (constant, or exactly polynomial) has no floor to stand above
+        if not keep.any():
+            continue
+        hann = np.hanning(q.shape[0])[:, None]
+        x = (q[:, keep] - q[:, keep].mean(axis=0)) * hann
+        power = np.abs(np.fft.rfft(x, axis=0)[1:]) ** 2 / np.sum(hann**2)  # white noise sigma -> sigma**2 a bin
+        excess = (np.maximum(power - BAND_NOISE_FACTOR * floor[keep], 0.0) / floor[keep]).sum(axis=1)
+        if excess.sum() <= 0:
+            continue
+        freq = np.fft.rfftfreq(q.shape[0], dt)[1:]
+        found.append(float(freq[np.searchsorted(np.cumsum(excess), 0.5 * excess.sum())]))
+    return float(np.median(found)) if found else None
+
+
+def _motion_to_noise(strains: list) -> float:
+    """Median over strains and recordings of a strain's standard deviation over its white-noise level (inf: none)."""
+    ratios = []
+    for q in strains:
+        q = np.asarray(q, dtype=float)
+        if q.ndim != 2 or q.shape[0] < BAND_MIN_SAMPLES or not np.all(np.isfinite(q)):
+            continue
+        sigma = noise_level(q, axis=0)
+        keep = sigma > 0
+        ratios.extend(q[:, keep].std(axis=0) / sigma[keep])
+    return float(np.median(ratios)) if ratios else np.inf
+
+
 def weak_windows(
-    shortest: int, weak_window: int | None, weak_stride: int | None, dt: float | None = None
+    shortest: int,
+    weak_window: int | None,
+    weak_stride: int | None,
+    dt: float | None = None,
+    strains: list | None = None,
 ) -> tuple[int, int]:
     """Weak-form window and stride in samples: the given ones, or the defaults for the data.
 
@@ -89,9 +177,14 @@ def weak_windows(
     weak_window, weak_stride : int or None
         The user's window (sampling intervals) and stride (samples); None for the defaults.
     dt : float, optional
-        Sampling interval [s] of the recordings (their median).  The default window spans
-        :data:`WEAK_WINDOW` seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals (without
-        ``dt``, that minimum), at most half the shortest recording.
+        Sampling interval [s] of the recordings (their median).
+    strains : list of array_like, optional
+        The modelled strains of each recording, shape (T, n).  The default window spans :data:`WEAK_WINDOW`
+        seconds, at least :data:`WEAK_WINDOW_MIN_SAMPLES` intervals (without ``dt``, that many), shortened to
+        :data:`WEAK_WINDOW_BAND` / :func:`band_frequency` seconds when the strains' band needs it (the bump test
+        function keeps the band) and their noise threatens it (motion less than :data:`WEAK_WINDOW_BAND_SNR` times
+        the noise) but not below :data:`WEAK_WINDOW_BAND_MIN_SAMPLES` intervals; at most half the shortest
+        recording.
 
     Returns
     -------
@@ -99,8 +192,12 @@ def weak_windows(
     """
     width = weak_window
     if width is None:
-        span = 0 if dt is None else int(round(WEAK_WINDOW / dt))
-        width = max(2, min(max(span, WEAK_WINDOW_MIN_SAMPLES), (shortest - 1) // 2))
+        width = WEAK_WINDOW_MIN_SAMPLES if dt is None else max(int(round(WEAK_WINDOW / dt)), WEAK_WINDOW_MIN_SAMPLES)
+        noisy = strains is not None and _motion_to_noise(strains) < WEAK_WINDOW_BAND_SNR
+        band = band_frequency(strains, dt) if noisy and dt is not None else None
+        if band is not None:
+            width = min(width, max(int(round(WEAK_WINDOW_BAND / (band * dt))), WEAK_WINDOW_BAND_MIN_SAMPLES))
+        width = max(2, min(width, (shortest - 1) // 2))
     stride = weak_stride if weak_stride is not None else max(1, int(width) // 4)
     return int(width), int(stride)
 
@@ -233,7 +330,13 @@ def prepare(
     width, stride = (
         (0, 0)
         if formulation == "static"
-        else weak_windows(min(rec.n_frames for rec in X), weak_window, weak_stride, sampling_interval(X))
+        else weak_windows(
+            min(rec.n_frames for rec in X),
+            weak_window,
+            weak_stride,
+            sampling_interval(X),
+            strains=None if weak_window is not None else [rec.q[:, mask] for rec in X],
+        )
     )
     recs = []
     for k, (rec, tau) in enumerate(zip(X, taus)):

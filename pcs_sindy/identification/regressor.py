@@ -169,11 +169,13 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         a jump of the held actuation (and the ends); for step actuation only.
     weak_window : int, optional
         Weak form: window length in sampling intervals (every recording needs
-        more samples).  Default: :data:`WEAK_WINDOW` seconds (0.16 s, measured best
-        at 1 kHz on the scenarios with pose noise), at least ``WEAK_WINDOW_MIN_SAMPLES``
-        (160) intervals (so 160 samples at every rate up to 1 kHz), at most half the
-        shortest recording (docs/results.md, spatial identification: 40 at 100 Hz is
-        better on noisy 3-D data but not everywhere).
+        more samples); used as given.  Default, from the data: :data:`WEAK_WINDOW`
+        seconds (0.16 s, measured best at 1 kHz with pose noise), at least
+        ``WEAK_WINDOW_MIN_SAMPLES`` (160) intervals, at most half the shortest
+        recording; when the strains' motion is less than 10 times their noise,
+        shortened to keep their band (``recordings.WEAK_WINDOW_BAND`` /
+        ``recordings.band_frequency``: 0.75 / the median frequency of their power
+        above the noise floor, at least 32 intervals; docs/method.md, weak form).
     weak_stride : int, optional
         Weak form: step between windows in samples; default a quarter of the window.
     weak_hold : {"zoh", "trapezoid"}, default "zoh"
