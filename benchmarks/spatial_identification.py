@@ -75,7 +75,7 @@ TENDON_END = [0.1] * 4 + [0.2] * 4
 TENDON_OFFSET = [[R, 0.0], [-R, 0.0], [0.0, R], [0.0, -R]] * 2
 TENSION = 0.8
 #: the configurations run on the tendon cases
-TENDON_CONFIGS = ("default", "w150", "w45", "w30+weighted", "w45+weighted", "w60+weighted")
+TENDON_CONFIGS = ("default", "w150", "w45", "w30+weighted", "w45+weighted", "w60+weighted", "default+oe", "w45+oe")
 CASES = ("clean", "noisy", "tendons-clean", "tendons-noisy")
 #: noise draws of the noisy case (draw 0 continues the data's generator)
 N_DRAWS = 6
@@ -277,9 +277,12 @@ def identify(Q, data, config):
     cut = float("nan")
     if smoothing:
         Q, cut = smooth(Q, DT)
-    # the discs' arc lengths, as the spatial fusion records them (an output-error refinement compares the rollouts
-    # there; without them, at the tip alone)
-    meta = {"marker_arc_lengths": np.r_[0.0, data["arcs"]]}
+    # the markers' arc lengths (base first) and offsets along body x and z, as the spatial fusion records them (an
+    # output-error refinement compares the rollouts there, so torsion is seen; without them, at the tip alone)
+    meta = {
+        "marker_arc_lengths": np.r_[0.0, np.repeat(data["arcs"], 2)],
+        "marker_offsets": np.tile([[R, 0.0], [0.0, R]], (data["arcs"].size, 1)),
+    }
     X = [SpatialStrainTrajectory(q, data["t"], segment_lengths=LENGTHS, metadata=meta) for q in Q]
     t0 = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
