@@ -211,11 +211,17 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         training input box: passive and bounded by construction).  ``"auto"``:
         so for a :class:`~pcs_sindy.models.actuation.LearnedActuation` (an
         input map of unknown layout, which the equation error fits worst:
-        measured on the real Trunk step recordings, docs/results.md), none
-        otherwise; skipped (with a warning) when the forward model has no
+        measured on the real Trunk step recordings, docs/results.md) and for a
+        spatial fit with inputs in physical units whose strains carry per-frame
+        noise (:func:`~pcs_sindy.identification.output_error.strains_are_noisy`;
+        noise-free the equation-error fit is already exact), none otherwise;
+        skipped (with a warning) when the forward model has no
         compiled rollouts.  A
         spatial fit from positions alone (one weight vector ``rhoA g``) also
-        refines gravity's direction, at ``|g|`` of the library.
+        refines gravity's direction, at ``|g|`` of the library; a spatial
+        refinement fits the recordings' start states, compares the markers
+        (``marker_offsets``, and orientations when the capture measured them)
+        and keeps the equation-error fit when its training rollouts are better.
     check_fit : bool, default True
         After :meth:`fit`, roll each training recording out (``training_rollout_error_``,
         ``no_input_error_``) and warn with :class:`PoorFitWarning` when the model is worse than a
@@ -780,7 +786,7 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         self.input_range_ = np.stack([u_all.min(axis=0), u_all.max(axis=0)])
         self.__dict__.pop("_forward", None)
         self.refinement_ = None
-        if self._refines(act):
+        if self._refines(act, recs):
             self._refine_output_error(X, recs, kept, inputs)
             gains = reduced_act.gains_ if full_act is None else _reduce_gains(reduced_act, full_act, directions)
             self._set_training_r2(rows, np.r_[self.model_coef_, gains if act.n_gains else []])
@@ -911,12 +917,18 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         weight = np.array([true.shape[0] for _, true in pairs], dtype=float)
         return float(np.sum(weight * model) / weight.sum()), float(np.sum(weight * still) / weight.sum())
 
-    def _refines(self, act: Actuation) -> bool:
+    def _refines(self, act: Actuation, recs: list | None = None) -> bool:
         if self.refine == "none" or self.formulation == "static":
             return False
-        if self.refine == "output_error":
+        if self.refine == "output_error" or act.kind == "learned":
             return True
-        return act.kind == "learned"
+        # a spatial fit with inputs in physical units (no scale convention, no given mass): refined when its strains
+        # are noisy (the equation-error fit regresses their noisy rates); noise-free it is already exact
+        from .output_error import strains_are_noisy
+
+        physical = self.scale_convention_ is None and getattr(self.full_library_, "mass", None) is None
+        spatial = isinstance(getattr(self, "kinematics_", None), SpatialPCS)
+        return recs is not None and spatial and physical and strains_are_noisy([r.q for r in recs])
 
     def _refine_output_error(
         self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_], inputs: list[NDArray[np.float64]]
@@ -948,6 +960,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         arc = arcs[0] if arcs[0].size and all(np.array_equal(a, arcs[0]) for a in arcs) else np.zeros(0)
         if not arc.size:
             arc = np.asarray([kin.total_length])
+        # 3-D: the markers off the backbone (they see torsion) and, when the capture measured them, the orientations
+        offs = [x.metadata.get("marker_offsets") for x in X] if arcs[0].size == arc.size else [None]
+        same = all(o is not None and np.array_equal(o, offs[0]) for o in offs)
+        oriented = all("rotation_offsets" in x.metadata for x in X)
         rolls = []
         for x, r, u in zip(X, recs, inputs, strict=True):
             # the fusion's per-frame flag of frames whose markers were all seen (interpolated ones are not compared)
@@ -966,6 +982,8 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             arc,
             (self.input_range_[0], self.input_range_[1]),
             free_density=free_density,
+            marker_offsets=np.asarray(offs[0], dtype=float) if same and isinstance(kin, SpatialPCS) else None,
+            orientations=oriented and isinstance(kin, SpatialPCS),
         )
         act.set_identified(gains, act.offsets_)
         self.model_coef_ = coef
