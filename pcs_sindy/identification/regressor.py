@@ -924,11 +924,13 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
             return True
         # a spatial fit with inputs in physical units (no scale convention, no given mass): refined when its strains
         # are noisy (the equation-error fit regresses their noisy rates); noise-free it is already exact
+        # (called before the fit too, without recordings: then only the cases above refine)
+        if recs is None or not isinstance(getattr(self, "kinematics_", None), SpatialPCS):
+            return False
         from .output_error import strains_are_noisy
 
         physical = self.scale_convention_ is None and getattr(self.full_library_, "mass", None) is None
-        spatial = isinstance(getattr(self, "kinematics_", None), SpatialPCS)
-        return recs is not None and spatial and physical and strains_are_noisy([r.q for r in recs])
+        return physical and strains_are_noisy([r.q for r in recs])
 
     def _refine_output_error(
         self, X: list[StrainTrajectory], recs: list, kept: NDArray[np.bool_], inputs: list[NDArray[np.float64]]
