@@ -331,6 +331,22 @@ def _enforce_margin(
     return coef, g, lo
 
 
+def _model_forces(
+    act: Any, kin: Any, q: NDArray[np.float64], u: NDArray[np.float64], gains: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The input forces on the model's strains at one state ``q`` (1, n) of them: the actuation may be fitted to more
+    strains than the model keeps (strains removed as not excited are held at 0), so ``q`` is spread over its strains
+    and the forces are read back on the model's."""
+    k_act = getattr(act, "kinematics_", kin)
+    if k_act.n_active == kin.n_active:
+        return np.asarray(act.forces(q, u, gains), dtype=float)[0]
+    full = np.zeros((1, kin.n_q))
+    full[:, kin.active_mask] = q
+    forces = np.zeros(kin.n_q)
+    forces[k_act.active_mask] = np.asarray(act.forces(full[:, k_act.active_mask], u, gains), dtype=float)[0]
+    return forces[kin.active_mask]
+
+
 def _balanced_start(
     lib: Any, layout: _Layout, act: Any, x: NDArray[np.float64], recordings: Sequence[tuple]
 ) -> NDArray[np.float64] | None:
@@ -348,7 +364,7 @@ def _balanced_start(
     static = np.asarray(lib.bias_forces(q_mean, np.zeros_like(q_mean), coef), dtype=float)[0]  # G + K q - f0
     f0 = np.zeros(n)
     f0[rows] = coef[rest]
-    need = static + f0 - np.asarray(act.forces(q_mean, u_mean, gains), dtype=float)[0]
+    need = static + f0 - _model_forces(act, lib.kinematics, q_mean, u_mean, gains)
     coef = coef.copy()
     coef[rest] = need[rows]
     return layout.pack(coef, gains)
