@@ -180,3 +180,30 @@ def test_offset_magnitudes_are_identified_along_known_directions(tendon_data):
     reg.fit(X, U, qd=[x.qd for x in X])
     np.testing.assert_allclose(reg.actuation_.offset_vectors_, d, rtol=1e-2, atol=1e-5)
     np.testing.assert_allclose(reg.stiffness_[[0, 1, 6, 7]], rob.stiffness[[0, 1, 6, 7]], rtol=2e-2)
+
+
+def test_forces_on_a_model_without_unexcited_strains_are_the_gradient_at_those_strains_held_at_zero():
+    """The output-error refinement's rest-force balance reads the tendons' forces on the model's strains when
+    strains were removed as not excited while the actuation keeps all of them (it once read them on all)."""
+    from pcs_sindy.identification.output_error import _model_forces
+
+    full = SpatialPCS(tuple(LENGTHS))
+    active = np.ones((2, 6), dtype=bool)
+    active[:, 2] = False  # twist of both segments removed
+    model_kin = SpatialPCS(tuple(LENGTHS), active)
+    act = SpatialTendonActuation(end=END, offset=OFFSET).fit(full)
+    q_kept = _states(2, seed=3)[1][active.reshape(-1)][None]
+    u = np.array([0.4, 1.1, 0.0, 2.3])
+    got = _model_forces(act, model_kin, q_kept, u[None], None)
+    assert got.shape == (10,)
+
+    # -(dl/dq)^T u by central differences of the lengths along the kept strains only (twist at 0)
+    def lengths(x):
+        q = np.zeros((1, 12))
+        q[0, active.reshape(-1)] = x
+        return act.lengths(q)[0]
+
+    h = 1e-4 * np.tile(SCALE, 2)[active.reshape(-1)]
+    step = np.eye(10) * h
+    fd = np.stack([(lengths(q_kept[0] + step[j]) - lengths(q_kept[0] - step[j])) / (2 * h[j]) for j in range(10)])
+    np.testing.assert_allclose(got, -fd @ u, rtol=0, atol=1e-7 * np.abs(fd @ u).max())
