@@ -453,10 +453,12 @@ def refine_output_error(
     -------
     coef, gains : ndarray
     info : dict
-        ``rmse_start``, ``rmse`` [m] of the compared markers, ``nfev``, ``slope_factor``
+        ``rmse_start``, ``rmse`` [m] of the compared markers (spatial: both at the forward model's default
+        tolerances, ``rmse_start`` of the equation-error fit, ``inf`` when its rollouts diverge), ``nfev`` (over
+        all solves), ``slope_factor``
         (1 unless the ``u*q`` gains were shrunk to hold the margin) and ``n_vertices``; spatial also ``step``
         [s] of the rollouts, ``kept`` (``"refined"`` or ``"equation_error"``), ``starts``, the recordings'
-        initial states (modelled strains, rates) of those rollouts, and ``solves``, (step [s], function
+        initial states (modelled strains, rates) of those rollouts, ``solves``, (step [s], function
         evaluations) of each ``least_squares`` run (one more per halving of the step after the first).
     """
     u_all = np.concatenate([u for (_, _, _, u, _) in recordings])
@@ -598,12 +600,15 @@ def refine_output_error(
     coef_out, gains_out = layout.unpack(best)
     coef_out, gains_out, factor = _enforce_margin(lib, coef_out, act, gains_out, vertices, layout)
     kept = "refined"
+    rmse_given = None  # the start's misfit unless it diverged
     if spatial:
         # the training objective at the forward model's own tolerances: the refined model against the equation-error
         # fit (both from the fitted start states); the better one is returned
         r_given = np.concatenate(rollouts(np.asarray(coef, dtype=float), gains_given, None, starts))
         r_end = np.concatenate(rollouts(coef_out, gains_out, None, starts))
         r0 = r_given
+        if not np.all(np.abs(r_given[:n_markers]) < 1.0):
+            rmse_given = np.inf  # the equation-error fit's rollout diverges: no misfit to report (1 m stood in)
         if not np.sum(r_end**2) < np.sum(r_given**2):
             coef_out, gains_out, factor, kept, r_end = (
                 np.asarray(coef, dtype=float).copy(),
@@ -626,12 +631,17 @@ def refine_output_error(
             stacklevel=3,
         )
     info = {
-        "rmse_start": float(np.sqrt(np.mean(r0[:n_markers] ** 2))),
+        "rmse_start": float(np.sqrt(np.mean(r0[:n_markers] ** 2))) if rmse_given is None else rmse_given,
         "rmse": float(np.sqrt(np.mean(r_end[:n_markers] ** 2))),
-        "nfev": int(res.nfev),
+        "nfev": int(sum(n for _, n in solves)),
         "slope_factor": float(factor),
         "n_vertices": int(vertices.shape[0]),
     }
     if spatial:
-        info.update(step=step, kept=kept, starts=[(a.tolist(), b.tolist()) for a, b in starts], solves=solves)
+        info.update(
+            step=step,
+            kept=kept,
+            starts=[(a.tolist(), b.tolist()) for a, b in starts],
+            solves=solves,
+        )
     return coef_out, gains_out, info
