@@ -160,8 +160,9 @@ def pcs_trunk_3d(
         ref = model.refinement_
         if ref is not None:
             details["fit"] += (
-                f", output-error refinement: training marker RMSE {1e3 * ref['rmse_start']:.1f} -> "
-                f"{1e3 * ref['rmse']:.1f} mm in {ref['nfev']} evaluations"
+                ", output-error refinement: training marker RMSE "
+                + (f"{1e3 * ref['rmse_start']:.1f}" if np.isfinite(ref["rmse_start"]) else "(diverged)")
+                + f" -> {1e3 * ref['rmse']:.1f} mm in {ref['nfev']} evaluations"
             )
         else:
             details["fit"] += ", not refined"

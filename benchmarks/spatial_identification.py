@@ -137,11 +137,13 @@ CONFIGS = {
 }
 NOTES = """Findings (issue 26 done-when).  **At the defaults every target is met** (the rows above, all 6 noise
 draws): noise-free 0.027 mm (forces) and 0.014 mm (8 tendons, known routing); with 0.5 mm marker noise 0.15-0.44 mm
-(forces, median 0.24) and 0.13-0.20 mm (tendons, median 0.17), where the equation-error fit alone (`+ee`) gives
+(forces, median 0.24) and 0.13-0.19 mm (tendons, median 0.17), where the equation-error fit alone (`+ee`) gives
 0.51-1.18 and 1.16-1.84 mm.  What made it (this revision): the window chosen from the data (finding 1: 45 samples on
 the noisy strains, 149 noise-free), twist removed when it moves less than half its noise (finding 8) and the spatial
 output-error refinement, which `refine="auto"` runs when the strains are noisy (finding 9).  The price: a refined
-fit takes 80-315 s on the loaded 2-core machine (the equation-error fit 5 s).  ARX(2,2) on the same split: 14.6 /
+fit takes 70-112 s (the equation-error fit 4-7 s) on the 2-core machine beside one other benchmark; the refinement's
+rollout budget now covers all its solves (a fresh budget per halving of the step took 80-315 s, same numbers within
+0.01 mm).  ARX(2,2) on the same split: 14.6 /
 16.2 mm noisy, 2.5 / 4.0 mm noise-free.  The findings below record how each piece was measured (their `default`
 rows predate the later pieces; numbers with configurations named there).
 

@@ -90,6 +90,8 @@ STEP_TOLERANCE = 0.01
 STEP_FLOOR = 1e-5
 #: ... at most this many times (an eighth of the sample period)
 MAX_STEP_HALVINGS = 3
+#: ... after the first solve, only while the budget left pays for this many iterations at the halved step
+MIN_RESOLVE_ITERATIONS = 3
 #: a rotation compared (``orientations``) counts like markers at this distance [m] from the backbone: the spatial
 #: fusion's default weighting of positions against orientations (0.5 mm against 1 degree)
 ORIENTATION_LENGTH = 5e-4 / float(np.deg2rad(1.0))
@@ -451,10 +453,13 @@ def refine_output_error(
     -------
     coef, gains : ndarray
     info : dict
-        ``rmse_start``, ``rmse`` [m] of the compared markers, ``nfev``, ``slope_factor``
+        ``rmse_start``, ``rmse`` [m] of the compared markers (spatial: both at the forward model's default
+        tolerances, ``rmse_start`` of the equation-error fit, ``inf`` when its rollouts diverge), ``nfev`` (over
+        all solves), ``slope_factor``
         (1 unless the ``u*q`` gains were shrunk to hold the margin) and ``n_vertices``; spatial also ``step``
-        [s] of the rollouts, ``kept`` (``"refined"`` or ``"equation_error"``) and ``starts``, the recordings'
-        initial states (modelled strains, rates) of those rollouts.
+        [s] of the rollouts, ``kept`` (``"refined"`` or ``"equation_error"``), ``starts``, the recordings'
+        initial states (modelled strains, rates) of those rollouts, ``solves``, (step [s], function
+        evaluations) of each ``least_squares`` run (one more per halving of the step after the first).
     """
     u_all = np.concatenate([u for (_, _, _, u, _) in recordings])
     layout = _Layout(
@@ -561,35 +566,49 @@ def refine_output_error(
             if np.sum(r2**2) < np.sum(r0**2):
                 x0, r0 = x2, r2
 
-    def solve(x: NDArray, step: float) -> Any:
-        n_fev = max_nfev
-        if spatial:  # the budget counts rollouts at the sample period: finer steps cost proportionally more
-            n_fev = int(min(max_nfev, max(10, SPATIAL_ROLLOUT_BUDGET * step / dt // max(x0.size, 1))))
-        return least_squares(
+    # the budget counts rollouts at the sample period (finer steps cost proportionally more), over all the solves
+    budget = float(SPATIAL_ROLLOUT_BUDGET)
+    solves: list[tuple[float, int]] = []
+
+    def iteration_cost(step: float) -> float:
+        """Rollouts at the sample period of one iteration's finite-difference Jacobian."""
+        return max(x0.size, 1) * dt / step
+
+    def solve(x: NDArray, step: float, n_fev: int) -> Any:
+        nonlocal budget
+        res = least_squares(
             lambda x: residual(x, step), x, bounds=(layout.lower, np.inf), x_scale="jac", max_nfev=n_fev, diff_step=1e-4
         )
+        budget -= (res.nfev + x0.size * res.njev) * dt / step
+        solves.append((step, int(res.nfev)))
+        return res
 
-    res = solve(x0, step)
+    first = int(min(max_nfev, max(10, budget // iteration_cost(step)))) if spatial else max_nfev
+    res = solve(x0, step, first)
     halvings = MAX_STEP_HALVINGS - round(np.log2(dt / step)) if spatial else 0
-    while halvings > 0:
+    while halvings > 0 and budget // iteration_cost(step / 2) >= MIN_RESOLVE_ITERATIONS:
         # the step was checked on the start model; the refined one may be stiffer.  Where its rollouts at that step
-        # are off its rollouts at the default tolerances by more than the tolerance, halve and continue from it
+        # are off its rollouts at the default tolerances by more than the tolerance, halve and continue from it, on
+        # what is left of the budget (a fresh one per halving made real 3-D fits 4-5x slower for no gain)
         exact = np.concatenate(rollouts(*layout.unpack(res.x), None, starts))
         if np.sqrt(np.mean((exact - res.fun[:n_res]) ** 2)) <= max(STEP_TOLERANCE * np.sqrt(np.mean(exact**2)), floor):
             break
         step, halvings = step / 2, halvings - 1
         r0 = residual(x0, step)
-        res = solve(res.x, step)
+        res = solve(res.x, step, int(min(max_nfev, budget // iteration_cost(step))))
     best = res.x if np.sum(res.fun**2) <= np.sum(r0**2) else x0
     coef_out, gains_out = layout.unpack(best)
     coef_out, gains_out, factor = _enforce_margin(lib, coef_out, act, gains_out, vertices, layout)
     kept = "refined"
+    rmse_given = None  # the start's misfit unless it diverged
     if spatial:
         # the training objective at the forward model's own tolerances: the refined model against the equation-error
         # fit (both from the fitted start states); the better one is returned
         r_given = np.concatenate(rollouts(np.asarray(coef, dtype=float), gains_given, None, starts))
         r_end = np.concatenate(rollouts(coef_out, gains_out, None, starts))
         r0 = r_given
+        if not np.all(np.abs(r_given[:n_markers]) < 1.0):
+            rmse_given = np.inf  # the equation-error fit's rollout diverges: no misfit to report (1 m stood in)
         if not np.sum(r_end**2) < np.sum(r_given**2):
             coef_out, gains_out, factor, kept, r_end = (
                 np.asarray(coef, dtype=float).copy(),
@@ -612,12 +631,17 @@ def refine_output_error(
             stacklevel=3,
         )
     info = {
-        "rmse_start": float(np.sqrt(np.mean(r0[:n_markers] ** 2))),
+        "rmse_start": float(np.sqrt(np.mean(r0[:n_markers] ** 2))) if rmse_given is None else rmse_given,
         "rmse": float(np.sqrt(np.mean(r_end[:n_markers] ** 2))),
-        "nfev": int(res.nfev),
+        "nfev": int(sum(n for _, n in solves)),
         "slope_factor": float(factor),
         "n_vertices": int(vertices.shape[0]),
     }
     if spatial:
-        info.update(step=step, kept=kept, starts=[(a.tolist(), b.tolist()) for a, b in starts])
+        info.update(
+            step=step,
+            kept=kept,
+            starts=[(a.tolist(), b.tolist()) for a, b in starts],
+            solves=solves,
+        )
     return coef_out, gains_out, info

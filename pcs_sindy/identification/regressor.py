@@ -1120,9 +1120,10 @@ class EulerLagrangeRegressor(PersistenceMixin, RegressorMixin, BaseEstimator):
         ref = getattr(self, "refinement_", None)
         if ref:
             text += (
-                f"\noutput-error refinement (the values above are the equation-error fit; equations() shows the "
-                f"refined model): training marker RMSE {1e3 * ref['rmse_start']:.3g} -> {1e3 * ref['rmse']:.3g} mm "
-                f"in {ref['nfev']} rollouts"
+                "\noutput-error refinement (the values above are the equation-error fit; equations() shows the "
+                "refined model): training marker RMSE "
+                + (f"{1e3 * ref['rmse_start']:.3g}" if np.isfinite(ref["rmse_start"]) else "diverged")
+                + f" -> {1e3 * ref['rmse']:.3g} mm in {ref['nfev']} evaluations"
                 + ("" if ref["slope_factor"] == 1.0 else f"; input-stiffness terms shrunk x{ref['slope_factor']:.3g}")
             )
         return text
