@@ -589,7 +589,7 @@ def refine_output_error(
     while halvings > 0 and budget // iteration_cost(step / 2) >= MIN_RESOLVE_ITERATIONS:
         # the step was checked on the start model; the refined one may be stiffer.  Where its rollouts at that step
         # are off its rollouts at the default tolerances by more than the tolerance, halve and continue from it, on
-        # what is left of the budget (a fresh one per halving made real 3-D fits 4-5x slower for no gain)
+        # what is left of the budget (a fresh one per halving made real 3-D fits 2-4x slower for no gain)
         exact = np.concatenate(rollouts(*layout.unpack(res.x), None, starts))
         if np.sqrt(np.mean((exact - res.fun[:n_res]) ** 2)) <= max(STEP_TOLERANCE * np.sqrt(np.mean(exact**2)), floor):
             break
