@@ -600,15 +600,12 @@ def refine_output_error(
     coef_out, gains_out = layout.unpack(best)
     coef_out, gains_out, factor = _enforce_margin(lib, coef_out, act, gains_out, vertices, layout)
     kept = "refined"
-    rmse_given = None  # the start's misfit unless it diverged
     if spatial:
         # the training objective at the forward model's own tolerances: the refined model against the equation-error
         # fit (both from the fitted start states); the better one is returned
         r_given = np.concatenate(rollouts(np.asarray(coef, dtype=float), gains_given, None, starts))
         r_end = np.concatenate(rollouts(coef_out, gains_out, None, starts))
         r0 = r_given
-        if not np.all(np.abs(r_given[:n_markers]) < 1.0):
-            rmse_given = np.inf  # the equation-error fit's rollout diverges: no misfit to report (1 m stood in)
         if not np.sum(r_end**2) < np.sum(r_given**2):
             coef_out, gains_out, factor, kept, r_end = (
                 np.asarray(coef, dtype=float).copy(),
@@ -630,8 +627,11 @@ def refine_output_error(
             UserWarning,
             stacklevel=3,
         )
+    rmse_start = float(np.sqrt(np.mean(r0[:n_markers] ** 2)))
+    if spatial and not np.all(np.abs(r0[:n_markers]) < 1.0):
+        rmse_start = np.inf  # the equation-error fit's rollout diverges: no misfit to report (1 m stood in)
     info = {
-        "rmse_start": float(np.sqrt(np.mean(r0[:n_markers] ** 2))) if rmse_given is None else rmse_given,
+        "rmse_start": rmse_start,
         "rmse": float(np.sqrt(np.mean(r_end[:n_markers] ** 2))),
         "nfev": int(sum(n for _, n in solves)),
         "slope_factor": float(factor),
